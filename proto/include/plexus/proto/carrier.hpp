@@ -37,7 +37,8 @@ struct Carrier {
     std::string text() const;
 };
 
-/// Parses the grammar. Errors name the bad part: "empty carrier", "empty part at position 4",
+/// Parses the grammar. Positions are 0-based byte offsets into `text`.
+/// Errors name the bad part: "empty carrier", "empty part at position 4",
 /// "'threshold.0.8' at position 9 comes before any send./recv. clause", "empty modifier name in 'recv.'".
 Result<Carrier> parse_carrier(std::string_view text);
 
@@ -48,6 +49,8 @@ struct CarrierSupport {
     std::vector<std::string> unimplemented_bases{"udp", "mcast"};
     /// Known modifiers this build does not implement.
     std::vector<std::string> unimplemented_modifiers{"portmonitor", "priority"};
+    /// Modifiers this build implements (none yet); a later issue moves a name here from the list above.
+    std::vector<std::string> modifiers{};
 };
 
 /// Checks a parsed carrier against what the build supports. Errors name the part:

@@ -36,6 +36,7 @@ struct FrameDecode {
 };
 
 /// Decodes one frame from the start of a contiguous buffer; keeps no state between calls.
+/// `bad` for a length of 0 or over max_body, a broken length varint, or an unknown frame type.
 class FrameDecoder {
 public:
     explicit FrameDecoder(std::size_t max_body = default_max_frame) : max_body_(max_body) {}
@@ -52,8 +53,14 @@ void append_frame_header(Bytes& out, FrameType type, std::size_t fields_size);
 /// Appends a whole frame.
 void append_frame(Bytes& out, FrameType type, ByteView fields);
 
+/// Longest error reason carried by an error frame; make_error_frame cuts longer ones.
+inline constexpr std::size_t max_error_reason = 4096;
+
 /// Frames an error reason (the peer is told why before the connection closes).
 Bytes make_error_frame(std::string_view reason);
+
+/// Decodes the fields of an error frame: the reason.
+Result<std::string> decode_error(ByteView fields);
 
 /// Human name of a frame type for logs ("hello", "data", or "unknown(9)").
 std::string frame_type_name(std::uint8_t type);

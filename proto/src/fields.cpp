@@ -1,0 +1,106 @@
+#include "plexus/proto/fields.hpp"
+
+#include "plexus/proto/varint.hpp"
+
+namespace plexus::proto {
+
+namespace {
+
+std::string describe_length(std::string_view what, std::uint64_t length, std::size_t max_size) {
+    return std::string(what) + " longer than " + std::to_string(max_size) + " bytes (" +
+           std::to_string(length) + ")";
+}
+
+}  // namespace
+
+std::optional<std::uint64_t> FieldReader::varint(std::string_view what) {
+    if (failed()) {
+        return std::nullopt;
+    }
+    const VarintDecode decoded = decode_varint(rest_);
+    switch (decoded.status) {
+        case VarintStatus::ok:
+            rest_ = rest_.subspan(decoded.used);
+            return decoded.value;
+        case VarintStatus::need_more:
+            fail("truncated " + std::string(what));
+            return std::nullopt;
+        case VarintStatus::bad:
+            break;
+    }
+    fail(std::string(what) + " is not a valid varint (longer than 10 bytes or over 64 bits)");
+    return std::nullopt;
+}
+
+std::optional<std::uint8_t> FieldReader::byte(std::string_view what) {
+    const auto view = raw(what, 1);
+    if (!view) {
+        return std::nullopt;
+    }
+    return (*view)[0];
+}
+
+std::optional<std::string_view> FieldReader::string(std::string_view what, std::size_t max_size) {
+    const auto view = bytes(what, max_size);
+    if (!view) {
+        return std::nullopt;
+    }
+    return as_string_view(*view);
+}
+
+std::optional<ByteView> FieldReader::bytes(std::string_view what, std::size_t max_size) {
+    const auto length = varint(what);
+    if (!length) {
+        return std::nullopt;
+    }
+    // The declared length is compared with the limit and with what is left while it is still a
+    // 64-bit number: nothing is sized from it until both checks pass.
+    if (*length > max_size) {
+        fail(describe_length(what, *length, max_size));
+        return std::nullopt;
+    }
+    if (*length > rest_.size()) {
+        fail("truncated " + std::string(what) + " (declares " + std::to_string(*length) + " bytes, " +
+             std::to_string(rest_.size()) + " left)");
+        return std::nullopt;
+    }
+    const ByteView view = rest_.first(static_cast<std::size_t>(*length));
+    rest_ = rest_.subspan(view.size());
+    return view;
+}
+
+std::optional<ByteView> FieldReader::raw(std::string_view what, std::size_t n) {
+    if (failed()) {
+        return std::nullopt;
+    }
+    if (n > rest_.size()) {
+        fail("truncated " + std::string(what));
+        return std::nullopt;
+    }
+    const ByteView view = rest_.first(n);
+    rest_ = rest_.subspan(n);
+    return view;
+}
+
+const std::string& FieldReader::error() const {
+    static const std::string none;
+    return error_ ? *error_ : none;
+}
+
+void FieldReader::fail(std::string message) {
+    if (!error_) {
+        error_ = std::move(message);
+    }
+    rest_ = {};
+}
+
+void append_string(Bytes& out, std::string_view text) {
+    append_bytes(out, as_bytes(text));
+}
+
+void append_bytes(Bytes& out, ByteView bytes) {
+    append_varint(out, bytes.size());
+    out.insert(out.end(), bytes.begin(), bytes.end());
+}
+
+}  // namespace plexus::proto

@@ -1,0 +1,128 @@
+#include "plexus/proto/message.hpp"
+
+#include <gtest/gtest.h>
+
+#include <limits>
+
+#include "plexus/proto/fields.hpp"
+#include "plexus/proto/frame.hpp"
+#include "plexus/proto/varint.hpp"
+
+namespace plexus::proto {
+namespace {
+
+constexpr std::uint64_t max_u64 = std::numeric_limits<std::uint64_t>::max();
+
+Bytes make_record(std::string_view source, std::uint64_t seq, std::uint64_t time_ns, const Bytes& payload) {
+    Bytes record;
+    append_record(record, source, seq, time_ns, payload);
+    EXPECT_EQ(record.size(), record_size(source, seq, time_ns, payload.size()));
+    return record;
+}
+
+TEST(Record_test, RoundTrips) {
+    const Bytes payload{0xa1, 0x61, 'x', 0x01};
+    const Bytes record = make_record("/camera/out", 42, 1'700'000'000'123'456'789ull, payload);
+    const auto view = decode_record(record);
+    ASSERT_TRUE(view) << view.error().message;
+    EXPECT_EQ(view->source, "/camera/out");
+    EXPECT_EQ(view->seq, 42u);
+    EXPECT_EQ(view->time_ns, 1'700'000'000'123'456'789ull);
+    EXPECT_EQ(Bytes(view->payload.begin(), view->payload.end()), payload);
+}
+
+TEST(Record_test, RoundTripsExtremes) {
+    const std::string source(max_port_name, 'a');
+    const Bytes record = make_record(source, max_u64, max_u64, {});
+    const auto view = decode_record(record);
+    ASSERT_TRUE(view) << view.error().message;
+    EXPECT_EQ(view->source, source);
+    EXPECT_EQ(view->seq, max_u64);
+    EXPECT_EQ(view->time_ns, max_u64);
+    EXPECT_TRUE(view->payload.empty());
+}
+
+TEST(Record_test, HasDocumentedLayout) {
+    EXPECT_EQ(make_record("/a", 1, 300, {9}), (Bytes{0x02, '/', 'a', 0x01, 0xac, 0x02, 0x09}));
+}
+
+TEST(Record_test, RefusesEveryTruncationOfEnvelope) {
+    const Bytes payload{1, 2, 3};
+    const Bytes record = make_record("/camera/out", 1000, 1ull << 40, payload);
+    const std::size_t envelope = record.size() - payload.size();
+    for (std::size_t n = 0; n < record.size(); ++n) {
+        const auto view = decode_record(ByteView(record).first(n));
+        if (n < envelope) {
+            EXPECT_FALSE(view) << "cut at " << n;
+        } else {
+            // The payload is whatever follows the envelope: a cut there is a shorter payload.
+            ASSERT_TRUE(view) << "cut at " << n;
+            EXPECT_EQ(view->payload.size(), n - envelope);
+        }
+    }
+}
+
+TEST(Record_test, RefusesSourceLongerThanPortNameLimit) {
+    const Bytes record = make_record(std::string(max_port_name + 1, 'a'), 1, 1, {});
+    const auto view = decode_record(record);
+    ASSERT_FALSE(view);
+    EXPECT_EQ(view.error().message, "bad record: source longer than 255 bytes (256)");
+}
+
+TEST(Record_test, NamesTruncatedField) {
+    Bytes record;
+    append_string(record, "/a");
+    append_varint(record, 5);
+    const auto view = decode_record(record);
+    ASSERT_FALSE(view);
+    EXPECT_EQ(view.error().message, "bad record: truncated time");
+}
+
+TEST(DataFrame_test, RoundTrips) {
+    const Bytes record = make_record("/a", 1, 2, Bytes(200, 0x5a));
+    Bytes frame;
+    append_data_frame(frame, 300, record);
+    const FrameDecode decoded = FrameDecoder().decode(frame);
+    ASSERT_EQ(decoded.status, DecodeStatus::frame);
+    EXPECT_EQ(decoded.type, FrameType::data);
+    EXPECT_EQ(decoded.used, frame.size());
+    const auto data = decode_data(decoded.fields);
+    ASSERT_TRUE(data) << data.error().message;
+    EXPECT_EQ(data->handle, 300u);
+    EXPECT_EQ(Bytes(data->record.begin(), data->record.end()), record);
+    const auto view = decode_record(data->record);
+    ASSERT_TRUE(view);
+    EXPECT_EQ(view->payload.size(), 200u);
+}
+
+TEST(DataFrame_test, PrefixPlusRecordEqualsWholeFrame) {
+    const Bytes record = make_record("/a/b", 9, 10, Bytes(130, 1));
+    Bytes whole;
+    append_data_frame(whole, max_u64, record);
+    Bytes gathered;
+    append_data_frame_prefix(gathered, max_u64, record.size());
+    gathered.insert(gathered.end(), record.begin(), record.end());
+    EXPECT_EQ(gathered, whole);
+}
+
+TEST(DataFrame_test, RefusesEveryTruncationOfHandle) {
+    const Bytes record = make_record("/a", 1, 2, {7});
+    Bytes frame;
+    append_data_frame(frame, 1ull << 50, record);
+    const FrameDecode decoded = FrameDecoder().decode(frame);
+    ASSERT_EQ(decoded.status, DecodeStatus::frame);
+    const std::size_t handle_size = varint_size(1ull << 50);
+    for (std::size_t n = 0; n < decoded.fields.size(); ++n) {
+        const auto data = decode_data(decoded.fields.first(n));
+        if (n < handle_size) {
+            ASSERT_FALSE(data) << n;
+            EXPECT_EQ(data.error().message, "bad data frame: truncated handle");
+        } else {
+            ASSERT_TRUE(data) << n;
+            EXPECT_EQ(data->record.size(), n - handle_size);
+        }
+    }
+}
+
+}  // namespace
+}  // namespace plexus::proto
