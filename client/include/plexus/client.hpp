@@ -1,0 +1,150 @@
+#pragma once
+// libplexus: the thin client library components link to talk to their local plexusd.
+//
+// Threading: a Client and its Ports may be used from several threads. Writes are serialized by a
+// lock; reads are done by whichever thread is waiting (the others are handed what it reads).
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+namespace plexus {
+
+/// A message payload: null, bool, integer, float, string, array, map, or binary (Value::binary(bytes)).
+using Value = nlohmann::json;
+
+/// Exit-status-like codes carried by every Error, matching the CLI's contract.
+enum class ErrorCode { no = 1, usage = 2, timeout = 3, refused = 4 };
+
+/// Anything that went wrong, with a message meant for a person.
+class Error : public std::runtime_error {
+public:
+    Error(ErrorCode code, const std::string& message) : std::runtime_error(message), code_(code) {}
+    ErrorCode code() const { return code_; }
+
+private:
+    ErrorCode code_;
+};
+
+/// The envelope of a received message.
+struct Envelope {
+    std::string source;    ///< the port that wrote it
+    std::uint64_t seq = 0; ///< per-source sequence number, from 1
+    std::uint64_t time_ns = 0;  ///< send time, ns since the Unix epoch
+};
+
+/// A received message.
+struct Received {
+    Envelope envelope;
+    Value data;
+};
+
+/// How a port's reader queue behaves when its client reads slower than data arrives.
+enum class QueuePolicy {
+    strict,  ///< nothing is dropped: writers are slowed down
+    latest,  ///< keep the newest `capacity` messages; older ones are dropped and counted
+};
+
+/// Options for opening a port.
+struct PortOptions {
+    QueuePolicy policy = QueuePolicy::strict;
+    std::size_t capacity = 0;  ///< 0: the daemon's default
+};
+
+namespace detail {
+class Connection;
+}
+
+class Client;
+
+/// A port opened by this client. Closing it (or destroying it) flushes what was written.
+class Port {
+public:
+    Port(Port&&) noexcept;
+    Port& operator=(Port&&) noexcept;
+    Port(const Port&) = delete;
+    Port& operator=(const Port&) = delete;
+    ~Port();
+
+    /// The port's name.
+    const std::string& name() const { return name_; }
+    /// Writes a value to every connection out of this port. With flush=false the message waits in
+    /// a buffer until the next flushing write, flush(), or a full buffer: many messages, one send.
+    void write(const Value& value, bool flush = true);
+    /// Sends what write(..., false) buffered.
+    void flush();
+    /// Waits up to `timeout` for the next message delivered to this port.
+    std::optional<Received> read(std::chrono::milliseconds timeout);
+    /// Closes the port now (after flushing); further use throws.
+    void close();
+    bool is_open() const { return connection_ != nullptr; }
+
+private:
+    friend class Client;
+    Port(std::shared_ptr<detail::Connection> connection, std::string name, std::uint64_t handle);
+    std::shared_ptr<detail::Connection> connection_;
+    std::string name_;
+    std::uint64_t handle_ = 0;
+    std::uint64_t next_seq_ = 1;
+};
+
+/// Calls a function for every message of a port, on a thread of its own, until destroyed.
+class Subscription {
+public:
+    Subscription(Port& port, std::function<void(const Received&)> callback);
+    ~Subscription();
+    Subscription(const Subscription&) = delete;
+    Subscription& operator=(const Subscription&) = delete;
+
+private:
+    std::jthread thread_;
+};
+
+/// A connection to the local daemon.
+class Client {
+public:
+    struct Options {
+        std::string socket;  ///< empty: $PLEXUS_SOCKET, else the per-user runtime path
+        std::chrono::milliseconds request_timeout{10000};
+    };
+
+    /// Connects to the local daemon; throws Error (refused) saying where it looked if none runs.
+    Client();
+    explicit Client(Options options);
+    ~Client();
+    Client(const Client&) = delete;
+    Client& operator=(const Client&) = delete;
+
+    /// Opens a port on the local daemon and registers it with the name server.
+    Port open(const std::string& name, PortOptions options = {});
+    /// Connects two ports (anywhere); carrier "" chooses local or tcp by where they live.
+    /// Returns the carrier used.
+    std::string connect(const std::string& source, const std::string& destination, const std::string& carrier = "",
+                        bool persist = false);
+    void disconnect(const std::string& source, const std::string& destination);
+    /// Ports and connections, as the name server knows them: {"ports": [...], "connections": [...]}.
+    Value list();
+    /// Where a port lives ({"port","node","address"}); nullopt if it is not registered.
+    std::optional<Value> lookup(const std::string& port);
+    /// Counters of the local daemon, or of the daemon hosting `port`.
+    Value stats(const std::string& port = "");
+    /// Asks the daemon hosting `port` to answer; returns its node and address.
+    Value ping(const std::string& port);
+    /// Sends any control request and returns the reply body; throws Error when refused.
+    Value request(const Value& body);
+    /// The socket path this client is connected to.
+    const std::string& socket_path() const { return socket_; }
+
+private:
+    std::string socket_;
+    std::shared_ptr<detail::Connection> connection_;
+};
+
+}  // namespace plexus

@@ -1,0 +1,241 @@
+#include "connection.hpp"
+
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+
+#include "plexus/proto/frame.hpp"
+#include "plexus/proto/hello.hpp"
+#include "plexus/proto/message.hpp"
+
+namespace plexus::detail {
+
+namespace {
+// Buffered writes go out once this much is waiting: large enough to batch, small enough to stream.
+constexpr std::size_t flush_threshold = 64 * 1024;
+constexpr std::size_t read_chunk = 256 * 1024;
+}  // namespace
+
+Connection::Connection(const std::string& socket_path) : path_(socket_path) {
+    sockaddr_un address{};
+    address.sun_family = AF_UNIX;
+    if (socket_path.size() >= sizeof address.sun_path) {
+        throw Error(ErrorCode::usage, "socket path too long: " + socket_path);
+    }
+    std::memcpy(address.sun_path, socket_path.c_str(), socket_path.size() + 1);
+    fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    if (fd_ < 0) throw Error(ErrorCode::refused, std::string("socket: ") + std::strerror(errno));
+    if (::connect(fd_, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) {
+        const int error = errno;
+        ::close(fd_);
+        fd_ = -1;
+        throw Error(ErrorCode::refused, "no plexusd is running at " + socket_path + " (" + std::strerror(error) +
+                                            "); start one with `plexusd --embedded-names`, or pass --socket / "
+                                            "set PLEXUS_SOCKET");
+    }
+    in_.resize(read_chunk);
+    {
+        std::lock_guard lock(send_mutex_);
+        out_ = proto::encode_hello({proto::protocol_version, "client", ""});
+        send_locked();
+    }
+    // The daemon's hello arrives before any reply; a request waits for it implicitly. Check it now
+    // so that a wrong program on the socket is reported at once.
+    proto::Reply reply = request({{"op", "node"}}, std::chrono::milliseconds(5000));
+    if (reply.code != proto::ReplyCode::ok) throw Error(ErrorCode::refused, "the daemon refused this client");
+}
+
+Connection::~Connection() {
+    try {
+        flush();
+    } catch (...) {
+        // Nothing to report to in a destructor; the daemon notices the close.
+    }
+    if (fd_ >= 0) ::close(fd_);
+}
+
+void Connection::throw_if_broken() const {
+    std::lock_guard lock(state_mutex_);
+    if (!broken_.empty()) throw Error(ErrorCode::refused, broken_);
+}
+
+void Connection::fail(const std::string& why) {
+    std::lock_guard lock(state_mutex_);
+    if (broken_.empty()) broken_ = "connection to plexusd at " + path_ + " lost: " + why;
+    changed_.notify_all();
+}
+
+void Connection::send_locked() {
+    std::size_t sent = 0;
+    while (sent < out_.size()) {
+        const ssize_t n = ::send(fd_, out_.data() + sent, out_.size() - sent, MSG_NOSIGNAL);
+        if (n < 0) {
+            if (errno == EINTR) continue;
+            const std::string why = std::strerror(errno);
+            out_.clear();
+            fail(why);
+            throw_if_broken();
+        }
+        sent += static_cast<std::size_t>(n);
+    }
+    out_.clear();
+}
+
+void Connection::write(std::uint64_t handle, const std::string& source, std::uint64_t seq,
+                       const proto::Bytes& payload, bool flush) {
+    throw_if_broken();
+    const auto now = std::chrono::system_clock::now().time_since_epoch();
+    const auto time_ns = static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(now).count());
+    std::lock_guard lock(send_mutex_);
+    proto::append_data_frame_prefix(out_, handle, proto::record_size(source, seq, time_ns, payload.size()));
+    proto::append_record(out_, source, seq, time_ns, payload);
+    if (flush || out_.size() >= flush_threshold) send_locked();
+}
+
+void Connection::flush() {
+    std::lock_guard lock(send_mutex_);
+    if (!out_.empty()) send_locked();
+}
+
+proto::Reply Connection::request(nlohmann::json body, std::chrono::milliseconds timeout) {
+    std::uint64_t id = 0;
+    {
+        std::lock_guard state(state_mutex_);
+        id = next_id_++;
+        replies_[id];
+    }
+    {
+        std::lock_guard lock(send_mutex_);
+        auto frame = proto::encode_request({id, std::move(body)});
+        out_.insert(out_.end(), frame.begin(), frame.end());
+        send_locked();
+    }
+    std::unique_lock lock(state_mutex_);
+    const bool answered = wait_until(lock, [&] { return replies_[id].has_value(); }, Clock::now() + timeout);
+    auto node = replies_.extract(id);
+    if (answered) return std::move(*node.mapped());
+    if (!broken_.empty()) throw Error(ErrorCode::refused, broken_);
+    throw Error(ErrorCode::timeout, "plexusd at " + path_ + " did not answer in time");
+}
+
+std::optional<proto::Bytes> Connection::read(std::uint64_t handle, Clock::time_point deadline) {
+    std::unique_lock lock(state_mutex_);
+    auto& queue = inbox_[handle];
+    if (!wait_until(lock, [&] { return !inbox_[handle].empty(); }, deadline)) {
+        if (!broken_.empty()) throw Error(ErrorCode::refused, broken_);
+        return std::nullopt;
+    }
+    auto& ready = inbox_[handle];
+    (void)queue;
+    proto::Bytes record = std::move(ready.front());
+    ready.pop_front();
+    return record;
+}
+
+void Connection::forget(std::uint64_t handle) {
+    std::lock_guard lock(state_mutex_);
+    inbox_.erase(handle);
+}
+
+template <typename Ready>
+bool Connection::wait_until(std::unique_lock<std::mutex>& lock, Ready ready, Clock::time_point deadline) {
+    while (!ready()) {
+        if (!broken_.empty()) return false;
+        if (Clock::now() >= deadline) return false;
+        if (reading_) {
+            changed_.wait_until(lock, deadline);
+            continue;
+        }
+        reading_ = true;
+        lock.unlock();
+        try {
+            receive(deadline);
+        } catch (...) {
+            lock.lock();
+            reading_ = false;
+            changed_.notify_all();
+            throw;
+        }
+        lock.lock();
+        reading_ = false;
+        changed_.notify_all();
+    }
+    return true;
+}
+
+void Connection::receive(Clock::time_point deadline) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
+    pollfd waiting{fd_, POLLIN, 0};
+    const int ready = ::poll(&waiting, 1, static_cast<int>(std::max<long long>(0, left)));
+    if (ready <= 0) return;  // timeout or EINTR: the caller re-checks its deadline
+    if (in_begin_ == in_end_) in_begin_ = in_end_ = 0;
+    if (in_.size() - in_end_ < read_chunk / 4) {
+        // Slide the unread part to the front, growing only when one frame needs more room.
+        std::memmove(in_.data(), in_.data() + in_begin_, in_end_ - in_begin_);
+        in_end_ -= in_begin_;
+        in_begin_ = 0;
+        if (in_.size() - in_end_ < read_chunk / 4) in_.resize(in_.size() * 2);
+    }
+    const ssize_t n = ::recv(fd_, in_.data() + in_end_, in_.size() - in_end_, 0);
+    if (n == 0) {
+        fail("the daemon closed the connection");
+        return;
+    }
+    if (n < 0) {
+        if (errno != EINTR && errno != EAGAIN) fail(std::strerror(errno));
+        return;
+    }
+    in_end_ += static_cast<std::size_t>(n);
+    static const proto::FrameDecoder decoder(proto::default_max_frame);
+    for (;;) {
+        auto decoded = decoder.decode({in_.data() + in_begin_, in_end_ - in_begin_});
+        if (decoded.status == proto::DecodeStatus::bad) {
+            fail("bad frame from the daemon: " + decoded.error);
+            return;
+        }
+        if (decoded.status == proto::DecodeStatus::need_more) {
+            if (decoded.needed > in_.size() - in_begin_) {
+                std::memmove(in_.data(), in_.data() + in_begin_, in_end_ - in_begin_);
+                in_end_ -= in_begin_;
+                in_begin_ = 0;
+                in_.resize(std::max(in_.size(), decoded.needed));
+            }
+            return;
+        }
+        dispatch(decoded.type, decoded.fields);
+        in_begin_ += decoded.used;
+    }
+}
+
+void Connection::dispatch(proto::FrameType type, proto::ByteView fields) {
+    switch (type) {
+        case proto::FrameType::hello:
+            return;
+        case proto::FrameType::data: {
+            auto data = proto::decode_data(fields);
+            if (!data) return fail("bad data frame: " + data.error().message);
+            std::lock_guard lock(state_mutex_);
+            auto it = inbox_.find(data->handle);
+            if (it != inbox_.end()) it->second.emplace_back(data->record.begin(), data->record.end());
+            return;
+        }
+        case proto::FrameType::reply: {
+            auto reply = proto::decode_reply(fields);
+            if (!reply) return fail("bad reply: " + reply.error().message);
+            std::lock_guard lock(state_mutex_);
+            auto it = replies_.find(reply->id);
+            if (it != replies_.end()) it->second = std::move(*reply);
+            return;
+        }
+        case proto::FrameType::error:
+            return fail("the daemon reported: " + std::string(proto::as_string_view(fields)));
+        default:
+            return fail("unexpected frame type " + proto::frame_type_name(static_cast<std::uint8_t>(type)));
+    }
+}
+
+}  // namespace plexus::detail

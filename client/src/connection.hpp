@@ -1,0 +1,70 @@
+#pragma once
+// Threading: every member is safe to call from any thread. Sending holds send_mutex_; receiving is
+// done by one waiting thread at a time (the "reader"), which hands frames to the others.
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <string>
+
+#include "plexus/client.hpp"
+#include "plexus/proto/control.hpp"
+
+namespace plexus::detail {
+
+using Clock = std::chrono::steady_clock;
+
+/// The framed Unix-socket connection to the local daemon.
+class Connection {
+public:
+    explicit Connection(const std::string& socket_path);
+    ~Connection();
+    Connection(const Connection&) = delete;
+    Connection& operator=(const Connection&) = delete;
+
+    /// Sends a control request and waits for its reply; throws Error on timeout or a broken link.
+    proto::Reply request(nlohmann::json body, std::chrono::milliseconds timeout);
+    /// Queues a data frame for `handle` holding a record; sends when `flush` or the buffer is large.
+    void write(std::uint64_t handle, const std::string& source, std::uint64_t seq, const proto::Bytes& payload,
+               bool flush);
+    void flush();
+    /// The next record delivered to `handle`, waiting until `deadline`.
+    std::optional<proto::Bytes> read(std::uint64_t handle, Clock::time_point deadline);
+    /// Stops keeping messages for a closed handle.
+    void forget(std::uint64_t handle);
+
+private:
+    template <typename Ready>
+    bool wait_until(std::unique_lock<std::mutex>& lock, Ready ready, Clock::time_point deadline);
+    /// Reads what the socket has (waiting at most until `deadline`) and dispatches whole frames.
+    void receive(Clock::time_point deadline);
+    void dispatch(proto::FrameType type, proto::ByteView fields);
+    void send_locked();
+    void fail(const std::string& why);
+    void throw_if_broken() const;
+
+    int fd_ = -1;
+    std::string path_;
+
+    std::mutex send_mutex_;
+    proto::Bytes out_;
+
+    mutable std::mutex state_mutex_;
+    std::condition_variable changed_;
+    bool reading_ = false;
+    std::string broken_;
+    std::uint64_t next_id_ = 1;
+    std::map<std::uint64_t, std::optional<proto::Reply>> replies_;
+    std::map<std::uint64_t, std::deque<proto::Bytes>> inbox_;
+
+    // Only the current reader touches these.
+    proto::Bytes in_;
+    std::size_t in_begin_ = 0;
+    std::size_t in_end_ = 0;
+};
+
+}  // namespace plexus::detail

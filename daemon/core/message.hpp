@@ -1,0 +1,31 @@
+#pragma once
+// Threading: values; safe to copy between threads, but the daemon uses them on its one thread.
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string_view>
+
+#include "plexus/proto/bytes.hpp"
+
+namespace plexus::daemon {
+
+/// A block of bytes read from a socket, left uninitialized on allocation: zero-filling a 1 MiB
+/// frame before reading into it would cost as much as the read itself.
+struct Chunk {
+    explicit Chunk(std::size_t n) : bytes(new std::uint8_t[n]), size(n) {}
+    std::unique_ptr<std::uint8_t[]> bytes;
+    std::size_t size;
+    std::uint8_t* data() { return bytes.get(); }
+    const std::uint8_t* data() const { return bytes.get(); }
+};
+
+/// A message as the daemon moves it: the encoded record, never re-encoded, kept alive by the
+/// chunk it was read into. Copying a Message copies a pointer, not the payload.
+struct Message {
+    std::shared_ptr<const Chunk> storage;
+    proto::ByteView record;
+    std::uint64_t seq = 0;
+};
+
+}  // namespace plexus::daemon

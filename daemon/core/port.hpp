@@ -1,0 +1,59 @@
+#pragma once
+// Threading: owned by the daemon's one thread; no locking.
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "connection.hpp"
+#include "reader_queue.hpp"
+
+namespace plexus::daemon {
+
+/// A connection that arrives at this port from a port of another daemon.
+struct InboundLink {
+    std::string source;
+    std::string carrier;
+    std::uint64_t received = 0;
+};
+
+/// A port hosted by this daemon for one client session. The client writes into it (the messages go
+/// out along its connections) and reads from it (what its inbound connections deliver).
+class Port : public MessageSink {
+public:
+    Port(std::string name, std::uint64_t owner, QueuePolicy policy, std::size_t capacity)
+        : name_(std::move(name)), owner_(owner), queue_(policy, capacity) {}
+
+    const std::string& name() const { return name_; }
+    std::uint64_t owner() const { return owner_; }
+    ReaderQueue& queue() { return queue_; }
+    const ReaderQueue& queue() const { return queue_; }
+    bool closed() const { return closed_; }
+
+    bool full() const override { return queue_.full(); }
+    void deliver(const Message& message) override;
+
+    /// Called whenever the queue goes from empty to not empty (wakes the owner's writer).
+    std::function<void()> on_readable;
+    /// Called once when the port closes (drops inbound links, wakes waiters).
+    std::vector<std::function<void()>> on_close;
+
+    std::vector<std::shared_ptr<Connection>> outgoing;
+    std::vector<std::shared_ptr<InboundLink>> inbound;
+
+    std::uint64_t written = 0;    ///< messages its client wrote into it
+    std::uint64_t received = 0;   ///< messages that arrived through connections
+    std::uint64_t delivered = 0;  ///< messages handed to its client's socket
+
+    void mark_closed();
+
+private:
+    std::string name_;
+    std::uint64_t owner_;
+    ReaderQueue queue_;
+    bool closed_ = false;
+};
+
+}  // namespace plexus::daemon

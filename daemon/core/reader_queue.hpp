@@ -1,0 +1,50 @@
+#pragma once
+// Threading: owned by the daemon's one thread; no locking.
+
+#include <cstddef>
+#include <cstdint>
+#include <deque>
+#include <optional>
+#include <string>
+
+#include "message.hpp"
+
+namespace plexus::daemon {
+
+enum class QueuePolicy { strict, latest };
+
+std::optional<QueuePolicy> parse_queue_policy(std::string_view text);
+std::string_view queue_policy_name(QueuePolicy policy);
+
+/// The bounded queue between a port and the client that reads it.
+/// strict: never drops; `full()` tells writers to wait (back-pressure).
+/// latest: keeps the `capacity` newest messages and counts every one it drops.
+class ReaderQueue {
+public:
+    ReaderQueue(QueuePolicy policy, std::size_t capacity) : policy_(policy), capacity_(capacity) {}
+
+    /// True when a strict queue is at capacity; a latest queue is never full.
+    bool full() const { return policy_ == QueuePolicy::strict && items_.size() >= capacity_; }
+    bool empty() const { return items_.empty(); }
+    std::size_t depth() const { return items_.size(); }
+    std::size_t capacity() const { return capacity_; }
+    QueuePolicy policy() const { return policy_; }
+
+    /// Adds a message. A strict queue past capacity still accepts (nothing promised is lost): the
+    /// bound is kept by writers that check full() before sending.
+    void push(const Message& message);
+    /// Removes and returns the oldest message; the queue must not be empty.
+    Message pop();
+
+    std::uint64_t pushed() const { return pushed_; }
+    std::uint64_t dropped() const { return dropped_; }
+
+private:
+    QueuePolicy policy_;
+    std::size_t capacity_;
+    std::deque<Message> items_;
+    std::uint64_t pushed_ = 0;
+    std::uint64_t dropped_ = 0;
+};
+
+}  // namespace plexus::daemon

@@ -1,0 +1,43 @@
+#pragma once
+// Threading: owned by the daemon's one thread; no locking, no sockets.
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "plexus/proto/bytes.hpp"
+#include "port.hpp"
+
+namespace plexus::daemon {
+
+/// The ports of this daemon and the connections out of them; moves messages between them.
+class Router {
+public:
+    /// Opens a port; refused if the name is invalid or already open here.
+    proto::Result<std::shared_ptr<Port>> open(const std::string& name, std::uint64_t owner, QueuePolicy policy,
+                                              std::size_t capacity);
+    /// Closes a port: its outgoing connections flush and go; local connections into it go.
+    /// Returns every connection removed (the caller unregisters them from the name server).
+    std::vector<std::shared_ptr<Connection>> close(const std::string& name);
+
+    std::shared_ptr<Port> find(const std::string& name) const;
+    const std::map<std::string, std::shared_ptr<Port>>& ports() const { return ports_; }
+
+    /// Adds a connection out of `source`; refused if that pair is already connected.
+    proto::Status add(const std::shared_ptr<Port>& source, std::shared_ptr<Connection> connection);
+    /// Removes the connection source→destination; null if there was none.
+    std::shared_ptr<Connection> remove(const std::string& source, const std::string& destination);
+    /// Removes a specific connection object (a link that died); false if it was already gone.
+    bool remove(const std::shared_ptr<Connection>& connection);
+
+    /// True while any strict destination of `source` is full: the writer must wait.
+    static bool blocked(const Port& source);
+    /// Hands a message written into `source` to every connection out of it.
+    static void route(Port& source, const Message& message);
+
+private:
+    std::map<std::string, std::shared_ptr<Port>> ports_;
+};
+
+}  // namespace plexus::daemon

@@ -1,0 +1,203 @@
+#include "daemon.hpp"
+
+#include <unistd.h>
+
+#include <filesystem>
+
+#include <spdlog/spdlog.h>
+
+#include "net/session.hpp"
+
+namespace plexus::daemon {
+
+namespace {
+constexpr auto shutdown_grace = std::chrono::seconds(3);
+}
+
+Daemon::Daemon(asio::io_context& io, DaemonConfig config)
+    : io_(io),
+      config_(std::move(config)),
+      space_(io.get_executor()),
+      tcp_acceptor_(io),
+      unix_acceptor_(io),
+      signals_(io, SIGINT, SIGTERM) {}
+
+Daemon::~Daemon() {
+    if (!config_.socket_path.empty() && unix_acceptor_.is_open()) {
+        std::error_code ignored;
+        std::filesystem::remove(config_.socket_path, ignored);
+    }
+}
+
+std::string Daemon::address() const {
+    boost::system::error_code ec;
+    auto local = tcp_acceptor_.local_endpoint(ec);
+    return config_.listen.host + ":" + std::to_string(ec ? 0 : local.port());
+}
+
+proto::Status Daemon::bind() {
+    if (config_.embedded_names) {
+        names::NameServerConfig names_config;
+        names_config.listen = config_.names;
+        names_config.state_file = config_.names_state;
+        names_config.grace = config_.names_grace;
+        embedded_names_ = std::make_unique<names::NameServer>(io_, names_config);
+        if (auto started = embedded_names_->start(); !started) return started;
+        // With port 0 the name server picked a port: the daemon must use that one.
+        config_.names = embedded_names_->endpoint();
+    }
+    boost::system::error_code ec;
+    auto address = asio::ip::make_address(config_.listen.host, ec);
+    if (ec) return proto::Error{"--listen host '" + config_.listen.host + "' is not an IP address"};
+    asio::ip::tcp::endpoint endpoint(address, config_.listen.port);
+    tcp_acceptor_.open(endpoint.protocol(), ec);
+    if (!ec) tcp_acceptor_.set_option(asio::socket_base::reuse_address(true), ec);
+    if (!ec) tcp_acceptor_.bind(endpoint, ec);
+    if (!ec) tcp_acceptor_.listen(asio::socket_base::max_listen_connections, ec);
+    if (ec) return proto::Error{"cannot listen on TCP " + config_.listen.text() + ": " + ec.message()};
+
+    const std::filesystem::path socket_path(config_.socket_path);
+    std::error_code fs_error;
+    if (socket_path.has_parent_path()) std::filesystem::create_directories(socket_path.parent_path(), fs_error);
+    if (std::filesystem::exists(socket_path)) {
+        // Refuse to steal the socket of a daemon that is still running; clear one left by a crash.
+        asio::local::stream_protocol::socket probe(io_);
+        probe.connect(asio::local::stream_protocol::endpoint(config_.socket_path), ec);
+        if (!ec) return proto::Error{"another daemon is already serving " + config_.socket_path};
+        std::filesystem::remove(socket_path, fs_error);
+    }
+    unix_acceptor_.open(asio::local::stream_protocol(), ec);
+    if (!ec) unix_acceptor_.bind(asio::local::stream_protocol::endpoint(config_.socket_path), ec);
+    if (!ec) unix_acceptor_.listen(asio::socket_base::max_listen_connections, ec);
+    if (ec) return proto::Error{"cannot listen on Unix socket " + config_.socket_path + ": " + ec.message()};
+    return proto::Ok{};
+}
+
+int Daemon::run() {
+    if (auto bound = bind(); !bound) {
+        spdlog::error("{}", bound.error().message);
+        return 4;
+    }
+    names_ = std::make_unique<names::NameClient>(io_, config_.names, config_.node, address(), config_.max_frame);
+    names_->ports_to_register = [this] {
+        std::vector<std::string> names;
+        for (const auto& [name, port] : router_.ports()) names.push_back(name);
+        return names;
+    };
+    names_->on_persistent = [this](const nlohmann::json& persistent) { connect_persistent(persistent); };
+    names_->start();
+    asio::co_spawn(io_, accept_tcp(), asio::detached);
+    asio::co_spawn(io_, accept_unix(), asio::detached);
+    signals_.async_wait([this](boost::system::error_code ec, int signal) {
+        if (ec) return;
+        spdlog::info("signal {}: shutting down", signal);
+        asio::co_spawn(io_, shutdown(), asio::detached);
+    });
+    spdlog::info("plexusd node '{}' listening on {} and {}; name server {}", config_.node, address(),
+                 config_.socket_path, config_.names.text());
+    io_.run();
+    return 0;
+}
+
+Task<void> Daemon::accept_tcp() {
+    while (!stopping_) {
+        auto [ec, socket] = co_await tcp_acceptor_.async_accept(use_nothrow);
+        if (ec) {
+            if (stopping_ || ec == asio::error::operation_aborted) co_return;
+            spdlog::warn("accept on {} failed: {}", address(), ec.message());
+            continue;
+        }
+        socket.set_option(asio::ip::tcp::no_delay(true), ec);
+        boost::system::error_code remote_error;
+        auto remote = socket.remote_endpoint(remote_error);
+        start_session(Socket(std::move(socket)),
+                      "tcp session from " + (remote_error ? std::string("?") : remote.address().to_string() + ":" +
+                                                                                  std::to_string(remote.port())));
+    }
+}
+
+Task<void> Daemon::accept_unix() {
+    while (!stopping_) {
+        auto [ec, socket] = co_await unix_acceptor_.async_accept(use_nothrow);
+        if (ec) {
+            if (stopping_ || ec == asio::error::operation_aborted) co_return;
+            spdlog::warn("accept on {} failed: {}", config_.socket_path, ec.message());
+            continue;
+        }
+        start_session(Socket(std::move(socket)), "local session");
+    }
+}
+
+void Daemon::start_session(Socket socket, const std::string& description) {
+    ++counters_.sessions_accepted;
+    const auto id = next_session_++;
+    auto session = std::make_shared<Session>(std::move(socket), *this, id);
+    session->set_description(description + " #" + std::to_string(id));
+    sessions_[id] = session;
+    session->start({proto::protocol_version, "daemon", config_.node});
+}
+
+void Daemon::session_closed(Session& session) {
+    sessions_.erase(session.id());
+    if (session.is_link()) std::erase(session.link_port()->inbound, session.link());
+    for (auto& [handle, port] : session.ports) forget_port(port);
+    session.ports.clear();
+}
+
+void Daemon::forget_port(std::shared_ptr<Port> port) {
+    const std::string name = port->name();
+    auto removed = router_.close(name);
+    space_.notify();
+    spdlog::info("port {} closed", name);
+    if (stopping_ || !names_) return;
+    auto names = names_.get();
+    // Tell the name server without holding anyone up; it also drops the port after a grace period
+    // if this never arrives.
+    auto tell = [](names::NameClient* names, std::string port_name,
+                   std::vector<std::shared_ptr<Connection>> connections) -> Task<void> {
+        for (const auto& c : connections) {
+            nlohmann::json body1 = {{"op", "remove_connection"}, {"source", c->source}, {"destination", c->destination}};
+            co_await names->request(body1);
+        }
+        nlohmann::json body2 = {{"op", "unregister_port"}, {"port", port_name}};
+        co_await names->request(body2);
+    };
+    asio::co_spawn(io_, tell(names, name, std::move(removed)), asio::detached);
+}
+
+Task<void> Daemon::shutdown() {
+    if (stopping_) co_return;
+    boost::system::error_code ignored;
+    tcp_acceptor_.close(ignored);
+    unix_acceptor_.close(ignored);
+    // Unregister first, then close: readers elsewhere see the ports go away cleanly.
+    for (const auto& [name, port] : router_.ports()) {
+        nlohmann::json body3 = {{"op", "unregister_port"}, {"port", name}};
+        if (names_ && names_->connected()) co_await names_->request(body3);
+    }
+    stopping_ = true;
+    std::vector<std::shared_ptr<Port>> ports;
+    for (const auto& [name, port] : router_.ports()) ports.push_back(port);
+    for (auto& port : ports) forget_port(port);
+    for (auto& [id, weak] : sessions_) {
+        if (auto session = weak.lock()) session->close_when_drained();
+    }
+    if (names_) names_->stop();
+    if (embedded_names_) embedded_names_->stop();
+    // Links and sessions flush what was written; wait for them, but not forever.
+    const auto deadline = std::chrono::steady_clock::now() + shutdown_grace;
+    auto busy = [this] {
+        std::erase_if(links_, [](const std::weak_ptr<Peer>& link) {
+            auto peer = link.lock();
+            return !peer || peer->closed();
+        });
+        return !sessions_.empty() || !links_.empty();
+    };
+    while (busy() && std::chrono::steady_clock::now() < deadline) {
+        asio::steady_timer tick(io_, std::chrono::milliseconds(20));
+        co_await tick.async_wait(use_nothrow);
+    }
+    io_.stop();
+}
+
+}  // namespace plexus::daemon

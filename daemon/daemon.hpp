@@ -1,0 +1,105 @@
+#pragma once
+// Threading: the whole daemon runs on one io_context thread (like Redis and Mosquitto); no locks.
+
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/router.hpp"
+#include "names/name_client.hpp"
+#include "names/name_server.hpp"
+#include "net/asio.hpp"
+#include "net/signal.hpp"
+#include "plexus/proto/control.hpp"
+
+namespace plexus::daemon {
+
+class Session;
+
+struct DaemonConfig {
+    proto::Endpoint names{"127.0.0.1", 10100};
+    bool embedded_names = false;
+    std::string names_state;  ///< state file of the embedded name server
+    proto::Endpoint listen{"127.0.0.1", 0};
+    std::string socket_path;
+    std::string node;
+    std::vector<std::string> script_dirs;
+    std::size_t max_frame = proto::default_max_frame;
+    std::size_t default_capacity = 1024;  ///< reader queue length when a client does not say
+    std::size_t link_capacity = 1024;     ///< messages queued towards another daemon per connection
+    std::chrono::milliseconds names_grace{2000};
+};
+
+/// Daemon-wide counters that `plexus stats` shows.
+struct DaemonCounters {
+    std::uint64_t sessions_accepted = 0;
+    std::uint64_t protocol_errors = 0;      ///< peers cut off for breaking the protocol
+    std::uint64_t dropped_unknown_port = 0; ///< data frames for a handle that is not open
+    std::uint64_t dropped_link_down = 0;    ///< messages queued to another daemon when the link died
+};
+
+/// The node daemon: hosts ports for local clients, connects them, moves data.
+class Daemon {
+public:
+    Daemon(asio::io_context& io, DaemonConfig config);
+    ~Daemon();
+    Daemon(const Daemon&) = delete;
+    Daemon& operator=(const Daemon&) = delete;
+
+    /// Binds, starts, runs until SIGINT/SIGTERM; returns the exit status.
+    int run();
+
+    // --- used by sessions ---
+    Task<proto::Reply> handle(std::shared_ptr<Session> session, proto::Request request);
+    void session_closed(Session& session);
+    /// Called whenever a strict queue drops below capacity: wakes writers held back.
+    void notify_space() { space_.notify(); }
+    Signal& space() { return space_; }
+    DaemonCounters& counters() { return counters_; }
+    const DaemonConfig& config() const { return config_; }
+    Router& router() { return router_; }
+    std::uint64_t next_session_id() { return next_session_++; }
+
+private:
+    proto::Status bind();
+    Task<void> accept_tcp();
+    Task<void> accept_unix();
+    Task<void> shutdown();
+    void start_session(Socket socket, const std::string& description);
+
+    Task<proto::Reply> open_port(std::shared_ptr<Session> session, const proto::Request& request);
+    Task<proto::Reply> close_port(std::shared_ptr<Session> session, const proto::Request& request);
+    Task<proto::Reply> connect(const proto::Request& request);
+    Task<proto::Reply> connect_remote(const proto::Request& request, std::shared_ptr<Port> source,
+                                      std::string destination, std::string carrier, std::string address);
+    Task<proto::Reply> disconnect(const proto::Request& request);
+    Task<proto::Reply> attach(std::shared_ptr<Session> session, const proto::Request& request);
+    Task<proto::Reply> stats(const proto::Request& request);
+    Task<proto::Reply> ping(const proto::Request& request);
+    Task<proto::Reply> ask_names(const proto::Request& request, nlohmann::json body);
+    /// Sends the request to the daemon that hosts `port` and relays its reply.
+    Task<proto::Reply> forward(const proto::Request& request, const std::string& port);
+    void forget_port(std::shared_ptr<Port> port);
+    void connect_persistent(const nlohmann::json& persistent);
+    nlohmann::json stats_json(const std::string& only_port) const;
+    std::string address() const;
+
+    asio::io_context& io_;
+    DaemonConfig config_;
+    Router router_;
+    Signal space_;
+    DaemonCounters counters_;
+    std::unique_ptr<names::NameServer> embedded_names_;
+    std::unique_ptr<names::NameClient> names_;
+    asio::ip::tcp::acceptor tcp_acceptor_;
+    asio::local::stream_protocol::acceptor unix_acceptor_;
+    asio::signal_set signals_;
+    std::map<std::uint64_t, std::weak_ptr<Session>> sessions_;
+    std::vector<std::weak_ptr<Peer>> links_;  ///< sending ends of tcp connections, flushed at shutdown
+    std::uint64_t next_session_ = 1;
+    bool stopping_ = false;
+};
+
+}  // namespace plexus::daemon

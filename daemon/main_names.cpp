@@ -1,0 +1,45 @@
+// plexus-names: the name server on its own.
+#include <iostream>
+
+#include <CLI/CLI.hpp>
+#include <spdlog/spdlog.h>
+
+#include "names/name_server.hpp"
+#include "plexus/proto/defaults.hpp"
+
+int main(int argc, char** argv) {
+    CLI::App app{"plexus-names: the Plexus name server. Registers ports and daemons over TCP, answers "
+                 "look-ups over TCP and UDP on the same port, and keeps persistent connections."};
+    std::string listen = plexus::proto::default_names();
+    std::string state;
+    std::string log_level = "info";
+    int grace_ms = 2000;
+    app.add_option("--listen", listen, "HOST:PORT to serve on, TCP and UDP (env PLEXUS_NAMES)")->capture_default_str();
+    app.add_option("--state", state, "file that keeps persistent connections across restarts");
+    app.add_option("--grace-ms", grace_ms, "how long a vanished daemon's ports stay registered")->capture_default_str();
+    app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        return app.exit(e) == 0 ? 0 : 2;
+    }
+    auto endpoint = plexus::proto::parse_endpoint(listen);
+    if (!endpoint) {
+        std::cerr << "plexus-names: --listen: " << endpoint.error().message << '\n';
+        return 2;
+    }
+    spdlog::set_level(spdlog::level::from_str(log_level));
+    boost::asio::io_context io(1);
+    plexus::daemon::names::NameServer server(io, {*endpoint, state, std::chrono::milliseconds(grace_ms)});
+    if (auto started = server.start(); !started) {
+        std::cerr << "plexus-names: " << started.error().message << '\n';
+        return 4;
+    }
+    boost::asio::signal_set signals(io, SIGINT, SIGTERM);
+    signals.async_wait([&](boost::system::error_code, int) {
+        server.stop();
+        io.stop();
+    });
+    io.run();
+    return 0;
+}

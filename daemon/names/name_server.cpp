@@ -1,0 +1,247 @@
+#include "name_server.hpp"
+
+#include <filesystem>
+#include <fstream>
+
+#include <spdlog/spdlog.h>
+
+#include "../net/framed_connection.hpp"
+#include "plexus/proto/frame.hpp"
+
+namespace plexus::daemon::names {
+
+namespace {
+
+using proto::ReplyCode;
+
+/// One TCP client of the name server (a daemon, or a tool asking questions).
+class NameSession : public FramedConnection {
+public:
+    NameSession(Socket socket, NameServer& server, std::uint64_t id)
+        : FramedConnection(std::move(socket), server.max_frame(), {}), server_(server), id_(id) {}
+
+protected:
+    proto::Status on_hello(const proto::Hello&) override { return proto::Ok{}; }
+    Task<bool> on_frame(InFrame frame) override {
+        if (frame.type != proto::FrameType::request) {
+            fail("the name server only takes requests, not " +
+                 proto::frame_type_name(static_cast<std::uint8_t>(frame.type)) + " frames");
+            co_return false;
+        }
+        auto request = proto::decode_request(frame.fields);
+        if (!request) {
+            fail("bad request: " + request.error().message);
+            co_return false;
+        }
+        send(proto::encode_reply(server_.handle(*request, id_)));
+        co_return true;
+    }
+    void on_closed(const std::string& reason) override {
+        spdlog::debug("names: session {} closed: {}", id_, reason);
+        server_.session_closed(id_);
+    }
+
+private:
+    NameServer& server_;
+    std::uint64_t id_;
+};
+
+std::string text_field(const nlohmann::json& body, const char* key) {
+    auto it = body.find(key);
+    return it != body.end() && it->is_string() ? it->get<std::string>() : std::string{};
+}
+
+}  // namespace
+
+NameServer::NameServer(asio::io_context& io, NameServerConfig config)
+    : io_(io), config_(std::move(config)), registry_(config_.grace), acceptor_(io), udp_(io) {}
+
+NameServer::~NameServer() { stop(); }
+
+proto::Status NameServer::start() {
+    if (!config_.state_file.empty() && std::filesystem::exists(config_.state_file)) {
+        try {
+            std::ifstream in(config_.state_file);
+            auto state = nlohmann::json::parse(in);
+            std::vector<ConnectionEntry> entries;
+            for (const auto& c : state.at("persistent")) {
+                entries.push_back({c.at("source"), c.at("destination"), c.at("carrier"), true});
+            }
+            registry_.restore_persistent(std::move(entries));
+            spdlog::info("names: restored {} persistent connections from {}", registry_.persistent().size(),
+                         config_.state_file);
+        } catch (const std::exception& e) {
+            return proto::Error{"cannot read state file " + config_.state_file + ": " + e.what()};
+        }
+    }
+    boost::system::error_code ec;
+    auto address = asio::ip::make_address(config_.listen.host, ec);
+    if (ec) return proto::Error{"name server address '" + config_.listen.host + "' is not an IP address"};
+    asio::ip::tcp::endpoint tcp_endpoint(address, config_.listen.port);
+    acceptor_.open(tcp_endpoint.protocol(), ec);
+    if (!ec) acceptor_.set_option(asio::socket_base::reuse_address(true), ec);
+    if (!ec) acceptor_.bind(tcp_endpoint, ec);
+    if (!ec) acceptor_.listen(asio::socket_base::max_listen_connections, ec);
+    if (ec) return proto::Error{"name server cannot listen on TCP " + config_.listen.text() + ": " + ec.message()};
+    const auto bound_port = acceptor_.local_endpoint().port();
+    asio::ip::udp::endpoint udp_endpoint(address, bound_port);
+    udp_.open(udp_endpoint.protocol(), ec);
+    if (!ec) udp_.bind(udp_endpoint, ec);
+    if (ec) return proto::Error{"name server cannot listen on UDP port " + std::to_string(bound_port) + ": " + ec.message()};
+    asio::co_spawn(io_, accept_loop(), asio::detached);
+    asio::co_spawn(io_, udp_loop(), asio::detached);
+    spdlog::info("names: serving on {} (TCP and UDP)", endpoint().text());
+    return proto::Ok{};
+}
+
+void NameServer::stop() {
+    if (stopped_) return;
+    stopped_ = true;
+    boost::system::error_code ignored;
+    acceptor_.close(ignored);
+    udp_.close(ignored);
+}
+
+proto::Endpoint NameServer::endpoint() const {
+    boost::system::error_code ec;
+    auto local = acceptor_.local_endpoint(ec);
+    return {config_.listen.host, ec ? config_.listen.port : local.port()};
+}
+
+Task<void> NameServer::accept_loop() {
+    while (!stopped_) {
+        auto [ec, socket] = co_await acceptor_.async_accept(use_nothrow);
+        if (ec) {
+            if (stopped_ || ec == asio::error::operation_aborted) co_return;
+            spdlog::warn("names: accept failed: {}", ec.message());
+            continue;
+        }
+        socket.set_option(asio::ip::tcp::no_delay(true), ec);
+        auto session = std::make_shared<NameSession>(Socket(std::move(socket)), *this, next_session_++);
+        session->set_description("names session");
+        session->start({proto::protocol_version, "names", ""});
+    }
+}
+
+Task<void> NameServer::udp_loop() {
+    // Largest UDP payload; a reply that does not fit says so (use TCP for big lists).
+    constexpr std::size_t max_datagram = 65507;
+    std::vector<std::uint8_t> buffer(max_datagram);
+    proto::FrameDecoder decoder(max_datagram);
+    while (!stopped_) {
+        asio::ip::udp::endpoint from;
+        auto [ec, n] = co_await udp_.async_receive_from(asio::buffer(buffer), from, use_nothrow);
+        if (ec) {
+            if (stopped_ || ec == asio::error::operation_aborted) co_return;
+            continue;
+        }
+        auto decoded = decoder.decode({buffer.data(), n});
+        proto::Bytes answer;
+        if (decoded.status != proto::DecodeStatus::frame || decoded.used != n ||
+            decoded.type != proto::FrameType::request) {
+            answer = proto::make_error_frame(decoded.status == proto::DecodeStatus::bad
+                                                 ? decoded.error
+                                                 : "a datagram must hold exactly one request frame");
+        } else if (auto request = proto::decode_request(decoded.fields); !request) {
+            answer = proto::make_error_frame("bad request: " + request.error().message);
+        } else {
+            answer = proto::encode_reply(handle(*request, 0));
+            if (answer.size() > max_datagram) {
+                answer = proto::encode_reply(proto::make_refusal(request->id, ReplyCode::refused,
+                                                                 "answer too large for UDP; ask over TCP"));
+            }
+        }
+        co_await udp_.async_send_to(asio::buffer(answer), from, use_nothrow);
+    }
+}
+
+proto::Reply NameServer::handle(const proto::Request& request, std::uint64_t session) {
+    const auto& body = request.body;
+    const std::string op = body["op"];
+    auto ok = [&](nlohmann::json out = nlohmann::json::object()) { return proto::Reply{request.id, ReplyCode::ok, out}; };
+    auto refuse = [&](const std::string& why, ReplyCode code = ReplyCode::refused) {
+        return proto::make_refusal(request.id, code, why);
+    };
+    auto status_reply = [&](const proto::Status& status) { return status ? ok() : refuse(status.error().message); };
+
+    if (op == "ping") return ok({{"names", endpoint().text()}});
+    if (op == "lookup") {
+        auto entry = registry_.lookup(text_field(body, "port"));
+        if (!entry) return refuse("port " + text_field(body, "port") + " is not registered", ReplyCode::no);
+        return ok({{"port", entry->name}, {"node", entry->node}, {"address", entry->address}});
+    }
+    if (op == "list") return ok(registry_.list());
+    if (session == 0) return refuse("'" + op + "' is not available over UDP; use TCP", ReplyCode::usage);
+
+    if (op == "register_node") {
+        auto status = registry_.register_node(text_field(body, "node"), text_field(body, "address"), session);
+        if (status) spdlog::info("names: node '{}' at {}", text_field(body, "node"), text_field(body, "address"));
+        return status_reply(status);
+    }
+    if (op == "register_port") {
+        const std::string port = text_field(body, "port");
+        auto status = registry_.register_port(port, session);
+        if (!status) return refuse(status.error().message);
+        nlohmann::json persistent = nlohmann::json::array();
+        for (const auto& c : registry_.persistent_for(port)) {
+            persistent.push_back({{"source", c.source}, {"destination", c.destination}, {"carrier", c.carrier}});
+        }
+        return ok({{"persistent", persistent}});
+    }
+    if (op == "unregister_port") return status_reply(registry_.unregister_port(text_field(body, "port"), session));
+    if (op == "add_connection") {
+        const bool persistent = body.value("persistent", false);
+        auto status = registry_.add_connection(
+            {text_field(body, "source"), text_field(body, "destination"), text_field(body, "carrier"), persistent},
+            session);
+        if (status && persistent) save_state();
+        return status_reply(status);
+    }
+    if (op == "remove_connection") {
+        const bool forget = body.value("forget", false);
+        if (!forget) {
+            // A connection that merely went down stays known when it is persistent.
+            for (const auto& c : registry_.persistent()) {
+                if (c.source == text_field(body, "source") && c.destination == text_field(body, "destination")) {
+                    return ok();
+                }
+            }
+        }
+        auto status = registry_.remove_connection(text_field(body, "source"), text_field(body, "destination"));
+        if (forget) save_state();
+        return status_reply(status);
+    }
+    return refuse("unknown request '" + op + "'", ReplyCode::usage);
+}
+
+void NameServer::session_closed(std::uint64_t session) {
+    registry_.session_closed(session, Clock::now());
+    auto timer = std::make_shared<asio::steady_timer>(io_, config_.grace);
+    timer->async_wait([this, timer](boost::system::error_code) {
+        if (stopped_) return;
+        for (const auto& name : registry_.expire(Clock::now())) spdlog::info("names: port {} expired", name);
+    });
+}
+
+void NameServer::save_state() {
+    if (config_.state_file.empty()) return;
+    nlohmann::json persistent = nlohmann::json::array();
+    for (const auto& c : registry_.persistent()) {
+        persistent.push_back({{"source", c.source}, {"destination", c.destination}, {"carrier", c.carrier}});
+    }
+    // Write then rename, so a crash leaves the old file or the new one, never half of one.
+    const std::string temporary = config_.state_file + ".tmp";
+    {
+        std::ofstream out(temporary, std::ios::trunc);
+        out << nlohmann::json{{"persistent", persistent}}.dump(2) << '\n';
+        if (!out) {
+            spdlog::error("names: cannot write state file {}", temporary);
+            return;
+        }
+    }
+    std::error_code ec;
+    std::filesystem::rename(temporary, config_.state_file, ec);
+    if (ec) spdlog::error("names: cannot replace state file {}: {}", config_.state_file, ec.message());
+}
+
+}  // namespace plexus::daemon::names

@@ -1,0 +1,55 @@
+#pragma once
+// Threading: runs on the io_context it is given, one thread; no locking.
+
+#include <memory>
+#include <string>
+
+#include "../net/asio.hpp"
+#include "plexus/proto/control.hpp"
+#include "plexus/proto/endpoint.hpp"
+#include "registry.hpp"
+
+namespace plexus::daemon::names {
+
+struct NameServerConfig {
+    proto::Endpoint listen{"127.0.0.1", 10100};
+    std::string state_file;  ///< where persistent connections are kept; empty = not kept
+    std::chrono::milliseconds grace{2000};
+    std::size_t max_frame = 1024 * 1024;
+};
+
+/// The name server: ports and daemons over TCP; the same port number over UDP answers the
+/// read-only look-ups (lookup, list, ping) in one datagram each.
+class NameServer {
+public:
+    NameServer(asio::io_context& io, NameServerConfig config);
+    ~NameServer();
+    NameServer(const NameServer&) = delete;
+    NameServer& operator=(const NameServer&) = delete;
+
+    /// Loads the state file and binds TCP and UDP. Errors say what failed and where.
+    proto::Status start();
+    void stop();
+    /// The bound address (with the real port when 0 was asked for).
+    proto::Endpoint endpoint() const;
+
+    /// Answers one request for `session` (0 = a UDP datagram, read-only).
+    proto::Reply handle(const proto::Request& request, std::uint64_t session);
+    void session_closed(std::uint64_t session);
+    std::size_t max_frame() const { return config_.max_frame; }
+
+private:
+    Task<void> accept_loop();
+    Task<void> udp_loop();
+    void save_state();
+
+    asio::io_context& io_;
+    NameServerConfig config_;
+    Registry registry_;
+    asio::ip::tcp::acceptor acceptor_;
+    asio::ip::udp::socket udp_;
+    std::uint64_t next_session_ = 1;
+    bool stopped_ = false;
+};
+
+}  // namespace plexus::daemon::names

@@ -1,0 +1,164 @@
+#include "registry.hpp"
+
+#include <algorithm>
+
+#include "plexus/proto/port_name.hpp"
+
+namespace plexus::daemon::names {
+
+proto::Status Registry::register_node(const std::string& node, const std::string& address,
+                                      std::uint64_t session) {
+    if (node.empty()) return proto::Error{"node name is empty"};
+    auto it = nodes_.find(node);
+    if (it != nodes_.end() && it->second.session != 0 && it->second.session != session) {
+        return proto::Error{"node '" + node + "' is already registered by a running daemon at " +
+                            it->second.address + "; give this daemon another --node name"};
+    }
+    if (it != nodes_.end() && it->second.address != address) {
+        // Same node name, new address: the daemon restarted; its old ports are stale.
+        std::vector<std::string> removed;
+        remove_ports_of(node, removed);
+    }
+    nodes_[node] = Node{address, session, {}};
+    return proto::Ok{};
+}
+
+const Registry::Node* Registry::node_of_session(std::uint64_t session, std::string* name) const {
+    for (const auto& [node_name, node] : nodes_) {
+        if (node.session == session && session != 0) {
+            if (name) *name = node_name;
+            return &node;
+        }
+    }
+    return nullptr;
+}
+
+proto::Status Registry::register_port(const std::string& name, std::uint64_t session) {
+    if (auto error = proto::port_name_error(name)) return proto::Error{*error};
+    std::string node_name;
+    const Node* node = node_of_session(session, &node_name);
+    if (!node) return proto::Error{"register the node before its ports"};
+    auto it = ports_.find(name);
+    if (it != ports_.end() && it->second.node != node_name) {
+        return proto::Error{"port " + name + " already exists on node '" + it->second.node + "'"};
+    }
+    ports_[name] = PortEntry{name, node_name, node->address};
+    return proto::Ok{};
+}
+
+proto::Status Registry::unregister_port(const std::string& name, std::uint64_t session) {
+    std::string node_name;
+    if (!node_of_session(session, &node_name)) return proto::Error{"register the node before its ports"};
+    auto it = ports_.find(name);
+    if (it == ports_.end()) return proto::Error{"port " + name + " is not registered"};
+    if (it->second.node != node_name) return proto::Error{"port " + name + " belongs to node '" + it->second.node + "'"};
+    ports_.erase(it);
+    std::erase_if(connections_, [&](const ConnectionEntry& c) {
+        return !c.persistent && (c.source == name || c.destination == name);
+    });
+    return proto::Ok{};
+}
+
+std::optional<PortEntry> Registry::lookup(const std::string& name) const {
+    auto it = ports_.find(name);
+    if (it == ports_.end()) return std::nullopt;
+    return it->second;
+}
+
+proto::Status Registry::add_connection(ConnectionEntry entry, std::uint64_t session) {
+    if (!node_of_session(session, nullptr)) return proto::Error{"register the node before its connections"};
+    for (auto& existing : connections_) {
+        if (existing.source == entry.source && existing.destination == entry.destination) {
+            existing.carrier = entry.carrier;
+            existing.persistent = existing.persistent || entry.persistent;
+            return proto::Ok{};
+        }
+    }
+    connections_.push_back(std::move(entry));
+    return proto::Ok{};
+}
+
+proto::Status Registry::remove_connection(const std::string& source, const std::string& destination) {
+    auto before = connections_.size();
+    std::erase_if(connections_,
+                  [&](const ConnectionEntry& c) { return c.source == source && c.destination == destination; });
+    if (connections_.size() == before) return proto::Error{"no connection " + source + " -> " + destination};
+    return proto::Ok{};
+}
+
+std::vector<ConnectionEntry> Registry::persistent_for(const std::string& port) const {
+    std::vector<ConnectionEntry> out;
+    for (const auto& c : connections_) {
+        if (c.persistent && (c.source == port || c.destination == port)) out.push_back(c);
+    }
+    return out;
+}
+
+std::vector<ConnectionEntry> Registry::persistent() const {
+    std::vector<ConnectionEntry> out;
+    std::copy_if(connections_.begin(), connections_.end(), std::back_inserter(out),
+                 [](const ConnectionEntry& c) { return c.persistent; });
+    return out;
+}
+
+void Registry::restore_persistent(std::vector<ConnectionEntry> entries) {
+    for (auto& entry : entries) {
+        entry.persistent = true;
+        connections_.push_back(std::move(entry));
+    }
+}
+
+void Registry::session_closed(std::uint64_t session, Clock::time_point now) {
+    for (auto& [name, node] : nodes_) {
+        if (node.session == session && session != 0) {
+            node.session = 0;
+            node.orphaned_at = now;
+        }
+    }
+}
+
+void Registry::remove_ports_of(const std::string& node, std::vector<std::string>& removed) {
+    for (auto it = ports_.begin(); it != ports_.end();) {
+        if (it->second.node == node) {
+            const std::string name = it->first;
+            removed.push_back(name);
+            it = ports_.erase(it);
+            std::erase_if(connections_, [&](const ConnectionEntry& c) {
+                return !c.persistent && (c.source == name || c.destination == name);
+            });
+        } else {
+            ++it;
+        }
+    }
+}
+
+std::vector<std::string> Registry::expire(Clock::time_point now) {
+    std::vector<std::string> removed;
+    for (auto it = nodes_.begin(); it != nodes_.end();) {
+        if (it->second.session == 0 && now - it->second.orphaned_at >= grace_) {
+            remove_ports_of(it->first, removed);
+            it = nodes_.erase(it);
+        } else {
+            ++it;
+        }
+    }
+    return removed;
+}
+
+nlohmann::json Registry::list() const {
+    nlohmann::json ports = nlohmann::json::array();
+    for (const auto& [name, entry] : ports_) {
+        ports.push_back({{"name", name}, {"node", entry.node}, {"address", entry.address}});
+    }
+    nlohmann::json connections = nlohmann::json::array();
+    for (const auto& c : connections_) {
+        connections.push_back({{"source", c.source},
+                               {"destination", c.destination},
+                               {"carrier", c.carrier},
+                               {"persistent", c.persistent},
+                               {"live", ports_.contains(c.source) && ports_.contains(c.destination)}});
+    }
+    return {{"ports", ports}, {"connections", connections}};
+}
+
+}  // namespace plexus::daemon::names

@@ -1,0 +1,57 @@
+#include "frame_reader.hpp"
+
+#include <algorithm>
+#include <cstring>
+
+namespace plexus::daemon {
+
+void FrameReader::make_room(std::size_t needed_total) {
+    const std::size_t pending = end_ - begin_;
+    const std::size_t want = std::max(needed_total, pending + 1);
+    if (chunk_ && chunk_->size - begin_ >= want) return;
+    if (chunk_ && chunk_.use_count() == 1 && chunk_->size >= want) {
+        // Nobody else refers to this chunk: slide the partial frame to the front and reuse it.
+        std::memmove(chunk_->data(), chunk_->data() + begin_, pending);
+        begin_ = 0;
+        end_ = pending;
+        return;
+    }
+    auto fresh = std::make_shared<Chunk>(std::max(chunk_size, want));
+    if (pending > 0) std::memcpy(fresh->data(), chunk_->data() + begin_, pending);
+    chunk_ = std::move(fresh);
+    begin_ = 0;
+    end_ = pending;
+}
+
+Task<ReadOutcome> FrameReader::next(Socket& socket) {
+    for (;;) {
+        if (chunk_) {
+            auto decoded = decoder_.decode({chunk_->data() + begin_, end_ - begin_});
+            if (decoded.status == proto::DecodeStatus::frame) {
+                InFrame frame{decoded.type, decoded.fields, chunk_};
+                begin_ += decoded.used;
+                co_return ReadOutcome{std::move(frame), false, false, {}};
+            }
+            if (decoded.status == proto::DecodeStatus::bad) {
+                co_return ReadOutcome{std::nullopt, false, true, decoded.error};
+            }
+            make_room(decoded.needed);
+        } else {
+            make_room(1);
+        }
+        auto [ec, n] = co_await socket.async_read_some(
+            asio::buffer(chunk_->data() + end_, chunk_->size - end_), use_nothrow);
+        if (ec) {
+            if (ec == asio::error::eof && begin_ == end_) co_return ReadOutcome{std::nullopt, true, false, {}};
+            if (ec == asio::error::eof) {
+                co_return ReadOutcome{std::nullopt, false, true,
+                                      "connection closed inside a frame (" + std::to_string(end_ - begin_) +
+                                          " bytes of it received)"};
+            }
+            co_return ReadOutcome{std::nullopt, false, false, ec.message()};
+        }
+        end_ += n;
+    }
+}
+
+}  // namespace plexus::daemon

@@ -1,0 +1,45 @@
+#pragma once
+// Threading: one io_context thread; one FrameReader per socket.
+
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "../core/message.hpp"
+#include "asio.hpp"
+#include "plexus/proto/frame.hpp"
+
+namespace plexus::daemon {
+
+struct InFrame {
+    proto::FrameType type{};
+    proto::ByteView fields;
+    std::shared_ptr<const Chunk> storage;  ///< keeps `fields` valid; share it to keep a record alive
+};
+
+struct ReadOutcome {
+    std::optional<InFrame> frame{};
+    bool clean_close = false;  ///< the peer closed between frames
+    bool protocol_error = false;  ///< the peer broke the protocol: `error` says how
+    std::string error;
+};
+
+/// Reads frames into chunks that queued messages can share, so a record is never copied after the
+/// socket read. A chunk is reused only when no message refers to it any more.
+class FrameReader {
+public:
+    explicit FrameReader(std::size_t max_body) : decoder_(max_body) {}
+    Task<ReadOutcome> next(Socket& socket);
+    /// Bytes received and not yet consumed (for tests of truncation).
+    std::size_t buffered() const { return end_ - begin_; }
+
+private:
+    void make_room(std::size_t needed_total);
+    static constexpr std::size_t chunk_size = 64 * 1024;
+    proto::FrameDecoder decoder_;
+    std::shared_ptr<Chunk> chunk_;
+    std::size_t begin_ = 0;
+    std::size_t end_ = 0;
+};
+
+}  // namespace plexus::daemon

@@ -1,0 +1,148 @@
+#include "framed_connection.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include "plexus/proto/frame.hpp"
+
+namespace plexus::daemon {
+
+namespace {
+// A batch of frames gathered into one write; larger batches gain nothing measurable.
+constexpr std::size_t write_budget = 256 * 1024;
+// How long a closing connection waits for its peer before cutting it off.
+constexpr auto close_grace = std::chrono::seconds(2);
+}  // namespace
+
+FramedConnection::FramedConnection(Socket socket, std::size_t max_frame, std::function<void()> on_space)
+    : socket_(std::move(socket)),
+      reader_(max_frame),
+      outbox_(std::move(on_space)),
+      wake_(socket_.get_executor()),
+      hello_signal_(socket_.get_executor()) {}
+
+void FramedConnection::start(const proto::Hello& mine) {
+    send(proto::encode_hello(mine));
+    auto self = shared_from_this();
+    asio::co_spawn(executor(), [self] { return self->read_loop(); }, asio::detached);
+    asio::co_spawn(executor(), [self] { return self->write_loop(); }, asio::detached);
+}
+
+void FramedConnection::send(proto::Bytes frame) {
+    if (closed_) return;
+    outbox_.push_control(std::move(frame));
+    wake_.notify();
+}
+
+void FramedConnection::close(const std::string& reason) {
+    if (closed_) return;
+    closed_ = true;
+    boost::system::error_code ignored;
+    socket_.shutdown(Socket::shutdown_both, ignored);
+    socket_.close(ignored);
+    wake_.notify();
+    hello_signal_.notify();
+    on_closed(reason);
+}
+
+void FramedConnection::close_when_drained() {
+    if (closed_ || draining_) return;
+    draining_ = true;
+    wake_.notify();
+    auto self = shared_from_this();
+    asio::co_spawn(executor(), [self] { return self->close_after(close_grace); }, asio::detached);
+}
+
+void FramedConnection::fail(const std::string& reason) {
+    if (closed_) return;
+    spdlog::warn("{}: {}", description_, reason);
+    send(proto::make_error_frame(reason));
+    close_when_drained();
+}
+
+Task<bool> FramedConnection::wait_for_hello(std::chrono::steady_clock::duration timeout) {
+    auto self = shared_from_this();
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    while (!peer_hello_ && !closed_) {
+        const auto now = std::chrono::steady_clock::now();
+        if (now >= deadline) break;
+        co_await hello_signal_.wait_for(deadline - now);
+    }
+    co_return peer_hello_.has_value() && !closed_;
+}
+
+Task<void> FramedConnection::close_after(std::chrono::steady_clock::duration grace) {
+    auto self = shared_from_this();
+    asio::steady_timer timer(executor(), grace);
+    co_await timer.async_wait(use_nothrow);
+    close("closed after drain");
+}
+
+Task<void> FramedConnection::read_loop() {
+    auto self = shared_from_this();
+    while (!closed_) {
+        ReadOutcome outcome = co_await reader_.next(socket_);
+        if (closed_) break;
+        if (!outcome.frame) {
+            if (outcome.protocol_error) {
+                fail(outcome.error);
+            } else {
+                close(outcome.clean_close ? "peer closed" : outcome.error);
+            }
+            break;
+        }
+        InFrame& frame = *outcome.frame;
+        if (!peer_hello_) {
+            if (frame.type != proto::FrameType::hello) {
+                fail("expected a hello frame first, got " + proto::frame_type_name(static_cast<std::uint8_t>(frame.type)));
+                break;
+            }
+            auto hello = proto::decode_hello(frame.fields);
+            if (!hello) {
+                fail("bad hello: " + hello.error().message);
+                break;
+            }
+            if (hello->version != proto::protocol_version) {
+                fail("protocol version " + std::to_string(hello->version) + " is not supported (this daemon speaks " +
+                     std::to_string(proto::protocol_version) + ")");
+                break;
+            }
+            if (auto accepted = on_hello(*hello); !accepted) {
+                fail(accepted.error().message);
+                break;
+            }
+            peer_hello_ = std::move(*hello);
+            hello_signal_.notify();
+            continue;
+        }
+        if (frame.type == proto::FrameType::error) {
+            close("peer reported an error: " + std::string(proto::as_string_view(frame.fields)));
+            break;
+        }
+        if (!co_await on_frame(std::move(frame))) break;
+    }
+}
+
+Task<void> FramedConnection::write_loop() {
+    auto self = shared_from_this();
+    Batch batch;
+    while (!closed_) {
+        if (outbox_.empty()) {
+            if (draining_) {
+                boost::system::error_code ignored;
+                socket_.shutdown(Socket::shutdown_send, ignored);
+                co_return;  // the reader sees the peer's close, or close_after cuts it off
+            }
+            co_await wake_.wait();
+            continue;
+        }
+        batch.clear();
+        outbox_.fill(batch, write_budget);
+        auto [ec, n] = co_await asio::async_write(socket_, batch.buffers, use_nothrow);
+        if (ec) {
+            close(ec.message());
+            co_return;
+        }
+    }
+}
+
+}  // namespace plexus::daemon

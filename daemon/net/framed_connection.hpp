@@ -1,0 +1,72 @@
+#pragma once
+// Threading: one io_context thread; each connection runs one reader and one writer coroutine.
+
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "asio.hpp"
+#include "frame_reader.hpp"
+#include "outbox.hpp"
+#include "plexus/proto/hello.hpp"
+#include "signal.hpp"
+
+namespace plexus::daemon {
+
+/// A socket speaking Plexus frames: hello exchange, a reader coroutine handing frames to the
+/// subclass, a writer coroutine gathering the outbox into few system calls, and one orderly close.
+class FramedConnection : public std::enable_shared_from_this<FramedConnection> {
+public:
+    FramedConnection(Socket socket, std::size_t max_frame, std::function<void()> on_space);
+    virtual ~FramedConnection() = default;
+    FramedConnection(const FramedConnection&) = delete;
+    FramedConnection& operator=(const FramedConnection&) = delete;
+
+    /// Sends our hello and starts reading and writing.
+    void start(const proto::Hello& mine);
+    /// Queues a whole control frame.
+    void send(proto::Bytes frame);
+    /// Wakes the writer after messages were added to an outbox source.
+    void wake() { wake_.notify(); }
+    /// Closes now; queued frames are dropped.
+    void close(const std::string& reason);
+    /// Writes what is queued, then closes our side and waits (briefly) for the peer to close.
+    void close_when_drained();
+    /// Tells the peer why (an error frame), then closes: for peers that broke the protocol.
+    void fail(const std::string& reason);
+
+    bool closed() const { return closed_; }
+    bool hello_received() const { return peer_hello_.has_value(); }
+    const proto::Hello& peer_hello() const { return *peer_hello_; }
+    const std::string& description() const { return description_; }
+    void set_description(std::string text) { description_ = std::move(text); }
+    Outbox& outbox() { return outbox_; }
+    asio::any_io_executor executor() { return socket_.get_executor(); }
+    /// Waits until the peer's hello arrived or the connection closed.
+    Task<bool> wait_for_hello(std::chrono::steady_clock::duration timeout);
+
+protected:
+    /// Called for the peer's hello; an error refuses the peer (it is told why).
+    virtual proto::Status on_hello(const proto::Hello& hello) = 0;
+    /// Called for every frame after the hello; return false to stop reading (after fail()).
+    virtual Task<bool> on_frame(InFrame frame) = 0;
+    /// Called once, after the connection closed for any reason.
+    virtual void on_closed(const std::string& reason) = 0;
+
+private:
+    Task<void> read_loop();
+    Task<void> write_loop();
+    Task<void> close_after(std::chrono::steady_clock::duration grace);
+
+    Socket socket_;
+    FrameReader reader_;
+    Outbox outbox_;
+    Signal wake_;
+    Signal hello_signal_;
+    std::optional<proto::Hello> peer_hello_;
+    std::string description_;
+    bool closed_ = false;
+    bool draining_ = false;
+};
+
+}  // namespace plexus::daemon

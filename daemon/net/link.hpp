@@ -1,0 +1,36 @@
+#pragma once
+// Threading: one io_context thread.
+
+#include <memory>
+
+#include "../core/connection.hpp"
+#include "../core/reader_queue.hpp"
+#include "peer.hpp"
+
+namespace plexus::daemon {
+
+/// The sending end of a tcp connection: messages wait in a strict queue and leave on the peer's
+/// socket as data frames. A full queue holds the writer back (TCP back-pressure, end to end).
+class Link : public MessageSink {
+public:
+    Link(std::shared_ptr<Peer> peer, std::size_t capacity)
+        : peer_(std::move(peer)), queue_(std::make_shared<ReaderQueue>(QueuePolicy::strict, capacity)) {
+        peer_->outbox().add_source({0, queue_.get(), nullptr, queue_});
+    }
+    bool full() const override { return queue_->full(); }
+    void deliver(const Message& message) override {
+        const bool was_empty = queue_->empty();
+        queue_->push(message);
+        if (was_empty) peer_->wake();
+    }
+    void close_after_flush() override { peer_->close_when_drained(); }
+    /// Messages still queued (lost if the link died).
+    std::size_t queued() const { return queue_->depth(); }
+    const std::shared_ptr<Peer>& peer() const { return peer_; }
+
+private:
+    std::shared_ptr<Peer> peer_;
+    std::shared_ptr<ReaderQueue> queue_;
+};
+
+}  // namespace plexus::daemon

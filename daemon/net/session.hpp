@@ -1,0 +1,50 @@
+#pragma once
+// Threading: one io_context thread.
+
+#include <map>
+#include <memory>
+
+#include "../core/port.hpp"
+#include "framed_connection.hpp"
+#include "plexus/proto/control.hpp"
+
+namespace plexus::daemon {
+
+class Daemon;
+
+/// A connection accepted by the daemon: a local client (Unix socket), the CLI or a component over
+/// TCP, another daemon forwarding a request, or another daemon's link carrying one connection.
+class Session : public FramedConnection {
+public:
+    Session(Socket socket, Daemon& daemon, std::uint64_t id);
+
+    std::uint64_t id() const { return id_; }
+    const std::string& role() const { return role_; }
+    bool is_link() const { return link_port_ != nullptr; }
+    const std::shared_ptr<Port>& link_port() const { return link_port_; }
+    const std::shared_ptr<InboundLink>& link() const { return link_; }
+
+    /// Ports this session opened, by the handle its data frames carry.
+    std::map<std::uint64_t, std::shared_ptr<Port>> ports;
+    std::uint64_t next_handle = 1;
+
+    /// Makes this session the receiving end of a connection into `port`.
+    void become_link(std::shared_ptr<Port> port, std::shared_ptr<InboundLink> link);
+
+protected:
+    proto::Status on_hello(const proto::Hello& hello) override;
+    Task<bool> on_frame(InFrame frame) override;
+    void on_closed(const std::string& reason) override;
+
+private:
+    Task<bool> on_data(InFrame frame);
+    Task<void> serve(proto::Request request);
+
+    Daemon& daemon_;
+    std::uint64_t id_;
+    std::string role_;
+    std::shared_ptr<Port> link_port_;
+    std::shared_ptr<InboundLink> link_;
+};
+
+}  // namespace plexus::daemon

@@ -1,0 +1,324 @@
+// The daemon's answers to control requests: open/close ports, connect, stats, look-ups.
+#include <spdlog/spdlog.h>
+
+#include "daemon.hpp"
+#include "net/link.hpp"
+#include "net/session.hpp"
+#include "plexus/proto/carrier.hpp"
+#include "plexus/proto/port_name.hpp"
+
+namespace plexus::daemon {
+
+namespace {
+
+using proto::ReplyCode;
+constexpr auto peer_timeout = std::chrono::seconds(5);
+
+proto::Reply ok(nlohmann::json body = nlohmann::json::object()) { return {0, ReplyCode::ok, std::move(body)}; }
+proto::Reply refuse(std::string why, ReplyCode code = ReplyCode::refused) {
+    return proto::make_refusal(0, code, std::move(why));
+}
+std::string text(const nlohmann::json& body, const char* key) {
+    auto it = body.find(key);
+    if (it == body.end() || !it->is_string()) return {};
+    return it->get<std::string>();
+}
+proto::Reply relay(const proto::Result<proto::Reply>& reply) {
+    if (!reply) return refuse(reply.error().message);
+    return *reply;
+}
+
+}  // namespace
+
+Task<proto::Reply> Daemon::handle(std::shared_ptr<Session> session, proto::Request request) {
+    const std::string op = request.body["op"];
+    const bool from_client = session->role() == "client";
+    if (op == "open" && from_client) co_return co_await open_port(session, request);
+    if (op == "close" && from_client) co_return co_await close_port(session, request);
+    if (op == "attach" && session->role() == "link") co_return co_await attach(session, request);
+    if (op == "connect") co_return co_await connect(request);
+    if (op == "disconnect") co_return co_await disconnect(request);
+    if (op == "stats") co_return co_await stats(request);
+    if (op == "ping") co_return co_await ping(request);
+    if (op == "node") co_return ok({{"node", config_.node}, {"address", address()}, {"names", config_.names.text()}});
+    if (op == "lookup" || op == "list") {
+        nlohmann::json question = {{"op", op}, {"port", text(request.body, "port")}};
+        co_return co_await ask_names(request, question);
+    }
+    co_return refuse("unknown request '" + op + "' for a " + session->role() + " session", ReplyCode::usage);
+}
+
+Task<proto::Reply> Daemon::ask_names(const proto::Request&, nlohmann::json body) {
+    co_return relay(co_await names_->request(std::move(body)));
+}
+
+Task<proto::Reply> Daemon::open_port(std::shared_ptr<Session> session, const proto::Request& request) {
+    const std::string name = text(request.body, "port");
+    const auto policy = parse_queue_policy(request.body.value("policy", std::string("strict")));
+    if (!policy) co_return refuse("queue policy must be 'strict' or 'latest'", ReplyCode::usage);
+    const std::size_t capacity = request.body.value("capacity", config_.default_capacity);
+    auto opened = router_.open(name, session->id(), *policy, capacity);
+    if (!opened) co_return refuse(opened.error().message);
+    auto port = *opened;
+    nlohmann::json body1 = {{"op", "register_port"}, {"port", name}};
+    auto registered = co_await names_->request(body1);
+    if (!registered || registered->code != ReplyCode::ok || session->closed()) {
+        router_.close(name);
+        if (!registered) co_return refuse("cannot register " + name + ": " + registered.error().message);
+        co_return refuse(registered->body.value("error", std::string("the name server refused ") + name));
+    }
+    const std::uint64_t handle = session->next_handle++;
+    session->ports[handle] = port;
+    std::weak_ptr<Session> weak = session;
+    port->on_readable = [weak] {
+        if (auto s = weak.lock()) s->wake();
+    };
+    session->outbox().add_source({handle, &port->queue(), &port->delivered, port});
+    spdlog::info("port {} opened ({} queue of {})", name, queue_policy_name(*policy), capacity);
+    connect_persistent(registered->body.value("persistent", nlohmann::json::array()));
+    co_return ok({{"handle", handle}, {"node", config_.node}});
+}
+
+Task<proto::Reply> Daemon::close_port(std::shared_ptr<Session> session, const proto::Request& request) {
+    const std::uint64_t handle = request.body.value("handle", std::uint64_t{0});
+    auto it = session->ports.find(handle);
+    if (it == session->ports.end()) co_return refuse("no open port with handle " + std::to_string(handle));
+    auto port = it->second;
+    session->ports.erase(it);
+    session->outbox().remove_source(handle);
+    forget_port(port);
+    co_return ok();
+}
+
+Task<proto::Reply> Daemon::connect(const proto::Request& request) {
+    const std::string source = text(request.body, "source");
+    const std::string destination = text(request.body, "destination");
+    std::string carrier_text = text(request.body, "carrier");
+    for (const auto& name : {source, destination}) {
+        if (auto error = proto::port_name_error(name)) co_return refuse(*error, ReplyCode::usage);
+    }
+    bool automatic = carrier_text.empty();
+    if (!automatic) {
+        auto carrier = proto::parse_carrier(carrier_text);
+        if (!carrier) co_return refuse("bad carrier: " + carrier.error().message);
+        if (auto valid = proto::validate_carrier(*carrier); !valid) co_return refuse(valid.error().message);
+        carrier_text = carrier->text();
+    }
+    auto port = router_.find(source);
+    if (!port) co_return co_await forward(request, source);
+
+    auto local_destination = router_.find(destination);
+    const bool wants_tcp = !automatic && carrier_text.rfind("tcp", 0) == 0;
+    const bool wants_local = !automatic && carrier_text.rfind("local", 0) == 0;
+    if (local_destination && !wants_tcp) {
+        auto connection = std::make_shared<Connection>();
+        connection->source = source;
+        connection->destination = destination;
+        connection->carrier = automatic ? "local" : carrier_text;
+        connection->sink = local_destination;
+        if (auto added = router_.add(port, connection); !added) co_return refuse(added.error().message);
+        nlohmann::json body2 = {{"op", "add_connection"}, {"source", source}, {"destination", destination},
+                                  {"carrier", connection->carrier}, {"persistent", request.body.value("persist", false)}};
+        co_await names_->request(body2);
+        spdlog::info("connected {} -> {} ({})", source, destination, connection->carrier);
+        co_return ok({{"carrier", connection->carrier}});
+    }
+    if (wants_local) {
+        co_return refuse("carrier 'local' needs both ports on one daemon, and " + destination +
+                         " is not on this one");
+    }
+    std::string where;
+    if (local_destination) {
+        where = address();
+    } else {
+        nlohmann::json body3 = {{"op", "lookup"}, {"port", destination}};
+        auto found = co_await names_->request(body3);
+        if (!found) co_return refuse(found.error().message);
+        if (found->code != ReplyCode::ok) co_return refuse("port " + destination + " does not exist");
+        where = text(found->body, "address");
+    }
+    co_return co_await connect_remote(request, port, destination, automatic ? "tcp" : carrier_text, where);
+}
+
+Task<proto::Reply> Daemon::connect_remote(const proto::Request& request, std::shared_ptr<Port> port,
+                                          std::string destination, std::string carrier, std::string address) {
+    const std::string source = port->name();
+    for (const auto& existing : port->outgoing) {
+        if (existing->destination == destination) co_return refuse("ports " + source + " and " + destination + " are already connected");
+    }
+    auto endpoint = proto::parse_endpoint(address);
+    if (!endpoint) co_return refuse("the name server gave a bad address for " + destination + ": " + address);
+    auto peer = co_await Peer::connect(io_.get_executor(), *endpoint, {proto::protocol_version, "link", config_.node},
+                                       config_.max_frame, peer_timeout, [this] { notify_space(); });
+    if (!peer) co_return refuse("cannot reach the daemon of " + destination + ": " + peer.error().message);
+    auto link_peer = *peer;
+    link_peer->set_description("link " + source + " -> " + destination);
+    nlohmann::json body4 = {{"op", "attach"}, {"source", source}, {"destination", destination}, {"carrier", carrier}};
+    auto attached = co_await link_peer->request(
+        body4, peer_timeout);
+    if (!attached || attached->code != ReplyCode::ok) {
+        link_peer->close("attach refused");
+        co_return attached ? *attached : refuse(attached.error().message);
+    }
+    if (port->closed()) {
+        link_peer->close("source closed");
+        co_return refuse("port " + source + " closed while connecting");
+    }
+    auto link = std::make_shared<Link>(link_peer, config_.link_capacity);
+    auto connection = std::make_shared<Connection>();
+    connection->source = source;
+    connection->destination = destination;
+    connection->carrier = carrier;
+    connection->remote = true;
+    connection->sink = link;
+    if (auto added = router_.add(port, connection); !added) {
+        link_peer->close("duplicate");
+        co_return refuse(added.error().message);
+    }
+    links_.push_back(link_peer);
+    std::weak_ptr<Connection> weak = connection;
+    link_peer->closed_handler = [this, weak](const std::string& reason) {
+        auto c = weak.lock();
+        if (!c) return;
+        auto* sink = static_cast<Link*>(c->sink.get());
+        if (sink->queued() > 0) {
+            counters_.dropped_link_down += sink->queued();
+            spdlog::warn("connection {} -> {} lost {} queued messages: {}", c->source, c->destination, sink->queued(), reason);
+        }
+        if (router_.remove(c)) {
+            spdlog::info("connection {} -> {} went down: {}", c->source, c->destination, reason);
+            notify_space();
+            if (!stopping_) {
+                auto tell = [](names::NameClient* names, std::string s, std::string d) -> Task<void> {
+                    nlohmann::json body5 = {{"op", "remove_connection"}, {"source", s}, {"destination", d}};
+                    co_await names->request(body5);
+                };
+                asio::co_spawn(io_, tell(names_.get(), c->source, c->destination), asio::detached);
+            }
+        }
+    };
+    nlohmann::json body6 = {{"op", "add_connection"}, {"source", source}, {"destination", destination},
+                              {"carrier", carrier}, {"persistent", request.body.value("persist", false)}};
+    co_await names_->request(body6);
+    spdlog::info("connected {} -> {} ({} to {})", source, destination, carrier, address);
+    co_return ok({{"carrier", carrier}});
+}
+
+Task<proto::Reply> Daemon::attach(std::shared_ptr<Session> session, const proto::Request& request) {
+    const std::string destination = text(request.body, "destination");
+    auto port = router_.find(destination);
+    if (!port) co_return refuse("port " + destination + " does not exist on node '" + config_.node + "'");
+    if (session->is_link()) co_return refuse("this link is already attached", ReplyCode::usage);
+    auto link = std::make_shared<InboundLink>();
+    link->source = text(request.body, "source");
+    link->carrier = text(request.body, "carrier");
+    port->inbound.push_back(link);
+    session->become_link(port, link);
+    std::weak_ptr<Session> weak = session;
+    port->on_close.push_back([weak] {
+        if (auto s = weak.lock()) s->close("destination port closed");
+    });
+    session->set_description("link " + link->source + " -> " + destination);
+    co_return ok();
+}
+
+Task<proto::Reply> Daemon::disconnect(const proto::Request& request) {
+    const std::string source = text(request.body, "source");
+    const std::string destination = text(request.body, "destination");
+    if (!router_.find(source)) co_return co_await forward(request, source);
+    auto removed = router_.remove(source, destination);
+    if (!removed) co_return refuse("ports " + source + " and " + destination + " are not connected", ReplyCode::no);
+    notify_space();
+    nlohmann::json body7 = {{"op", "remove_connection"}, {"source", source}, {"destination", destination}, {"forget", true}};
+    co_await names_->request(body7);
+    spdlog::info("disconnected {} -> {}", source, destination);
+    co_return ok();
+}
+
+Task<proto::Reply> Daemon::stats(const proto::Request& request) {
+    const std::string port = text(request.body, "port");
+    if (!port.empty() && !router_.find(port)) co_return co_await forward(request, port);
+    co_return ok(stats_json(port));
+}
+
+Task<proto::Reply> Daemon::ping(const proto::Request& request) {
+    const std::string port = text(request.body, "port");
+    if (port.empty() || router_.find(port)) co_return ok({{"node", config_.node}, {"address", address()}});
+    co_return co_await forward(request, port);
+}
+
+Task<proto::Reply> Daemon::forward(const proto::Request& request, const std::string& port) {
+    if (request.body.value("forwarded", false)) co_return refuse("port " + port + " is not on node '" + config_.node + "'");
+    nlohmann::json body8 = {{"op", "lookup"}, {"port", port}};
+    auto found = co_await names_->request(body8);
+    if (!found) co_return refuse(found.error().message);
+    if (found->code != ReplyCode::ok) co_return refuse("port " + port + " does not exist");
+    const std::string where = text(found->body, "address");
+    auto endpoint = proto::parse_endpoint(where);
+    if (!endpoint) co_return refuse("the name server gave a bad address for " + port + ": " + where);
+    auto peer = co_await Peer::connect(io_.get_executor(), *endpoint, {proto::protocol_version, "daemon", config_.node},
+                                       config_.max_frame, peer_timeout);
+    if (!peer) co_return refuse("cannot reach the daemon of " + port + ": " + peer.error().message);
+    auto body = request.body;
+    body["forwarded"] = true;
+    auto reply = co_await (*peer)->request(body, peer_timeout);
+    (*peer)->close_when_drained();
+    co_return relay(reply);
+}
+
+void Daemon::connect_persistent(const nlohmann::json& persistent) {
+    for (const auto& entry : persistent) {
+        auto body = nlohmann::json{{"op", "connect"},
+                                   {"source", entry.value("source", "")},
+                                   {"destination", entry.value("destination", "")},
+                                   {"carrier", entry.value("carrier", "")}};
+        auto run = [](Daemon* daemon, nlohmann::json request_body) -> Task<void> {
+            // Either end may come up first; the one that comes second makes the connection.
+            auto reply = co_await daemon->connect(proto::Request{0, request_body});
+            if (reply.code == ReplyCode::ok) {
+                spdlog::info("restored persistent connection {} -> {}", request_body["source"].get<std::string>(),
+                             request_body["destination"].get<std::string>());
+            }
+        };
+        asio::co_spawn(io_, run(this, body), asio::detached);
+    }
+}
+
+nlohmann::json Daemon::stats_json(const std::string& only_port) const {
+    nlohmann::json ports = nlohmann::json::array();
+    for (const auto& [name, port] : router_.ports()) {
+        if (!only_port.empty() && name != only_port) continue;
+        nlohmann::json connections = nlohmann::json::array();
+        for (const auto& c : port->outgoing) {
+            nlohmann::json entry{{"destination", c->destination}, {"carrier", c->carrier}, {"sent", c->sent}};
+            if (c->remote) entry["queued"] = static_cast<const Link*>(c->sink.get())->queued();
+            connections.push_back(entry);
+        }
+        nlohmann::json inbound = nlohmann::json::array();
+        for (const auto& link : port->inbound) {
+            inbound.push_back({{"source", link->source}, {"carrier", link->carrier}, {"received", link->received}});
+        }
+        const auto& queue = port->queue();
+        ports.push_back({{"name", name},
+                         {"policy", queue_policy_name(queue.policy())},
+                         {"capacity", queue.capacity()},
+                         {"depth", queue.depth()},
+                         {"written", port->written},
+                         {"received", port->received},
+                         {"delivered", port->delivered},
+                         {"dropped_queue", queue.dropped()},
+                         {"outgoing", connections},
+                         {"inbound", inbound}});
+    }
+    return {{"node", config_.node},
+            {"address", address()},
+            {"ports", ports},
+            {"daemon",
+             {{"sessions", sessions_.size()},
+              {"sessions_accepted", counters_.sessions_accepted},
+              {"protocol_errors", counters_.protocol_errors},
+              {"dropped_unknown_port", counters_.dropped_unknown_port},
+              {"dropped_link_down", counters_.dropped_link_down}}}};
+}
+
+}  // namespace plexus::daemon
