@@ -35,6 +35,17 @@ std::string Daemon::address() const {
     return config_.listen.host + ":" + std::to_string(ec ? 0 : local.port());
 }
 
+proto::Hello Daemon::our_hello(const char* role) const {
+    proto::Hello hello;
+    hello.role = role;
+    hello.node = config_.node;
+    return hello;
+}
+
+std::function<void()> Daemon::space_notifier() {
+    return [this] { notify_space(); };
+}
+
 proto::Status Daemon::bind() {
     if (config_.embedded_names) {
         names::NameServerConfig names_config;

@@ -85,6 +85,10 @@ private:
     void connect_persistent(const nlohmann::json& persistent);
     nlohmann::json stats_json(const std::string& only_port) const;
     std::string address() const;
+    // GCC 12 miscompiles braced temporaries and lambdas inside co_await expressions: build them
+    // in these plain functions instead.
+    proto::Hello our_hello(const char* role) const;
+    std::function<void()> space_notifier();
 
     asio::io_context& io_;
     DaemonConfig config_;

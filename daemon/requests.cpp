@@ -137,7 +137,8 @@ Task<proto::Reply> Daemon::connect(const proto::Request& request) {
         if (found->code != ReplyCode::ok) co_return refuse("port " + destination + " does not exist");
         where = text(found->body, "address");
     }
-    co_return co_await connect_remote(request, port, destination, automatic ? "tcp" : carrier_text, where);
+    const std::string chosen = automatic ? std::string("tcp") : carrier_text;
+    co_return co_await connect_remote(request, port, destination, chosen, where);
 }
 
 Task<proto::Reply> Daemon::connect_remote(const proto::Request& request, std::shared_ptr<Port> port,
@@ -148,8 +149,9 @@ Task<proto::Reply> Daemon::connect_remote(const proto::Request& request, std::sh
     }
     auto endpoint = proto::parse_endpoint(address);
     if (!endpoint) co_return refuse("the name server gave a bad address for " + destination + ": " + address);
-    auto peer = co_await Peer::connect(io_.get_executor(), *endpoint, {proto::protocol_version, "link", config_.node},
-                                       config_.max_frame, peer_timeout, [this] { notify_space(); });
+    const proto::Hello hello = our_hello("link");
+    auto peer = co_await Peer::connect(io_.get_executor(), *endpoint, hello, config_.max_frame, peer_timeout,
+                                       space_notifier());
     if (!peer) co_return refuse("cannot reach the daemon of " + destination + ": " + peer.error().message);
     auto link_peer = *peer;
     link_peer->set_description("link " + source + " -> " + destination);
@@ -256,8 +258,9 @@ Task<proto::Reply> Daemon::forward(const proto::Request& request, const std::str
     const std::string where = text(found->body, "address");
     auto endpoint = proto::parse_endpoint(where);
     if (!endpoint) co_return refuse("the name server gave a bad address for " + port + ": " + where);
-    auto peer = co_await Peer::connect(io_.get_executor(), *endpoint, {proto::protocol_version, "daemon", config_.node},
-                                       config_.max_frame, peer_timeout);
+    const proto::Hello hello = our_hello("daemon");
+    auto peer = co_await Peer::connect(io_.get_executor(), *endpoint, hello, config_.max_frame, peer_timeout,
+                                       std::function<void()>{});
     if (!peer) co_return refuse("cannot reach the daemon of " + port + ": " + peer.error().message);
     auto body = request.body;
     body["forwarded"] = true;
@@ -274,7 +277,9 @@ void Daemon::connect_persistent(const nlohmann::json& persistent) {
                                    {"carrier", entry.value("carrier", "")}};
         auto run = [](Daemon* daemon, nlohmann::json request_body) -> Task<void> {
             // Either end may come up first; the one that comes second makes the connection.
-            auto reply = co_await daemon->connect(proto::Request{0, request_body});
+            proto::Request request;
+            request.body = request_body;
+            auto reply = co_await daemon->connect(request);
             if (reply.code == ReplyCode::ok) {
                 spdlog::info("restored persistent connection {} -> {}", request_body["source"].get<std::string>(),
                              request_body["destination"].get<std::string>());

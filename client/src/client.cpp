@@ -108,7 +108,14 @@ Client::Client() : Client(Options{}) {}
 
 Client::Client(Options options)
     : socket_(options.socket.empty() ? proto::default_socket() : options.socket),
-      connection_(std::make_shared<detail::Connection>(socket_)) {}
+      connection_(detail::Connection::to_daemon(socket_)) {}
+
+std::optional<Value> Client::ask_names(const std::string& names_address, const Value& body) {
+    auto connection = detail::Connection::to_tcp(names_address);
+    auto reply = connection->request(body, std::chrono::milliseconds(10000));
+    if (reply.code == proto::ReplyCode::no) return std::nullopt;
+    return checked(reply);
+}
 
 Client::~Client() = default;
 

@@ -2,6 +2,9 @@
 
 #include <poll.h>
 #include <sys/socket.h>
+#include <netdb.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
 #include <sys/un.h>
 #include <unistd.h>
 
@@ -10,6 +13,7 @@
 
 #include "plexus/proto/frame.hpp"
 #include "plexus/proto/hello.hpp"
+#include "plexus/proto/endpoint.hpp"
 #include "plexus/proto/message.hpp"
 
 namespace plexus::detail {
@@ -20,33 +24,59 @@ constexpr std::size_t flush_threshold = 64 * 1024;
 constexpr std::size_t read_chunk = 256 * 1024;
 }  // namespace
 
-Connection::Connection(const std::string& socket_path) : path_(socket_path) {
+Connection::Connection(int fd, std::string description) : fd_(fd), path_(std::move(description)) {
+    in_.resize(read_chunk);
+    std::lock_guard lock(send_mutex_);
+    out_ = proto::encode_hello({proto::protocol_version, "client", ""});
+    send_locked();
+}
+
+std::shared_ptr<Connection> Connection::to_daemon(const std::string& socket_path) {
     sockaddr_un address{};
     address.sun_family = AF_UNIX;
     if (socket_path.size() >= sizeof address.sun_path) {
         throw Error(ErrorCode::usage, "socket path too long: " + socket_path);
     }
     std::memcpy(address.sun_path, socket_path.c_str(), socket_path.size() + 1);
-    fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    if (fd_ < 0) throw Error(ErrorCode::refused, std::string("socket: ") + std::strerror(errno));
-    if (::connect(fd_, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) {
+    const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    if (fd < 0) throw Error(ErrorCode::refused, std::string("socket: ") + std::strerror(errno));
+    if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) {
         const int error = errno;
-        ::close(fd_);
-        fd_ = -1;
+        ::close(fd);
         throw Error(ErrorCode::refused, "no plexusd is running at " + socket_path + " (" + std::strerror(error) +
                                             "); start one with `plexusd --embedded-names`, or pass --socket / "
                                             "set PLEXUS_SOCKET");
     }
-    in_.resize(read_chunk);
-    {
-        std::lock_guard lock(send_mutex_);
-        out_ = proto::encode_hello({proto::protocol_version, "client", ""});
-        send_locked();
+    auto connection = std::make_shared<Connection>(fd, socket_path);
+    // A wrong program on the socket is reported now rather than at the first real request.
+    proto::Reply reply = connection->request({{"op", "node"}}, std::chrono::milliseconds(5000));
+    if (reply.code != proto::ReplyCode::ok) throw Error(ErrorCode::refused, "the program at " + socket_path + " is not plexusd");
+    return connection;
+}
+
+std::shared_ptr<Connection> Connection::to_tcp(const std::string& address) {
+    auto endpoint = proto::parse_endpoint(address);
+    if (!endpoint) throw Error(ErrorCode::usage, "bad address '" + address + "': " + endpoint.error().message);
+    addrinfo hints{};
+    hints.ai_socktype = SOCK_STREAM;
+    addrinfo* found = nullptr;
+    if (::getaddrinfo(endpoint->host.c_str(), std::to_string(endpoint->port).c_str(), &hints, &found) != 0 || !found) {
+        throw Error(ErrorCode::refused, "cannot resolve " + address);
     }
-    // The daemon's hello arrives before any reply; a request waits for it implicitly. Check it now
-    // so that a wrong program on the socket is reported at once.
-    proto::Reply reply = request({{"op", "node"}}, std::chrono::milliseconds(5000));
-    if (reply.code != proto::ReplyCode::ok) throw Error(ErrorCode::refused, "the daemon refused this client");
+    int fd = -1;
+    int error = 0;
+    for (addrinfo* a = found; a; a = a->ai_next) {
+        fd = ::socket(a->ai_family, a->ai_socktype | SOCK_CLOEXEC, a->ai_protocol);
+        if (fd >= 0 && ::connect(fd, a->ai_addr, a->ai_addrlen) == 0) break;
+        error = errno;
+        if (fd >= 0) ::close(fd);
+        fd = -1;
+    }
+    ::freeaddrinfo(found);
+    if (fd < 0) throw Error(ErrorCode::refused, "cannot reach " + address + ": " + std::strerror(error));
+    const int one = 1;
+    ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    return std::make_shared<Connection>(fd, address);
 }
 
 Connection::~Connection() {
@@ -65,7 +95,7 @@ void Connection::throw_if_broken() const {
 
 void Connection::fail(const std::string& why) {
     std::lock_guard lock(state_mutex_);
-    if (broken_.empty()) broken_ = "connection to plexusd at " + path_ + " lost: " + why;
+    if (broken_.empty()) broken_ = "connection to " + path_ + " lost: " + why;
     changed_.notify_all();
 }
 
@@ -119,7 +149,7 @@ proto::Reply Connection::request(nlohmann::json body, std::chrono::milliseconds 
     auto node = replies_.extract(id);
     if (answered) return std::move(*node.mapped());
     if (!broken_.empty()) throw Error(ErrorCode::refused, broken_);
-    throw Error(ErrorCode::timeout, "plexusd at " + path_ + " did not answer in time");
+    throw Error(ErrorCode::timeout, path_ + " did not answer in time");
 }
 
 std::optional<proto::Bytes> Connection::read(std::uint64_t handle, Clock::time_point deadline) {

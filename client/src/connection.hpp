@@ -13,6 +13,7 @@
 
 #include "plexus/client.hpp"
 #include "plexus/proto/control.hpp"
+#include "plexus/proto/frame.hpp"
 
 namespace plexus::detail {
 
@@ -21,7 +22,12 @@ using Clock = std::chrono::steady_clock;
 /// The framed Unix-socket connection to the local daemon.
 class Connection {
 public:
-    explicit Connection(const std::string& socket_path);
+    /// Connects to the local daemon's Unix socket.
+    static std::shared_ptr<Connection> to_daemon(const std::string& socket_path);
+    /// Connects over TCP to a name server (or a daemon) at HOST:PORT.
+    static std::shared_ptr<Connection> to_tcp(const std::string& address);
+    /// Takes a connected socket; sends our hello.
+    Connection(int fd, std::string description);
     ~Connection();
     Connection(const Connection&) = delete;
     Connection& operator=(const Connection&) = delete;

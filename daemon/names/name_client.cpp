@@ -8,6 +8,7 @@ namespace {
 constexpr auto request_timeout = std::chrono::seconds(5);
 constexpr auto first_retry = std::chrono::milliseconds(100);
 constexpr auto longest_retry = std::chrono::seconds(2);
+constexpr auto reconnect_patience = std::chrono::seconds(3);
 }  // namespace
 
 NameClient::NameClient(asio::io_context& io, proto::Endpoint names, std::string node, std::string address,
@@ -39,6 +40,8 @@ Task<bool> NameClient::wait_connected(std::chrono::steady_clock::duration timeou
 
 Task<proto::Result<proto::Reply>> NameClient::request(nlohmann::json body) {
     using Outcome = proto::Result<proto::Reply>;
+    // Just started, or the name server just restarted: give the reconnect loop a moment.
+    if (!connected()) co_await wait_connected(reconnect_patience);
     if (!connected()) {
         co_return Outcome(proto::Error{"the name server at " + names_.text() +
                                        " is not reachable (start plexus-names, or plexusd --embedded-names)"});

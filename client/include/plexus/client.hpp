@@ -139,6 +139,9 @@ public:
     Value ping(const std::string& port);
     /// Sends any control request and returns the reply body; throws Error when refused.
     Value request(const Value& body);
+    /// Asks a name server directly over TCP (works without a local daemon): {"op": "list"} or
+    /// {"op": "lookup", "port": ...}. Returns the reply body; nullopt for a "no" answer.
+    static std::optional<Value> ask_names(const std::string& names_address, const Value& body);
     /// The socket path this client is connected to.
     const std::string& socket_path() const { return socket_; }
 

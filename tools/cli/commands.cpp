@@ -1,0 +1,226 @@
+#include "commands.hpp"
+
+#include <poll.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <thread>
+
+#include "plexus/client.hpp"
+#include "plexus/proto/port_name.hpp"
+
+namespace plexus::cli {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+plexus::Client make_client(const Common& common) { return plexus::Client({common.socket}); }
+
+void require_port_name(const std::string& name) {
+    if (auto error = proto::port_name_error(name)) throw Error(ErrorCode::usage, *error);
+}
+
+/// True when stdin has nothing more to read right now: the moment to send what is buffered.
+bool stdin_idle() {
+    if (std::cin.rdbuf()->in_avail() > 0) return false;
+    pollfd in{STDIN_FILENO, POLLIN, 0};
+    return ::poll(&in, 1, 0) == 0;
+}
+
+std::string pad(const std::string& text, std::size_t width) {
+    return text.size() >= width ? text + " " : text + std::string(width - text.size(), ' ');
+}
+
+}  // namespace
+
+int list(const Common& common, bool json) {
+    auto answer = Client::ask_names(common.names, {{"op", "list"}}).value_or(Value::object());
+    if (json) {
+        std::cout << answer.dump() << '\n';
+        return 0;
+    }
+    std::cout << pad("PORT", 32) << pad("NODE", 16) << "ADDRESS\n";
+    for (const auto& port : answer.value("ports", Value::array())) {
+        std::cout << pad(port.value("name", ""), 32) << pad(port.value("node", ""), 16) << port.value("address", "")
+                  << '\n';
+    }
+    const auto connections = answer.value("connections", Value::array());
+    if (!connections.empty()) {
+        std::cout << '\n' << pad("CONNECTION", 48) << pad("CARRIER", 16) << "STATE\n";
+        for (const auto& c : connections) {
+            std::string state = c.value("live", false) ? "up" : "waiting";
+            if (c.value("persistent", false)) state += ", persistent";
+            std::cout << pad(c.value("source", "") + " -> " + c.value("destination", ""), 48)
+                      << pad(c.value("carrier", ""), 16) << state << '\n';
+        }
+    }
+    return 0;
+}
+
+int connect(const Common& common, const std::string& source, const std::string& destination,
+            const std::string& carrier, bool persist, bool /*strict: arbitration checks come later*/) {
+    require_port_name(source);
+    require_port_name(destination);
+    auto client = make_client(common);
+    const std::string used = client.connect(source, destination, carrier, persist);
+    std::cerr << "connected " << source << " -> " << destination << " (" << used << ")\n";
+    return 0;
+}
+
+int disconnect(const Common& common, const std::string& source, const std::string& destination) {
+    require_port_name(source);
+    require_port_name(destination);
+    auto client = make_client(common);
+    client.disconnect(source, destination);
+    return 0;
+}
+
+int write(const Common& common, const std::string& port_name, const std::vector<std::string>& destinations) {
+    require_port_name(port_name);
+    for (const auto& d : destinations) require_port_name(d);
+    auto client = make_client(common);
+    auto port = client.open(port_name);
+    for (const auto& destination : destinations) client.connect(port_name, destination);
+    std::ios::sync_with_stdio(false);
+    std::string line;
+    while (std::getline(std::cin, line)) {
+        Value value = Value::parse(line, nullptr, false);
+        if (value.is_discarded()) value = line;
+        // Batch while stdin has more ready; send as soon as it goes quiet (interactive use).
+        port.write(value, stdin_idle());
+    }
+    port.close();  // flushes, and the daemon has routed everything before it answers
+    return 0;
+}
+
+int read(const Common& common, const ReadOptions& options) {
+    require_port_name(options.port);
+    if (!options.source.empty()) require_port_name(options.source);
+    auto client = make_client(common);
+    PortOptions port_options;
+    port_options.policy = options.policy == "latest" ? QueuePolicy::latest : QueuePolicy::strict;
+    port_options.capacity = options.capacity;
+    auto port = client.open(options.port, port_options);
+    if (!options.source.empty()) client.connect(options.source, options.port, options.carrier);
+    const auto deadline = options.timeout ? Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                                                std::chrono::duration<double>(*options.timeout))
+                                          : Clock::time_point::max();
+    long received = 0;
+    std::string out;
+    while (!options.count || received < *options.count) {
+        const auto now = Clock::now();
+        if (now >= deadline) {
+            std::fflush(stdout);
+            std::cerr << "plexus: timed out after " << received << " messages\n";
+            return 3;
+        }
+        const auto wait = deadline == Clock::time_point::max()
+                              ? std::chrono::milliseconds(1000)
+                              : std::chrono::duration_cast<std::chrono::milliseconds>(deadline - now) +
+                                    std::chrono::milliseconds(1);
+        auto message = port.read(std::min(wait, std::chrono::milliseconds(1000)));
+        if (!message) continue;
+        ++received;
+        if (options.envelope) {
+            out = Value{{"from", message->envelope.source},
+                        {"seq", message->envelope.seq},
+                        {"time", static_cast<double>(message->envelope.time_ns) / 1e9},
+                        {"data", message->data}}
+                      .dump(-1, ' ', false, Value::error_handler_t::replace);
+        } else {
+            out = message->data.dump(-1, ' ', false, Value::error_handler_t::replace);
+        }
+        out += '\n';
+        std::fwrite(out.data(), 1, out.size(), stdout);
+        std::fflush(stdout);
+    }
+    return 0;
+}
+
+int exists(const Common& common, const std::string& port, const std::string& destination) {
+    require_port_name(port);
+    if (destination.empty()) return Client::ask_names(common.names, {{"op", "lookup"}, {"port", port}}) ? 0 : 1;
+    require_port_name(destination);
+    auto answer = Client::ask_names(common.names, {{"op", "list"}}).value_or(Value::object());
+    for (const auto& c : answer.value("connections", Value::array())) {
+        if (c.value("source", "") == port && c.value("destination", "") == destination && c.value("live", false)) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+int wait(const Common& common, const std::string& port, double timeout) {
+    require_port_name(port);
+    const auto start = Clock::now();
+    auto pause = std::chrono::milliseconds(10);
+    for (;;) {
+        try {
+            if (Client::ask_names(common.names, {{"op", "lookup"}, {"port", port}})) return 0;
+        } catch (const Error& e) {
+            // The name server may not be up yet: waiting for it is part of waiting for the port.
+            if (e.code() == ErrorCode::usage) throw;
+        }
+        if (timeout > 0 && Clock::now() - start >= std::chrono::duration<double>(timeout)) {
+            std::cerr << "plexus: " << port << " did not appear within " << timeout << " s\n";
+            return 3;
+        }
+        std::this_thread::sleep_for(pause);
+        pause = std::min(pause * 2, std::chrono::milliseconds(200));
+    }
+}
+
+int ping(const Common& common, const std::string& port, int count) {
+    require_port_name(port);
+    auto client = make_client(common);
+    Value where;
+    std::vector<double> times;
+    for (int i = 0; i < count; ++i) {
+        const auto start = Clock::now();
+        where = client.ping(port);
+        times.push_back(std::chrono::duration<double, std::micro>(Clock::now() - start).count());
+    }
+    std::sort(times.begin(), times.end());
+    std::cout << port << " is on node '" << where.value("node", "?") << "' at " << where.value("address", "?")
+              << ": round trip min " << times.front() << " us, median " << times[times.size() / 2] << " us, max "
+              << times.back() << " us (" << count << " pings through the local daemon)\n";
+    return 0;
+}
+
+int stats(const Common& common, const std::string& port, bool json) {
+    if (!port.empty()) require_port_name(port);
+    auto client = make_client(common);
+    auto answer = client.stats(port);
+    if (json) {
+        std::cout << answer.dump() << '\n';
+        return 0;
+    }
+    std::cout << "node '" << answer.value("node", "") << "' at " << answer.value("address", "") << '\n';
+    std::cout << pad("PORT", 28) << pad("POLICY", 14) << pad("DEPTH", 8) << pad("WRITTEN", 10) << pad("RECEIVED", 10)
+              << pad("DELIVERED", 10) << "DROPPED\n";
+    for (const auto& p : answer.value("ports", Value::array())) {
+        std::cout << pad(p.value("name", ""), 28)
+                  << pad(p.value("policy", "") + "/" + std::to_string(p.value("capacity", 0)), 14)
+                  << pad(std::to_string(p.value("depth", 0)), 8) << pad(std::to_string(p.value("written", 0)), 10)
+                  << pad(std::to_string(p.value("received", 0)), 10)
+                  << pad(std::to_string(p.value("delivered", 0)), 10) << p.value("dropped_queue", 0) << '\n';
+        for (const auto& c : p.value("outgoing", Value::array())) {
+            std::cout << "    -> " << pad(c.value("destination", ""), 24) << pad(c.value("carrier", ""), 10)
+                      << "sent " << c.value("sent", 0) << '\n';
+        }
+        for (const auto& c : p.value("inbound", Value::array())) {
+            std::cout << "    <- " << pad(c.value("source", ""), 24) << pad(c.value("carrier", ""), 10)
+                      << "received " << c.value("received", 0) << '\n';
+        }
+    }
+    const auto d = answer.value("daemon", Value::object());
+    std::cout << "daemon: " << d.value("sessions", 0) << " sessions, " << d.value("protocol_errors", 0)
+              << " protocol errors, " << d.value("dropped_unknown_port", 0) << " dropped (port closed), "
+              << d.value("dropped_link_down", 0) << " dropped (link down)\n";
+    return 0;
+}
+
+}  // namespace plexus::cli

@@ -1,0 +1,38 @@
+#pragma once
+// The `plexus` commands. Each returns the process exit status of DESIGN's contract:
+// 0 success, 1 a "no" answer, 2 usage error, 3 timeout, 4 refused by the system.
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace plexus::cli {
+
+struct Common {
+    std::string names;   ///< name server HOST:PORT
+    std::string socket;  ///< local daemon socket
+};
+
+struct ReadOptions {
+    std::string port;
+    std::string source;
+    std::string carrier;
+    std::optional<long> count;
+    std::optional<double> timeout;
+    bool envelope = false;
+    std::string policy = "strict";
+    std::size_t capacity = 0;
+};
+
+int list(const Common& common, bool json);
+int connect(const Common& common, const std::string& source, const std::string& destination,
+            const std::string& carrier, bool persist, bool strict);
+int disconnect(const Common& common, const std::string& source, const std::string& destination);
+int write(const Common& common, const std::string& port, const std::vector<std::string>& destinations);
+int read(const Common& common, const ReadOptions& options);
+int exists(const Common& common, const std::string& port, const std::string& destination);
+int wait(const Common& common, const std::string& port, double timeout);
+int ping(const Common& common, const std::string& port, int count);
+int stats(const Common& common, const std::string& port, bool json);
+
+}  // namespace plexus::cli
