@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <filesystem>
+#include <fstream>
 
 #include <spdlog/spdlog.h>
 
@@ -97,6 +98,7 @@ int Daemon::run() {
     };
     names_->on_persistent = [this](const nlohmann::json& persistent) { connect_persistent(persistent); };
     names_->start();
+    asio::co_spawn(io_, announce_ready(), asio::detached);
     asio::co_spawn(io_, accept_tcp(), asio::detached);
     asio::co_spawn(io_, accept_unix(), asio::detached);
     signals_.async_wait([this](boost::system::error_code ec, int signal) {
@@ -108,6 +110,29 @@ int Daemon::run() {
                  config_.socket_path, config_.names.text());
     io_.run();
     return 0;
+}
+
+Task<void> Daemon::announce_ready() {
+    if (config_.ready_file.empty()) co_return;
+    while (!stopping_ && !co_await names_->wait_connected(std::chrono::seconds(10))) {
+        spdlog::warn("still waiting for the name server at {} before writing {}", config_.names.text(),
+                     config_.ready_file);
+    }
+    if (stopping_) co_return;
+    // Write then rename: whoever polls for the file never reads half of it.
+    const nlohmann::json ready{{"node", config_.node},
+                               {"address", address()},
+                               {"socket", config_.socket_path},
+                               {"names", config_.names.text()},
+                               {"pid", static_cast<long>(::getpid())}};
+    const std::string temporary = config_.ready_file + ".tmp";
+    {
+        std::ofstream out(temporary, std::ios::trunc);
+        out << ready.dump() << '\n';
+    }
+    std::error_code ec;
+    std::filesystem::rename(temporary, config_.ready_file, ec);
+    if (ec) spdlog::error("cannot write ready file {}: {}", config_.ready_file, ec.message());
 }
 
 Task<void> Daemon::accept_tcp() {

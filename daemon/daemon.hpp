@@ -26,6 +26,7 @@ struct DaemonConfig {
     std::string socket_path;
     std::string node;
     std::vector<std::string> script_dirs;
+    std::string ready_file;  ///< written (JSON: node, address, socket, names) once registered
     std::size_t max_frame = proto::default_max_frame;
     std::size_t default_capacity = 1024;  ///< reader queue length when a client does not say
     std::size_t link_capacity = 1024;     ///< messages queued towards another daemon per connection
@@ -67,6 +68,7 @@ private:
     Task<void> accept_tcp();
     Task<void> accept_unix();
     Task<void> shutdown();
+    Task<void> announce_ready();
     void start_session(Socket socket, const std::string& description);
 
     Task<proto::Reply> open_port(std::shared_ptr<Session> session, const proto::Request& request);

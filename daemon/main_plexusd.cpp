@@ -67,6 +67,8 @@ int main(int argc, char** argv) {
     app.add_option("--node", node, "this daemon's node name, unique among daemons")->capture_default_str();
     app.add_option("--scripts", config.script_dirs, "directory of monitor scripts (repeatable)");
     app.add_option("--config", config_file, "JSON config file (max_frame, default_capacity, link_capacity, ...)");
+    app.add_option("--ready-file", config.ready_file,
+                   "write a JSON line (node, address, socket, names, pid) here once serving and registered");
     app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
     try {
         app.parse(argc, argv);

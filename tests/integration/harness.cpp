@@ -1,0 +1,171 @@
+#include "harness.hpp"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <thread>
+
+namespace plexus::test {
+
+std::string plexusd_path() { return PLEXUSD_PATH; }
+std::string plexus_path() { return PLEXUS_CLI_PATH; }
+std::string names_path() { return PLEXUS_NAMES_PATH; }
+
+TempDir::TempDir() {
+    std::string pattern = (std::filesystem::temp_directory_path() / "plexus-test-XXXXXX").string();
+    if (!::mkdtemp(pattern.data())) throw std::runtime_error("mkdtemp failed");
+    path_ = pattern;
+}
+
+TempDir::~TempDir() {
+    std::error_code ignored;
+    std::filesystem::remove_all(path_, ignored);
+}
+
+bool eventually(const std::function<bool()>& condition, std::chrono::milliseconds timeout) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    auto pause = std::chrono::milliseconds(1);
+    while (std::chrono::steady_clock::now() < deadline) {
+        if (condition()) return true;
+        std::this_thread::sleep_for(pause);  // polling interval, not a wait for an outcome
+        pause = std::min(pause * 2, std::chrono::milliseconds(50));
+    }
+    return condition();
+}
+
+std::string read_file(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::stringstream content;
+    content << in.rdbuf();
+    return content.str();
+}
+
+Process::Process(const std::vector<std::string>& argv, const std::map<std::string, std::string>& env,
+                 const std::string& log_prefix, const std::string& stdin_file)
+    : out_path_(log_prefix + ".out"), err_path_(log_prefix + ".err") {
+    pid_ = ::fork();
+    if (pid_ < 0) throw std::runtime_error("fork failed");
+    if (pid_ == 0) {
+        ::setpgid(0, 0);
+        const int in = ::open(stdin_file.empty() ? "/dev/null" : stdin_file.c_str(), O_RDONLY);
+        const int out = ::open(out_path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        const int err = ::open(err_path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        ::dup2(in, 0);
+        ::dup2(out, 1);
+        ::dup2(err, 2);
+        for (const auto& [key, value] : env) ::setenv(key.c_str(), value.c_str(), 1);
+        std::vector<char*> args;
+        for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+        args.push_back(nullptr);
+        ::execv(args[0], args.data());
+        ::_exit(127);
+    }
+}
+
+Process::Process(Process&& other) noexcept
+    : pid_(other.pid_), status_(other.status_), out_path_(other.out_path_), err_path_(other.err_path_) {
+    other.pid_ = -1;
+}
+
+Process::~Process() {
+    if (pid_ <= 0 || status_) return;
+    ::kill(pid_, SIGTERM);
+    if (!wait(5s)) {
+        ::kill(pid_, SIGKILL);
+        wait(5s);
+    }
+}
+
+std::optional<int> Process::wait(std::chrono::milliseconds timeout) {
+    if (status_) return status_;
+    eventually(
+        [&] {
+            int raw = 0;
+            const pid_t done = ::waitpid(pid_, &raw, WNOHANG);
+            if (done == pid_) status_ = WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + WTERMSIG(raw);
+            return status_.has_value();
+        },
+        timeout);
+    return status_;
+}
+
+bool Process::running() { return !wait(0ms).has_value(); }
+
+void Process::signal(int sig) {
+    if (!status_) ::kill(pid_, sig);
+}
+
+std::string Process::out() const { return read_file(out_path_); }
+std::string Process::err() const { return read_file(err_path_); }
+
+Daemon::Daemon(const TempDir& dir, const std::string& node, const std::string& names,
+               const std::vector<std::string>& extra)
+    : socket_(dir.file(node + ".sock")) {
+    const std::string ready = dir.file(node + ".ready");
+    std::vector<std::string> argv{plexusd_path(), "--node",     node,  "--socket",    socket_,
+                                  "--listen",     "127.0.0.1:0", "--ready-file", ready, "--log-level", "debug"};
+    if (names.empty()) {
+        argv.insert(argv.end(), {"--embedded-names", "--names", "127.0.0.1:0"});
+    } else {
+        argv.insert(argv.end(), {"--names", names});
+    }
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    process_ = std::make_unique<Process>(argv, std::map<std::string, std::string>{}, dir.file(node));
+    if (!eventually([&] { return std::filesystem::exists(ready) || !process_->running(); }, 20s) ||
+        !std::filesystem::exists(ready)) {
+        throw std::runtime_error("plexusd " + node + " did not become ready: " + process_->err());
+    }
+    auto info = nlohmann::json::parse(read_file(ready));
+    names_ = info.at("names");
+    address_ = info.at("address");
+}
+
+long Daemon::rss_kib() const {
+    std::ifstream status("/proc/" + std::to_string(process_->pid()) + "/status");
+    std::string line;
+    while (std::getline(status, line)) {
+        if (line.rfind("VmRSS:", 0) == 0) return std::stol(line.substr(6));
+    }
+    return -1;
+}
+
+std::map<std::string, std::string> Daemon::env() const {
+    return {{"PLEXUS_SOCKET", socket_}, {"PLEXUS_NAMES", names_}};
+}
+
+CliResult run_cli(const TempDir& dir, const Daemon& daemon, const std::vector<std::string>& args,
+                  const std::string& input, std::chrono::milliseconds timeout) {
+    static std::atomic<int> counter{0};
+    const std::string name = "cli" + std::to_string(counter++);
+    const std::string input_file = dir.file(name + ".in");
+    {
+        std::ofstream in(input_file, std::ios::binary);
+        in << input;
+    }
+    std::vector<std::string> argv{plexus_path()};
+    argv.insert(argv.end(), args.begin(), args.end());
+    Process process(argv, daemon.env(), dir.file(name), input_file);
+    auto status = process.wait(timeout);
+    return {status.value_or(-1), process.out(), process.err()};
+}
+
+std::unique_ptr<Process> start_cli(const TempDir& dir, const Daemon& daemon, const std::vector<std::string>& args,
+                                   const std::string& name) {
+    std::vector<std::string> argv{plexus_path()};
+    argv.insert(argv.end(), args.begin(), args.end());
+    return std::make_unique<Process>(argv, daemon.env(), dir.file(name));
+}
+
+bool wait_port(const TempDir& dir, const Daemon& daemon, const std::string& port) {
+    return run_cli(dir, daemon, {"wait", port, "--timeout", "20"}).status == 0;
+}
+
+}  // namespace plexus::test

@@ -1,0 +1,110 @@
+#pragma once
+// Helpers for tests that start real plexusd / plexus-names / plexus processes on loopback.
+// Every process started here is killed when its handle goes out of scope, also when a test fails.
+// Nothing here sleeps for a fixed time: waits poll a condition against a deadline.
+
+#include <sys/types.h>
+
+#include <chrono>
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace plexus::test {
+
+using namespace std::chrono_literals;
+
+/// Paths of the built programs (set by CMake).
+std::string plexusd_path();
+std::string plexus_path();
+std::string names_path();
+
+/// A fresh directory, removed afterwards.
+class TempDir {
+public:
+    TempDir();
+    ~TempDir();
+    TempDir(const TempDir&) = delete;
+    TempDir& operator=(const TempDir&) = delete;
+    const std::string& path() const { return path_; }
+    std::string file(const std::string& name) const { return path_ + "/" + name; }
+
+private:
+    std::string path_;
+};
+
+/// Polls `condition` until it holds or `timeout` passes; true if it held.
+bool eventually(const std::function<bool()>& condition, std::chrono::milliseconds timeout = 10s);
+
+/// A child process with stdout and stderr sent to files; killed on destruction.
+class Process {
+public:
+    Process(const std::vector<std::string>& argv, const std::map<std::string, std::string>& env,
+            const std::string& log_prefix, const std::string& stdin_file = "");
+    ~Process();
+    Process(const Process&) = delete;
+    Process& operator=(const Process&) = delete;
+    Process(Process&& other) noexcept;
+
+    pid_t pid() const { return pid_; }
+    /// Waits for the exit; nullopt if still running after `timeout`. Exit code, or 128+signal.
+    std::optional<int> wait(std::chrono::milliseconds timeout = 30s);
+    bool running();
+    void signal(int sig);
+    std::string out() const;
+    std::string err() const;
+
+private:
+    pid_t pid_ = -1;
+    std::optional<int> status_;
+    std::string out_path_;
+    std::string err_path_;
+};
+
+/// A plexusd, by default with its own embedded name server on a free port.
+class Daemon {
+public:
+    /// names: "" to embed a name server on a free port; else the HOST:PORT of one to use.
+    Daemon(const TempDir& dir, const std::string& node, const std::string& names = "",
+           const std::vector<std::string>& extra = {});
+    const std::string& socket() const { return socket_; }
+    const std::string& names() const { return names_; }
+    const std::string& address() const { return address_; }
+    Process& process() { return *process_; }
+    /// Resident memory of the daemon, in KiB (from /proc).
+    long rss_kib() const;
+    /// Environment that points the CLI at this daemon.
+    std::map<std::string, std::string> env() const;
+
+private:
+    std::string socket_;
+    std::string names_;
+    std::string address_;
+    std::unique_ptr<Process> process_;
+};
+
+struct CliResult {
+    int status = -1;
+    std::string out;
+    std::string err;
+};
+
+/// Runs `plexus args...` against a daemon, feeding `input` on stdin, and waits for it.
+CliResult run_cli(const TempDir& dir, const Daemon& daemon, const std::vector<std::string>& args,
+                  const std::string& input = "", std::chrono::milliseconds timeout = 60s);
+
+/// Starts `plexus args...` in the background (for readers).
+std::unique_ptr<Process> start_cli(const TempDir& dir, const Daemon& daemon, const std::vector<std::string>& args,
+                                   const std::string& name);
+
+/// Polls until `plexus exists PORT` succeeds on that daemon's name server.
+bool wait_port(const TempDir& dir, const Daemon& daemon, const std::string& port);
+
+/// Reads a whole file.
+std::string read_file(const std::string& path);
+
+}  // namespace plexus::test
