@@ -154,13 +154,11 @@ proto::Reply Connection::request(nlohmann::json body, std::chrono::milliseconds 
 
 std::optional<proto::Bytes> Connection::read(std::uint64_t handle, Clock::time_point deadline) {
     std::unique_lock lock(state_mutex_);
-    auto& queue = inbox_[handle];
     if (!wait_until(lock, [&] { return !inbox_[handle].empty(); }, deadline)) {
         if (!broken_.empty()) throw Error(ErrorCode::refused, broken_);
         return std::nullopt;
     }
     auto& ready = inbox_[handle];
-    (void)queue;
     proto::Bytes record = std::move(ready.front());
     ready.pop_front();
     return record;
@@ -169,6 +167,7 @@ std::optional<proto::Bytes> Connection::read(std::uint64_t handle, Clock::time_p
 void Connection::forget(std::uint64_t handle) {
     std::lock_guard lock(state_mutex_);
     inbox_.erase(handle);
+    closed_handles_.insert(handle);
 }
 
 template <typename Ready>
@@ -249,8 +248,11 @@ void Connection::dispatch(proto::FrameType type, proto::ByteView fields) {
             auto data = proto::decode_data(fields);
             if (!data) return fail("bad data frame: " + data.error().message);
             std::lock_guard lock(state_mutex_);
-            auto it = inbox_.find(data->handle);
-            if (it != inbox_.end()) it->second.emplace_back(data->record.begin(), data->record.end());
+            // Handles are never reused: keep data for any handle not closed, even one whose open
+            // reply is still being processed, so nothing that arrives with the reply is lost.
+            if (!closed_handles_.contains(data->handle)) {
+                inbox_[data->handle].emplace_back(data->record.begin(), data->record.end());
+            }
             return;
         }
         case proto::FrameType::reply: {

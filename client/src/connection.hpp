@@ -9,6 +9,7 @@
 #include <map>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <string>
 
 #include "plexus/client.hpp"
@@ -66,6 +67,7 @@ private:
     std::uint64_t next_id_ = 1;
     std::map<std::uint64_t, std::optional<proto::Reply>> replies_;
     std::map<std::uint64_t, std::deque<proto::Bytes>> inbox_;
+    std::set<std::uint64_t> closed_handles_;
 
     // Only the current reader touches these.
     proto::Bytes in_;
