@@ -1,0 +1,79 @@
+#include "names/registry.hpp"
+
+#include <gtest/gtest.h>
+
+namespace plexus::daemon::names {
+namespace {
+
+using namespace std::chrono_literals;
+
+TEST(Registry_test, ANodeNameHeldByALiveSessionIsRefusedToAnother) {
+    Registry registry(2s);
+    ASSERT_TRUE(registry.register_node("n1", "127.0.0.1:1000", 1).ok());
+    auto second = registry.register_node("n1", "127.0.0.1:2000", 2);
+    ASSERT_FALSE(second.ok());
+    EXPECT_NE(second.error().message.find("already registered"), std::string::npos);
+}
+
+TEST(Registry_test, PortsNeedANodeAndUniqueNames) {
+    Registry registry(2s);
+    EXPECT_FALSE(registry.register_port("/a", 1).ok());
+    ASSERT_TRUE(registry.register_node("n1", "h:1", 1).ok());
+    ASSERT_TRUE(registry.register_node("n2", "h:2", 2).ok());
+    ASSERT_TRUE(registry.register_port("/a", 1).ok());
+    EXPECT_TRUE(registry.register_port("/a", 1).ok()) << "the owner may register again (after a reconnect)";
+    auto clash = registry.register_port("/a", 2);
+    ASSERT_FALSE(clash.ok());
+    EXPECT_NE(clash.error().message.find("already exists on node 'n1'"), std::string::npos);
+    EXPECT_FALSE(registry.register_port("bad name", 1).ok());
+    auto entry = registry.lookup("/a");
+    ASSERT_TRUE(entry.has_value());
+    EXPECT_EQ(entry->address, "h:1");
+}
+
+TEST(Registry_test, AClosedSessionsPortsStayForTheGracePeriodThenGo) {
+    Registry registry(2s);
+    ASSERT_TRUE(registry.register_node("n1", "h:1", 1).ok());
+    ASSERT_TRUE(registry.register_port("/a", 1).ok());
+    const auto t0 = Clock::now();
+
+    registry.session_closed(1, t0);
+
+    EXPECT_TRUE(registry.expire(t0 + 1s).empty());
+    EXPECT_TRUE(registry.lookup("/a").has_value());
+    EXPECT_EQ(registry.expire(t0 + 2s), std::vector<std::string>{"/a"});
+    EXPECT_FALSE(registry.lookup("/a").has_value());
+}
+
+TEST(Registry_test, ADaemonThatReconnectsWithinTheGracePeriodKeepsItsPorts) {
+    Registry registry(2s);
+    ASSERT_TRUE(registry.register_node("n1", "h:1", 1).ok());
+    ASSERT_TRUE(registry.register_port("/a", 1).ok());
+    const auto t0 = Clock::now();
+    registry.session_closed(1, t0);
+
+    ASSERT_TRUE(registry.register_node("n1", "h:1", 7).ok());
+
+    EXPECT_TRUE(registry.expire(t0 + 10s).empty());
+    EXPECT_TRUE(registry.lookup("/a").has_value());
+}
+
+TEST(Registry_test, UnregisteringAPortDropsItsLiveConnectionsButKeepsPersistentOnes) {
+    Registry registry(2s);
+    ASSERT_TRUE(registry.register_node("n1", "h:1", 1).ok());
+    ASSERT_TRUE(registry.register_port("/a", 1).ok());
+    ASSERT_TRUE(registry.register_port("/b", 1).ok());
+    ASSERT_TRUE(registry.add_connection({"/a", "/b", "tcp", false}, 1).ok());
+    ASSERT_TRUE(registry.add_connection({"/b", "/a", "tcp", true}, 1).ok());
+
+    ASSERT_TRUE(registry.unregister_port("/a", 1).ok());
+
+    auto list = registry.list();
+    ASSERT_EQ(list["connections"].size(), 1u);
+    EXPECT_EQ(list["connections"][0]["source"], "/b");
+    EXPECT_EQ(list["connections"][0]["live"], false);
+    EXPECT_EQ(registry.persistent_for("/a").size(), 1u);
+}
+
+}  // namespace
+}  // namespace plexus::daemon::names
