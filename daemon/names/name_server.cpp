@@ -33,7 +33,7 @@ protected:
             fail("bad request: " + request.error().message);
             co_return false;
         }
-        send(proto::encode_reply(server_.handle(*request, id_)));
+        send(proto::encode_reply(server_.answer(*request, id_)));
         co_return true;
     }
     void on_closed(const std::string& reason) override {
@@ -145,13 +145,22 @@ Task<void> NameServer::udp_loop() {
         } else if (auto request = proto::decode_request(decoded.fields); !request) {
             answer = proto::make_error_frame("bad request: " + request.error().message);
         } else {
-            answer = proto::encode_reply(handle(*request, 0));
+            answer = proto::encode_reply(this->answer(*request, 0));
             if (answer.size() > max_datagram) {
                 answer = proto::encode_reply(proto::make_refusal(request->id, ReplyCode::refused,
                                                                  "answer too large for UDP; ask over TCP"));
             }
         }
         co_await udp_.async_send_to(asio::buffer(answer), from, use_nothrow);
+    }
+}
+
+proto::Reply NameServer::answer(const proto::Request& request, std::uint64_t session) {
+    try {
+        return handle(request, session);
+    } catch (const std::exception& e) {
+        // A field of the wrong JSON type: refuse the request, keep the session and the server.
+        return proto::make_refusal(request.id, ReplyCode::usage, std::string("malformed request: ") + e.what());
     }
 }
 

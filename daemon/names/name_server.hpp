@@ -33,8 +33,8 @@ public:
     /// The bound address (with the real port when 0 was asked for).
     proto::Endpoint endpoint() const;
 
-    /// Answers one request for `session` (0 = a UDP datagram, read-only).
-    proto::Reply handle(const proto::Request& request, std::uint64_t session);
+    /// Answers one request for `session` (0 = a UDP datagram, read-only); never throws.
+    proto::Reply answer(const proto::Request& request, std::uint64_t session);
     void session_closed(std::uint64_t session);
     std::size_t max_frame() const { return config_.max_frame; }
 
@@ -42,6 +42,7 @@ private:
     Task<void> accept_loop();
     Task<void> udp_loop();
     void save_state();
+    proto::Reply handle(const proto::Request& request, std::uint64_t session);
 
     asio::io_context& io_;
     NameServerConfig config_;

@@ -71,9 +71,20 @@ Task<bool> Session::on_data(InFrame frame) {
         fail("bad data frame: " + data.error().message);
         co_return false;
     }
+    auto record = proto::decode_record(data->record);
+    if (!record) {
+        ++daemon_.counters().protocol_errors;
+        fail("bad message record: " + record.error().message);
+        co_return false;
+    }
     if (link_port_) {
         // The receiving end of a connection from another daemon: hold back while the reader is full,
         // so that TCP carries the back-pressure to the sending daemon.
+        if (record->source != link_->source) {
+            ++daemon_.counters().protocol_errors;
+            fail("message from port '" + std::string(record->source) + "' on the link attached for " + link_->source);
+            co_return false;
+        }
         auto port = link_port_;
         while (port->full() && !port->closed() && !closed()) co_await daemon_.space().wait();
         if (port->closed() || closed()) co_return false;
@@ -88,12 +99,6 @@ Task<bool> Session::on_data(InFrame frame) {
         co_return true;
     }
     auto port = it->second;
-    auto record = proto::decode_record(data->record);
-    if (!record) {
-        ++daemon_.counters().protocol_errors;
-        fail("bad message record: " + record.error().message);
-        co_return false;
-    }
     if (record->source != port->name()) {
         ++daemon_.counters().protocol_errors;
         fail("message from port '" + std::string(record->source) + "' written on the handle of " + port->name());
