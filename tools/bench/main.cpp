@@ -1,0 +1,75 @@
+// plexus-bench: latency, throughput and memory of Plexus, each measured against a minimal relay
+// (the "floor") in the same run. Parses the command line and hands over to one scenario.
+#include <iostream>
+
+#include <CLI/CLI.hpp>
+
+#include "options.hpp"
+#include "plexus/client.hpp"
+#include "relay.hpp"
+#include "scenarios.hpp"
+
+int main(int argc, char** argv) {
+    using namespace plexus::bench;
+    CLI::App app{
+        "plexus-bench: measures Plexus on loopback and, in the same run, a minimal Unix-socket relay "
+        "carrying the same traffic (the floor). See docs/BENCHMARKS.md."};
+    app.require_subcommand(1);
+    Options options;
+    options.plexusd = PLEXUSD_PATH;
+    int status = 0;
+
+    auto add_common = [&](CLI::App* command) {
+        command
+            ->add_option("--size", options.size,
+                         "payload bytes per message (plexusd's frame limit is 64 MiB)")
+            ->check(CLI::Range(std::size_t{0}, std::size_t{32} << 20))
+            ->capture_default_str();
+        command->add_option("--hops", options.hops, "1: one daemon; 2: two daemons linked by tcp")
+            ->check(CLI::IsMember({1, 2}))
+            ->capture_default_str();
+        command->add_option("--count", options.count, "round trips or messages per run (default: by size)")
+            ->check(CLI::PositiveNumber);
+        command->add_option("--repeat", options.repeat, "runs per system; medians are reported")
+            ->check(CLI::PositiveNumber)
+            ->capture_default_str();
+        command
+            ->add_option("--capacity", options.capacity,
+                         "reader queue length asked of plexusd (0: its default)")
+            ->capture_default_str();
+        command->add_flag("--json", options.json, "one JSON object per line and system");
+        command->add_option("--plexusd", options.plexusd, "the plexusd binary")->capture_default_str();
+    };
+    auto* latency = app.add_subcommand("latency", "ping-pong: p50/p99 of round trip / 2");
+    add_common(latency);
+    latency->callback([&] { status = run_latency(options); });
+    auto* throughput =
+        app.add_subcommand("throughput", "one writer streams, one reader reads all (strict queue)");
+    add_common(throughput);
+    throughput->callback([&] { status = run_throughput(options); });
+    auto* memory = app.add_subcommand("memory", "plexusd resident memory, idle and with many ports open");
+    memory->add_option("--ports", options.ports, "ports to open")->capture_default_str();
+    memory->add_flag("--json", options.json, "one JSON object per line");
+    memory->add_option("--plexusd", options.plexusd, "the plexusd binary")->capture_default_str();
+    memory->callback([&] { status = run_memory(options); });
+
+    // Not for people: the bench starts itself with this to get a relay process for the floor.
+    RelayOptions relay_options;
+    auto* relay = app.add_subcommand("relay", "")->group("");
+    relay->add_option("--socket", relay_options.socket)->required();
+    relay->add_option("--ready-file", relay_options.ready_file)->required();
+    relay->add_flag("--link-listen", relay_options.link_listen);
+    relay->add_option("--link-connect", relay_options.link_connect);
+    relay->callback([&] { status = run_relay(relay_options); });
+
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        const int code = app.exit(e);
+        return code == 0 ? 0 : 2;
+    } catch (const std::exception& e) {
+        std::cerr << "plexus-bench: " << e.what() << '\n';
+        return 4;
+    }
+    return status;
+}

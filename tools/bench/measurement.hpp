@@ -1,0 +1,34 @@
+#pragma once
+// One measured run of one system, and how runs are summarized.
+
+#include <chrono>
+#include <cstddef>
+#include <vector>
+
+namespace plexus::bench {
+
+/// The figures of one run (or the medians of several).
+struct RunResult {
+    double p50_us = 0;  ///< latency: round trip / 2; throughput: write call to read return, under load
+    double p99_us = 0;
+    double msgs_per_s = 0;      ///< messages carried by the broker per second
+    double mb_per_s = 0;        ///< payload bytes of those messages, in 10^6 bytes per second
+    double cpu_us_per_msg = 0;  ///< CPU time of the broker processes (daemons or relays) per message
+};
+
+/// A prepared scenario on one system (processes started, clients connected); run() measures once.
+class Measurement {
+  public:
+    virtual ~Measurement() = default;
+    virtual RunResult run() = 0;
+};
+
+/// Builds a RunResult: `latencies_us` are per-message samples (sorted here), `messages` the messages
+/// the broker carried in `elapsed`, while its processes used `cpu_seconds`.
+RunResult summarize(std::vector<double>& latencies_us, std::size_t messages, std::size_t payload_size,
+                    std::chrono::steady_clock::duration elapsed, double cpu_seconds);
+
+/// The median of each figure over several runs (each figure on its own).
+RunResult median_of(const std::vector<RunResult>& runs);
+
+}  // namespace plexus::bench

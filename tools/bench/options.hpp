@@ -1,0 +1,35 @@
+#pragma once
+// What the command line asks for.
+
+#include <algorithm>
+#include <cstddef>
+#include <string>
+
+namespace plexus::bench {
+
+struct Options {
+    std::size_t size = 64;     ///< payload bytes per message
+    int hops = 1;              ///< 1: one daemon (relay); 2: two, linked by tcp
+    std::size_t count = 0;     ///< messages (throughput) or round trips (latency) per run; 0: by size
+    int repeat = 5;            ///< runs per system; the median of each figure is reported
+    bool json = false;         ///< one JSON object per line instead of a table
+    std::size_t capacity = 0;  ///< reader queue length asked of plexusd; 0: the daemon's default
+    std::string plexusd;       ///< path of the daemon binary
+    std::size_t ports = 1000;  ///< memory: ports to open
+};
+
+/// Round trips per latency run when --count is not given: about 32 MiB each way, 100 to 10,000.
+inline std::size_t latency_count(const Options& options) {
+    if (options.count > 0)
+        return options.count;
+    return std::clamp<std::size_t>((32u << 20) / std::max<std::size_t>(options.size, 1), 100, 10000);
+}
+
+/// Messages per throughput run when --count is not given: about 128 MiB, 100 to 200,000.
+inline std::size_t throughput_count(const Options& options) {
+    if (options.count > 0)
+        return options.count;
+    return std::clamp<std::size_t>((128u << 20) / std::max<std::size_t>(options.size, 1), 100, 200000);
+}
+
+}  // namespace plexus::bench

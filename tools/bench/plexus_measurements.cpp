@@ -1,0 +1,229 @@
+#include "plexus_measurements.hpp"
+
+#include <mutex>
+#include <stdexcept>
+#include <thread>
+
+#include "plexus/client.hpp"
+#include "process_stats.hpp"
+
+namespace plexus::bench {
+
+using namespace std::chrono_literals;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+// Longer than any healthy wait; a stall fails the run instead of hanging it.
+constexpr auto stall_timeout = 10s;
+
+Value blob(std::size_t size) {
+    return Value::binary(std::vector<std::uint8_t>(size, 0x5a));
+}
+
+std::uint64_t now_ns() {
+    return static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                          std::chrono::system_clock::now().time_since_epoch())
+                                          .count());
+}
+
+/// Registration with the name server may lag behind open(): wait until both ends are known.
+void connect_when_registered(Client& client, const std::string& source, const std::string& destination) {
+    const auto deadline = Clock::now() + stall_timeout;
+    while (!client.lookup(source) || !client.lookup(destination)) {
+        if (Clock::now() > deadline)
+            throw std::runtime_error(source + " or " + destination + " never registered");
+        std::this_thread::sleep_for(1ms);  // polling interval
+    }
+    client.connect(source, destination);
+}
+
+void check_payload(const Received& message, std::size_t size) {
+    if (!message.data.is_binary() || message.data.get_binary().size() != size) {
+        throw std::runtime_error("plexus delivered a payload that is not the " + std::to_string(size) +
+                                 "-byte blob written (from " + message.envelope.source + ")");
+    }
+}
+
+Client connect_client(const std::string& socket) {
+    return Client(Client::Options{socket, 10000ms});
+}
+
+PortOptions queue(const Options& options) {
+    return {QueuePolicy::strict, options.capacity};
+}
+
+class PlexusLatency : public Measurement {
+  public:
+    PlexusLatency(const Topology& topology, const Options& options)
+        : pids_(topology.pids()),
+          size_(options.size),
+          count_(latency_count(options)),
+          payload_(blob(options.size)),
+          near_(connect_client(topology.near_socket())),
+          far_(connect_client(topology.far_socket())),
+          ping_(near_.open("/bench/ping", queue(options))),
+          ping_in_(near_.open("/bench/ping-in", queue(options))),
+          pong_in_(far_.open("/bench/pong-in", queue(options))),
+          pong_(far_.open("/bench/pong", queue(options))) {
+        connect_when_registered(near_, "/bench/ping", "/bench/pong-in");
+        connect_when_registered(near_, "/bench/pong", "/bench/ping-in");
+        echo_ = std::jthread([this](const std::stop_token& stop) { echo(stop); });
+    }
+
+    ~PlexusLatency() override {
+        echo_.request_stop();
+        try {
+            ping_.write(Value(nullptr), true);  // wakes the echo thread now rather than at its next timeout
+        } catch (...) {
+            // The echo thread also stops on its own within one read timeout.
+        }
+    }
+
+    RunResult run() override {
+        for (std::size_t i = 0; i < std::min<std::size_t>(count_ / 10 + 1, 1000); ++i)
+            round_trip();
+        std::vector<double> samples;
+        samples.reserve(count_);
+        const double cpu_before = cpu_seconds(pids_);
+        const auto start = Clock::now();
+        for (std::size_t i = 0; i < count_; ++i)
+            samples.push_back(round_trip());
+        const auto elapsed = Clock::now() - start;
+        const double cpu = cpu_seconds(pids_) - cpu_before;
+        return summarize(samples, 2 * count_, size_, elapsed, cpu);
+    }
+
+  private:
+    /// One ping and its echo; returns half the round trip in microseconds.
+    double round_trip() {
+        const auto sent = Clock::now();
+        ping_.write(payload_, true);
+        auto reply = ping_in_.read(stall_timeout);
+        const auto back = Clock::now();
+        if (!reply) {
+            std::lock_guard lock(echo_error_mutex_);
+            throw std::runtime_error("plexus: no echo within 10 s" +
+                                     (echo_error_.empty() ? "" : ": " + echo_error_));
+        }
+        check_payload(*reply, size_);
+        return std::chrono::duration<double, std::micro>(back - sent).count() / 2;
+    }
+
+    void echo(const std::stop_token& stop) {
+        try {
+            while (!stop.stop_requested()) {
+                auto message = pong_in_.read(100ms);
+                if (!message)
+                    continue;
+                if (message->data.is_null())
+                    return;
+                pong_.write(message->data, true);
+            }
+        } catch (const std::exception& e) {
+            std::lock_guard lock(echo_error_mutex_);
+            echo_error_ = e.what();
+        }
+    }
+
+    std::vector<pid_t> pids_;
+    std::size_t size_;
+    std::size_t count_;
+    Value payload_;
+    Client near_;
+    Client far_;
+    Port ping_;
+    Port ping_in_;
+    Port pong_in_;
+    Port pong_;
+    std::mutex echo_error_mutex_;
+    std::string echo_error_;
+    std::jthread echo_;  // last: joined before the ports and clients it uses are destroyed
+};
+
+class PlexusThroughput : public Measurement {
+  public:
+    PlexusThroughput(const Topology& topology, const Options& options)
+        : pids_(topology.pids()),
+          size_(options.size),
+          count_(throughput_count(options)),
+          payload_(blob(options.size)),
+          writer_(connect_client(topology.near_socket())),
+          reader_(connect_client(topology.far_socket())),
+          source_(writer_.open("/bench/source", queue(options))),
+          sink_(reader_.open("/bench/sink", queue(options))) {
+        connect_when_registered(writer_, "/bench/source", "/bench/sink");
+        stream(std::max<std::size_t>(count_ / 10, 10));  // warm-up: buffers grown, connections hot
+    }
+
+    RunResult run() override {
+        const double cpu_before = cpu_seconds(pids_);
+        const auto start = Clock::now();
+        auto [latencies, last] = stream(count_);
+        const double cpu = cpu_seconds(pids_) - cpu_before;
+        return summarize(latencies, count_, size_, last - start, cpu);
+    }
+
+  private:
+    struct Streamed {
+        std::vector<double> latencies_us;
+        Clock::time_point last;
+    };
+
+    /// Writes `count` messages from this thread while another thread reads them all.
+    Streamed stream(std::size_t count) {
+        Streamed streamed;
+        streamed.latencies_us.reserve(count);
+        std::string error;
+        std::jthread reader([&] {
+            try {
+                for (std::size_t i = 0; i < count; ++i) {
+                    auto message = sink_.read(stall_timeout);
+                    if (!message)
+                        throw std::runtime_error("plexus: message " + std::to_string(i) + " never arrived");
+                    const std::uint64_t arrived = now_ns();
+                    if (message->envelope.seq != next_seq_) {
+                        throw std::runtime_error("plexus: expected seq " + std::to_string(next_seq_) +
+                                                 ", got " + std::to_string(message->envelope.seq));
+                    }
+                    ++next_seq_;
+                    check_payload(*message, size_);
+                    streamed.latencies_us.push_back(static_cast<double>(arrived - message->envelope.time_ns) /
+                                                    1e3);
+                }
+                streamed.last = Clock::now();
+            } catch (const std::exception& e) {
+                error = e.what();
+            }
+        });
+        for (std::size_t i = 0; i < count; ++i)
+            source_.write(payload_, false);
+        source_.flush();
+        reader.join();
+        if (!error.empty())
+            throw std::runtime_error(error);
+        return streamed;
+    }
+
+    std::vector<pid_t> pids_;
+    std::size_t size_;
+    std::size_t count_;
+    Value payload_;
+    Client writer_;
+    Client reader_;
+    Port source_;
+    Port sink_;
+    std::uint64_t next_seq_ = 1;
+};
+
+}  // namespace
+
+std::unique_ptr<Measurement> plexus_latency(const Topology& topology, const Options& options) {
+    return std::make_unique<PlexusLatency>(topology, options);
+}
+
+std::unique_ptr<Measurement> plexus_throughput(const Topology& topology, const Options& options) {
+    return std::make_unique<PlexusThroughput>(topology, options);
+}
+
+}  // namespace plexus::bench

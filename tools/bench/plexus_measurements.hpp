@@ -1,0 +1,21 @@
+#pragma once
+// The scenarios on Plexus, through the public client library only.
+//
+// Each side of a scenario is its own thread with its own plexus::Client (its own Unix socket to
+// its daemon), in this one process: A on the first daemon, B on the last.
+
+#include <memory>
+
+#include "measurement.hpp"
+#include "options.hpp"
+#include "topology.hpp"
+
+namespace plexus::bench {
+
+/// Ping-pong: A writes /bench/ping -> B's /bench/pong-in; B echoes on /bench/pong -> A's /bench/ping-in.
+std::unique_ptr<Measurement> plexus_latency(const Topology& topology, const Options& options);
+
+/// Streaming: A writes /bench/source (batched) -> B's /bench/sink (strict queue); B reads all.
+std::unique_ptr<Measurement> plexus_throughput(const Topology& topology, const Options& options);
+
+}  // namespace plexus::bench

@@ -1,0 +1,78 @@
+#include "report.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+
+#include <nlohmann/json.hpp>
+
+namespace plexus::bench {
+
+namespace {
+
+/// Three decimals are more than the measurements are worth; they keep the JSON short.
+double rounded(double value) {
+    return std::round(value * 1000) / 1000;
+}
+
+nlohmann::ordered_json as_json(const std::string& system, const ScenarioResult& result,
+                               const RunResult& run) {
+    return {{"system", system},
+            {"scenario", result.scenario},
+            {"size", result.size},
+            {"p50_us", rounded(run.p50_us)},
+            {"p99_us", rounded(run.p99_us)},
+            {"msgs_per_s", rounded(run.msgs_per_s)},
+            {"mb_per_s", rounded(run.mb_per_s)},
+            {"cpu_us_per_msg", rounded(run.cpu_us_per_msg)}};
+}
+
+void row(const char* label, double plexus, double floor) {
+    const double ratio = floor > 0 ? plexus / floor : 0;
+    std::printf("  %-28s %14.2f %14.2f %14.2f\n", label, plexus, floor, ratio);
+}
+
+}  // namespace
+
+void print(const ScenarioResult& result, bool json) {
+    if (json) {
+        std::cout << as_json("plexus", result, result.plexus).dump() << '\n'
+                  << as_json("floor", result, result.floor).dump() << '\n';
+        return;
+    }
+    std::printf("%s\n", result.title.c_str());
+    std::printf("  %-28s %14s %14s %14s\n", "", "plexus", "floor", "plexus/floor");
+    row(("p50 " + result.latency_label + " (us)").c_str(), result.plexus.p50_us, result.floor.p50_us);
+    row(("p99 " + result.latency_label + " (us)").c_str(), result.plexus.p99_us, result.floor.p99_us);
+    row("messages/s", result.plexus.msgs_per_s, result.floor.msgs_per_s);
+    row("MB/s (payload, 10^6 B)", result.plexus.mb_per_s, result.floor.mb_per_s);
+    row("broker CPU us/message", result.plexus.cpu_us_per_msg, result.floor.cpu_us_per_msg);
+    std::printf("  plexusd peak RSS (MiB):");
+    for (const double mb : result.plexusd_peak_rss_mb)
+        std::printf(" %.1f", mb);
+    std::printf("\n\n");
+    std::fflush(stdout);
+}
+
+void print(const MemoryResult& result, bool json) {
+    const std::string ports_scenario = "memory_" + std::to_string(result.ports) + "_ports";
+    if (json) {
+        std::cout << nlohmann::ordered_json{{"system", "plexus"},
+                                            {"scenario", "memory_idle"},
+                                            {"rss_mb", rounded(result.idle_mb)}}
+                         .dump()
+                  << '\n'
+                  << nlohmann::ordered_json{{"system", "plexus"},
+                                            {"scenario", ports_scenario},
+                                            {"rss_mb", rounded(result.ports_mb)}}
+                         .dump()
+                  << '\n';
+        return;
+    }
+    std::printf("plexusd resident memory (VmRSS, MiB)\n");
+    std::printf("  %-28s %14.2f\n", "idle", result.idle_mb);
+    std::printf("  %-28s %14.2f\n", (std::to_string(result.ports) + " ports open").c_str(), result.ports_mb);
+    std::fflush(stdout);
+}
+
+}  // namespace plexus::bench

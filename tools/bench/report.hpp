@@ -1,0 +1,33 @@
+#pragma once
+// Printing results: a small table for people, or one JSON object per line for programs.
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "measurement.hpp"
+
+namespace plexus::bench {
+
+/// One scenario measured on both systems (medians over the runs).
+struct ScenarioResult {
+    std::string scenario;       ///< e.g. "latency_1hop"; the JSON `scenario`
+    std::string title;          ///< a line saying what was run, for the table
+    std::string latency_label;  ///< what p50/p99 measure in this scenario
+    std::size_t size = 0;
+    RunResult plexus;
+    RunResult floor;
+    std::vector<double> plexusd_peak_rss_mb;  ///< VmHWM of each daemon at the end (table only)
+};
+
+/// Resident memory of plexusd, idle and with ports open.
+struct MemoryResult {
+    double idle_mb = 0;
+    double ports_mb = 0;
+    std::size_t ports = 0;
+};
+
+void print(const ScenarioResult& result, bool json);
+void print(const MemoryResult& result, bool json);
+
+}  // namespace plexus::bench

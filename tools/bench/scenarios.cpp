@@ -1,0 +1,119 @@
+#include "scenarios.hpp"
+
+#include <signal.h>
+#include <unistd.h>
+
+#include <cstring>
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "floor_measurements.hpp"
+#include "plexus/client.hpp"
+#include "plexus_measurements.hpp"
+#include "process_stats.hpp"
+#include "report.hpp"
+#include "topology.hpp"
+
+namespace plexus::bench {
+
+namespace {
+
+// No healthy run comes near this; a wedged one ends the bench (its children get SIGTERM through
+// PR_SET_PDEATHSIG) instead of hanging a CI job.
+constexpr unsigned run_deadline_s = 120;
+
+void on_deadline(int /*signal*/) {
+    static const char message[] = "plexus-bench: a run took longer than 120 s; giving up\n";
+    [[maybe_unused]] auto ignored = ::write(2, message, sizeof message - 1);
+    ::_exit(3);
+}
+
+/// Arms the deadline for the duration of one run.
+class RunDeadline {
+  public:
+    RunDeadline() {
+        ::signal(SIGALRM, on_deadline);
+        ::alarm(run_deadline_s);
+    }
+    ~RunDeadline() { ::alarm(0); }
+    RunDeadline(const RunDeadline&) = delete;
+    RunDeadline& operator=(const RunDeadline&) = delete;
+};
+
+using Factory = std::function<std::unique_ptr<Measurement>(const Topology&, const Options&)>;
+
+std::string hops_text(int hops) {
+    return hops == 1 ? "1 hop" : std::to_string(hops) + " hops";
+}
+
+/// Starts both systems, then alternates their runs so that drift on the machine hits both alike.
+ScenarioResult compare(const Options& options, const Factory& plexus_factory, const Factory& floor_factory) {
+    TempDir dir;
+    const auto plexus_topology = Topology::plexus(dir, options.plexusd, options.hops);
+    const auto floor_topology = Topology::floor(dir, options.hops);
+    ScenarioResult result;
+    std::vector<RunResult> plexus_runs;
+    std::vector<RunResult> floor_runs;
+    {
+        RunDeadline deadline;
+        const auto plexus = plexus_factory(*plexus_topology, options);
+        const auto floor = floor_factory(*floor_topology, options);
+        for (int run = 0; run < options.repeat; ++run) {
+            RunDeadline per_run;
+            plexus_runs.push_back(plexus->run());
+            floor_runs.push_back(floor->run());
+        }
+    }
+    result.size = options.size;
+    result.plexus = median_of(plexus_runs);
+    result.floor = median_of(floor_runs);
+    for (const pid_t pid : plexus_topology->pids()) {
+        result.plexusd_peak_rss_mb.push_back(static_cast<double>(peak_rss_kib(pid)) / 1024);
+    }
+    return result;
+}
+
+}  // namespace
+
+int run_latency(const Options& options) {
+    auto result = compare(options, plexus_latency, floor_latency);
+    result.scenario = "latency_" + std::to_string(options.hops) + "hop";
+    result.latency_label = "RTT/2";
+    result.title = "latency, " + hops_text(options.hops) + ", " + std::to_string(options.size) +
+                   " B: " + std::to_string(latency_count(options)) + " round trips per run, median of " +
+                   std::to_string(options.repeat) + " runs";
+    print(result, options.json);
+    return 0;
+}
+
+int run_throughput(const Options& options) {
+    auto result = compare(options, plexus_throughput, floor_throughput);
+    result.scenario = "throughput_" + std::to_string(options.hops) + "hop";
+    result.latency_label = "write->read";
+    result.title = "throughput, " + hops_text(options.hops) + ", " + std::to_string(options.size) +
+                   " B: " + std::to_string(throughput_count(options)) + " messages per run, median of " +
+                   std::to_string(options.repeat) + " runs";
+    print(result, options.json);
+    return 0;
+}
+
+int run_memory(const Options& options) {
+    TempDir dir;
+    const auto topology = Topology::plexus(dir, options.plexusd, 1);
+    const pid_t daemon = topology->pids().front();
+    RunDeadline deadline;
+    MemoryResult result;
+    result.ports = options.ports;
+    result.idle_mb = static_cast<double>(rss_kib(daemon)) / 1024;
+    Client client(Client::Options{topology->near_socket(), std::chrono::milliseconds(10000)});
+    std::vector<Port> ports;
+    ports.reserve(options.ports);
+    for (std::size_t i = 0; i < options.ports; ++i)
+        ports.push_back(client.open("/bench/memory/" + std::to_string(i)));
+    result.ports_mb = static_cast<double>(rss_kib(daemon)) / 1024;
+    print(result, options.json);
+    return 0;
+}
+
+}  // namespace plexus::bench

@@ -1,0 +1,15 @@
+#pragma once
+// The subcommands: each starts what it needs, measures, prints, and stops everything again.
+
+#include "options.hpp"
+
+namespace plexus::bench {
+
+/// Ping-pong latency on Plexus and on the floor, in the same run. Returns the exit status.
+int run_latency(const Options& options);
+/// Streaming throughput on Plexus and on the floor, in the same run.
+int run_throughput(const Options& options);
+/// Resident memory of one plexusd, idle and with `options.ports` ports open.
+int run_memory(const Options& options);
+
+}  // namespace plexus::bench

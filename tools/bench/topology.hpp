@@ -1,0 +1,39 @@
+#pragma once
+// The processes one system needs for a hop count, started on loopback and stopped on destruction:
+// Plexus (one plexusd, or two linked by tcp) or the floor (one relay, or two linked by tcp).
+
+#include <sys/types.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "child_process.hpp"
+
+namespace plexus::bench {
+
+class Topology {
+  public:
+    /// One plexusd with its embedded name server; with hops == 2 a second one that uses it.
+    static std::unique_ptr<Topology> plexus(const TempDir& dir, const std::string& plexusd, int hops);
+    /// One relay (this program's hidden `relay` command); with hops == 2 two, linked by tcp.
+    static std::unique_ptr<Topology> floor(const TempDir& dir, int hops);
+
+    /// The socket of the first hop: where the writing (or pinging) client connects.
+    const std::string& near_socket() const { return sockets_.front(); }
+    /// The socket of the last hop: where the reading (or echoing) client connects.
+    const std::string& far_socket() const { return sockets_.back(); }
+    /// The broker processes (daemons or relays), whose CPU time is the cost being measured.
+    std::vector<pid_t> pids() const;
+
+  private:
+    Topology() = default;
+    /// Starts a process and waits until its ready file parses as JSON; returns that JSON text.
+    std::string start(const std::vector<std::string>& argv, const std::string& ready_file,
+                      const std::string& log);
+
+    std::vector<std::unique_ptr<ChildProcess>> processes_;
+    std::vector<std::string> sockets_;
+};
+
+}  // namespace plexus::bench
