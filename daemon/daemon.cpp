@@ -96,7 +96,9 @@ int Daemon::run() {
         for (const auto& [name, port] : router_.ports()) names.push_back(name);
         return names;
     };
-    names_->on_persistent = [this](const nlohmann::json& persistent) { connect_persistent(persistent); };
+    names_->on_persistent = [this](const nlohmann::json& persistent) {
+        asio::co_spawn(io_, restore_persistent(persistent), asio::detached);
+    };
     names_->start();
     asio::co_spawn(io_, announce_ready(), asio::detached);
     asio::co_spawn(io_, accept_tcp(), asio::detached);

@@ -84,7 +84,8 @@ private:
     /// Sends the request to the daemon that hosts `port` and relays its reply.
     Task<proto::Reply> forward(const proto::Request& request, const std::string& port);
     void forget_port(std::shared_ptr<Port> port);
-    void connect_persistent(const nlohmann::json& persistent);
+    /// Makes the remembered connections of a port that just registered.
+    Task<void> restore_persistent(nlohmann::json persistent);
     nlohmann::json stats_json(const std::string& only_port) const;
     std::string address() const;
     // GCC 12 miscompiles braced temporaries and lambdas inside co_await expressions: build them

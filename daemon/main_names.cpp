@@ -1,4 +1,8 @@
 // plexus-names: the name server on its own.
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
 #include <iostream>
 
 #include <CLI/CLI.hpp>
@@ -14,9 +18,11 @@ int main(int argc, char** argv) {
     std::string state;
     std::string log_level = "info";
     int grace_ms = 2000;
+    std::string ready_file;
     app.add_option("--listen", listen, "HOST:PORT to serve on, TCP and UDP (env PLEXUS_NAMES)")->capture_default_str();
     app.add_option("--state", state, "file that keeps persistent connections across restarts");
     app.add_option("--grace-ms", grace_ms, "how long a vanished daemon's ports stay registered")->capture_default_str();
+    app.add_option("--ready-file", ready_file, "write {\"names\": HOST:PORT, \"pid\"} here once serving");
     app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
     try {
         app.parse(argc, argv);
@@ -34,6 +40,14 @@ int main(int argc, char** argv) {
     if (auto started = server.start(); !started) {
         std::cerr << "plexus-names: " << started.error().message << '\n';
         return 4;
+    }
+    if (!ready_file.empty()) {
+        // Write then rename: whoever polls for the file never reads half of it.
+        {
+            std::ofstream out(ready_file + ".tmp", std::ios::trunc);
+            out << "{\"names\": \"" << server.endpoint().text() << "\", \"pid\": " << ::getpid() << "}\n";
+        }
+        std::filesystem::rename(ready_file + ".tmp", ready_file);
     }
     boost::asio::signal_set signals(io, SIGINT, SIGTERM);
     signals.async_wait([&](boost::system::error_code, int) {

@@ -75,7 +75,10 @@ Task<proto::Reply> Daemon::open_port(std::shared_ptr<Session> session, const pro
     };
     session->outbox().add_source({handle, &port->queue(), &port->delivered, port});
     spdlog::info("port {} opened ({} queue of {})", name, queue_policy_name(*policy), capacity);
-    connect_persistent(registered->body.value("persistent", nlohmann::json::array()));
+    // Restore remembered connections before answering, so the client's first write already
+    // flows along them.
+    const nlohmann::json persistent = registered->body.value("persistent", nlohmann::json::array());
+    co_await restore_persistent(persistent);
     co_return ok({{"handle", handle}, {"node", config_.node}});
 }
 
@@ -269,23 +272,24 @@ Task<proto::Reply> Daemon::forward(const proto::Request& request, const std::str
     co_return relay(reply);
 }
 
-void Daemon::connect_persistent(const nlohmann::json& persistent) {
+Task<void> Daemon::restore_persistent(nlohmann::json persistent) {
     for (const auto& entry : persistent) {
-        auto body = nlohmann::json{{"op", "connect"},
-                                   {"source", entry.value("source", "")},
-                                   {"destination", entry.value("destination", "")},
-                                   {"carrier", entry.value("carrier", "")}};
-        auto run = [](Daemon* daemon, nlohmann::json request_body) -> Task<void> {
-            // Either end may come up first; the one that comes second makes the connection.
-            proto::Request request;
-            request.body = request_body;
-            auto reply = co_await daemon->connect(request);
-            if (reply.code == ReplyCode::ok) {
-                spdlog::info("restored persistent connection {} -> {}", request_body["source"].get<std::string>(),
-                             request_body["destination"].get<std::string>());
-            }
-        };
-        asio::co_spawn(io_, run(this, body), asio::detached);
+        proto::Request request;
+        request.body = {{"op", "connect"},
+                        {"source", entry.value("source", "")},
+                        {"destination", entry.value("destination", "")},
+                        {"carrier", entry.value("carrier", "")}};
+        // Either end may come up first; the one that comes second makes the connection, so a
+        // failure here (the other end is not there yet) is expected and only logged.
+        auto reply = co_await connect(request);
+        if (reply.code == ReplyCode::ok) {
+            spdlog::info("restored persistent connection {} -> {}", request.body["source"].get<std::string>(),
+                         request.body["destination"].get<std::string>());
+        } else {
+            spdlog::debug("persistent connection {} -> {} not restored yet: {}",
+                          request.body["source"].get<std::string>(), request.body["destination"].get<std::string>(),
+                          reply.body.value("error", std::string{}));
+        }
     }
 }
 
