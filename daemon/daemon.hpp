@@ -30,6 +30,7 @@ struct DaemonConfig {
     std::size_t max_frame = proto::default_max_frame;
     std::size_t default_capacity = 1024;  ///< reader queue length when a client does not say
     std::size_t link_capacity = 1024;     ///< messages queued towards another daemon per connection
+    std::size_t queue_bytes = ReaderQueue::default_max_bytes;  ///< byte bound of every queue
     std::chrono::milliseconds names_grace{2000};
 };
 

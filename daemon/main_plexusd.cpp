@@ -30,7 +30,7 @@ void apply_config_file(const std::string& path, plexus::daemon::DaemonConfig& co
     std::ifstream in(path);
     if (!in) throw std::runtime_error("cannot open config file " + path);
     auto json = nlohmann::json::parse(in, nullptr, true, true);
-    static const std::set<std::string> known{"max_frame", "default_capacity", "link_capacity", "names_grace_ms",
+    static const std::set<std::string> known{"max_frame", "default_capacity", "link_capacity", "queue_bytes", "names_grace_ms",
                                              "names_state", "scripts", "log_level"};
     for (const auto& [key, value] : json.items()) {
         if (!known.contains(key)) throw std::runtime_error("config " + path + ": unknown key '" + key + "'");
@@ -38,6 +38,7 @@ void apply_config_file(const std::string& path, plexus::daemon::DaemonConfig& co
     config.max_frame = json.value("max_frame", config.max_frame);
     config.default_capacity = json.value("default_capacity", config.default_capacity);
     config.link_capacity = json.value("link_capacity", config.link_capacity);
+    config.queue_bytes = json.value("queue_bytes", config.queue_bytes);
     config.names_grace = std::chrono::milliseconds(json.value("names_grace_ms", config.names_grace.count()));
     config.names_state = json.value("names_state", config.names_state);
     for (const auto& dir : json.value("scripts", std::vector<std::string>{})) config.script_dirs.push_back(dir);

@@ -57,7 +57,7 @@ Task<proto::Reply> Daemon::open_port(std::shared_ptr<Session> session, const pro
     const auto policy = parse_queue_policy(request.body.value("policy", std::string("strict")));
     if (!policy) co_return refuse("queue policy must be 'strict' or 'latest'", ReplyCode::usage);
     const std::size_t capacity = request.body.value("capacity", config_.default_capacity);
-    auto opened = router_.open(name, session->id(), *policy, capacity);
+    auto opened = router_.open(name, session->id(), *policy, capacity, config_.queue_bytes);
     if (!opened) co_return refuse(opened.error().message);
     auto port = *opened;
     nlohmann::json body1 = {{"op", "register_port"}, {"port", name}};
@@ -169,7 +169,7 @@ Task<proto::Reply> Daemon::connect_remote(const proto::Request& request, std::sh
         link_peer->close("source closed");
         co_return refuse("port " + source + " closed while connecting");
     }
-    auto link = std::make_shared<Link>(link_peer, config_.link_capacity);
+    auto link = std::make_shared<Link>(link_peer, config_.link_capacity, config_.queue_bytes);
     auto connection = std::make_shared<Connection>();
     connection->source = source;
     connection->destination = destination;
@@ -311,6 +311,7 @@ nlohmann::json Daemon::stats_json(const std::string& only_port) const {
         ports.push_back({{"name", name},
                          {"policy", queue_policy_name(queue.policy())},
                          {"capacity", queue.capacity()},
+                         {"bytes", queue.bytes()},
                          {"depth", queue.depth()},
                          {"written", port->written},
                          {"received", port->received},

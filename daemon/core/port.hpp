@@ -23,8 +23,9 @@ struct InboundLink {
 /// out along its connections) and reads from it (what its inbound connections deliver).
 class Port : public MessageSink {
 public:
-    Port(std::string name, std::uint64_t owner, QueuePolicy policy, std::size_t capacity)
-        : name_(std::move(name)), owner_(owner), queue_(policy, capacity) {}
+    Port(std::string name, std::uint64_t owner, QueuePolicy policy, std::size_t capacity,
+         std::size_t max_bytes = ReaderQueue::default_max_bytes)
+        : name_(std::move(name)), owner_(owner), queue_(policy, capacity, max_bytes) {}
 
     const std::string& name() const { return name_; }
     std::uint64_t owner() const { return owner_; }

@@ -14,16 +14,22 @@ std::string_view queue_policy_name(QueuePolicy policy) {
 
 void ReaderQueue::push(const Message& message) {
     ++pushed_;
-    if (policy_ == QueuePolicy::latest && items_.size() >= capacity_) {
-        items_.pop_front();
-        ++dropped_;
-    }
     items_.push_back(message);
+    bytes_ += message.record.size();
+    if (policy_ == QueuePolicy::latest) {
+        // Always keep the newest message, even one larger than the byte bound on its own.
+        while (items_.size() > 1 && (items_.size() > capacity_ || bytes_ > max_bytes_)) {
+            bytes_ -= items_.front().record.size();
+            items_.pop_front();
+            ++dropped_;
+        }
+    }
 }
 
 Message ReaderQueue::pop() {
     Message front = std::move(items_.front());
     items_.pop_front();
+    bytes_ -= front.record.size();
     return front;
 }
 

@@ -21,13 +21,21 @@ std::string_view queue_policy_name(QueuePolicy policy);
 /// latest: keeps the `capacity` newest messages and counts every one it drops.
 class ReaderQueue {
 public:
-    ReaderQueue(QueuePolicy policy, std::size_t capacity) : policy_(policy), capacity_(capacity) {}
+    /// Default bound on the bytes a queue holds, whatever its length: a queue of 1,024 large images
+    /// must not hold a GiB.
+    static constexpr std::size_t default_max_bytes = 64u * 1024u * 1024u;
 
-    /// True when a strict queue is at capacity; a latest queue is never full.
-    bool full() const { return policy_ == QueuePolicy::strict && items_.size() >= capacity_; }
+    ReaderQueue(QueuePolicy policy, std::size_t capacity, std::size_t max_bytes = default_max_bytes)
+        : policy_(policy), capacity_(capacity), max_bytes_(max_bytes) {}
+
+    /// True when a strict queue is at capacity (messages or bytes); a latest queue is never full.
+    bool full() const {
+        return policy_ == QueuePolicy::strict && (items_.size() >= capacity_ || bytes_ >= max_bytes_);
+    }
     bool empty() const { return items_.empty(); }
     std::size_t depth() const { return items_.size(); }
     std::size_t capacity() const { return capacity_; }
+    std::size_t bytes() const { return bytes_; }
     QueuePolicy policy() const { return policy_; }
 
     /// Adds a message. A strict queue past capacity still accepts (nothing promised is lost): the
@@ -42,6 +50,8 @@ public:
 private:
     QueuePolicy policy_;
     std::size_t capacity_;
+    std::size_t max_bytes_;
+    std::size_t bytes_ = 0;
     std::deque<Message> items_;
     std::uint64_t pushed_ = 0;
     std::uint64_t dropped_ = 0;

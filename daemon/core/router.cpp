@@ -7,11 +7,12 @@
 namespace plexus::daemon {
 
 proto::Result<std::shared_ptr<Port>> Router::open(const std::string& name, std::uint64_t owner,
-                                                  QueuePolicy policy, std::size_t capacity) {
+                                                  QueuePolicy policy, std::size_t capacity,
+                                                  std::size_t max_bytes) {
     if (auto error = proto::port_name_error(name)) return proto::Error{*error};
     if (capacity == 0) return proto::Error{"queue capacity must be at least 1"};
     if (ports_.contains(name)) return proto::Error{"port " + name + " is already open on this daemon"};
-    auto port = std::make_shared<Port>(name, owner, policy, capacity);
+    auto port = std::make_shared<Port>(name, owner, policy, capacity, max_bytes);
     ports_.emplace(name, port);
     return port;
 }

@@ -5,6 +5,11 @@
 
 namespace plexus::daemon {
 
+namespace {
+// How many retired chunks a reader keeps for reuse (at most a few MiB with large frames).
+constexpr std::size_t max_spare = 4;
+}  // namespace
+
 void FrameReader::make_room(std::size_t needed_total) {
     const std::size_t pending = end_ - begin_;
     const std::size_t want = std::max(needed_total, pending + 1);
@@ -16,11 +21,26 @@ void FrameReader::make_room(std::size_t needed_total) {
         end_ = pending;
         return;
     }
-    auto fresh = std::make_shared<Chunk>(std::max(chunk_size, want));
+    auto fresh = take_chunk(std::max(chunk_size, want));
     if (pending > 0) std::memcpy(fresh->data(), chunk_->data() + begin_, pending);
+    if (chunk_) {
+        if (spare_.size() >= max_spare) spare_.erase(spare_.begin());
+        spare_.push_back(std::move(chunk_));
+    }
     chunk_ = std::move(fresh);
     begin_ = 0;
     end_ = pending;
+}
+
+std::shared_ptr<Chunk> FrameReader::take_chunk(std::size_t size) {
+    for (auto it = spare_.begin(); it != spare_.end(); ++it) {
+        if (it->use_count() == 1 && (*it)->size >= size && (*it)->size <= 4 * size) {
+            auto chunk = std::move(*it);
+            spare_.erase(it);
+            return chunk;
+        }
+    }
+    return std::make_shared<Chunk>(size);
 }
 
 Task<ReadOutcome> FrameReader::next(Socket& socket) {

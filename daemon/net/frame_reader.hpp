@@ -4,6 +4,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "../core/message.hpp"
 #include "asio.hpp"
@@ -35,9 +36,13 @@ public:
 
 private:
     void make_room(std::size_t needed_total);
+    std::shared_ptr<Chunk> take_chunk(std::size_t size);
     static constexpr std::size_t chunk_size = 64 * 1024;
     proto::FrameDecoder decoder_;
     std::shared_ptr<Chunk> chunk_;
+    /// Chunks handed out earlier, reused once no message refers to them: a stream of large frames
+    /// would otherwise cost a fresh allocation (and its page faults) per frame.
+    std::vector<std::shared_ptr<Chunk>> spare_;
     std::size_t begin_ = 0;
     std::size_t end_ = 0;
 };

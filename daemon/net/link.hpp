@@ -13,8 +13,8 @@ namespace plexus::daemon {
 /// socket as data frames. A full queue holds the writer back (TCP back-pressure, end to end).
 class Link : public MessageSink {
 public:
-    Link(std::shared_ptr<Peer> peer, std::size_t capacity)
-        : peer_(std::move(peer)), queue_(std::make_shared<ReaderQueue>(QueuePolicy::strict, capacity)) {
+    Link(std::shared_ptr<Peer> peer, std::size_t capacity, std::size_t max_bytes)
+        : peer_(std::move(peer)), queue_(std::make_shared<ReaderQueue>(QueuePolicy::strict, capacity, max_bytes)) {
         peer_->outbox().add_source({0, queue_.get(), nullptr, queue_});
     }
     bool full() const override { return queue_->full(); }

@@ -38,3 +38,37 @@ TEST(ReaderQueue_test, PolicyNamesParseBothWays) {
 
 }  // namespace
 }  // namespace plexus::daemon
+
+namespace plexus::daemon {
+namespace {
+
+Message sized(std::uint64_t seq, const std::shared_ptr<Chunk>& chunk, std::size_t size) {
+    return Message{chunk, {chunk->data(), size}, seq};
+}
+
+TEST(ReaderQueue_test, AStrictQueueIsAlsoFullWhenItHoldsItsByteBound) {
+    auto chunk = std::make_shared<Chunk>(1000);
+    ReaderQueue queue(QueuePolicy::strict, 100, 2500);
+    queue.push(sized(1, chunk, 1000));
+    queue.push(sized(2, chunk, 1000));
+    EXPECT_FALSE(queue.full());
+    queue.push(sized(3, chunk, 1000));
+    EXPECT_TRUE(queue.full());
+    queue.pop();
+    EXPECT_FALSE(queue.full());
+    EXPECT_EQ(queue.bytes(), 2000u);
+}
+
+TEST(ReaderQueue_test, ALatestQueueDropsOldestToStayWithinItsByteBoundButKeepsTheNewest) {
+    auto chunk = std::make_shared<Chunk>(1000);
+    ReaderQueue queue(QueuePolicy::latest, 100, 2500);
+    for (std::uint64_t i = 1; i <= 4; ++i) queue.push(sized(i, chunk, 1000));
+    EXPECT_EQ(queue.depth(), 2u);
+    EXPECT_EQ(queue.dropped(), 2u);
+    ReaderQueue tiny(QueuePolicy::latest, 100, 10);
+    tiny.push(sized(1, chunk, 1000));
+    EXPECT_EQ(tiny.depth(), 1u) << "a message larger than the bound on its own is still delivered";
+}
+
+}  // namespace
+}  // namespace plexus::daemon
