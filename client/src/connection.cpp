@@ -197,10 +197,16 @@ bool Connection::wait_until(std::unique_lock<std::mutex>& lock, Ready ready, Clo
 }
 
 void Connection::receive(Clock::time_point deadline) {
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
-    pollfd waiting{fd_, POLLIN, 0};
-    const int ready = ::poll(&waiting, 1, static_cast<int>(std::max<long long>(0, left)));
-    if (ready <= 0) return;  // timeout or EINTR: the caller re-checks its deadline
+    // One blocking recv with a receive timeout, instead of poll + recv: on the latency path every
+    // system call counts. The timeout is only reset when it would overshoot the deadline by more
+    // than a millisecond, or wake up far too early, so a loop of read(1s) sets it once.
+    const auto left = std::chrono::duration_cast<std::chrono::microseconds>(deadline - Clock::now());
+    if (left.count() <= 0) return;
+    if (receive_timeout_ > left + std::chrono::milliseconds(1) || receive_timeout_ < left / 2) {
+        timeval tv{static_cast<time_t>(left.count() / 1000000), static_cast<suseconds_t>(left.count() % 1000000)};
+        ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+        receive_timeout_ = left;
+    }
     if (in_begin_ == in_end_) in_begin_ = in_end_ = 0;
     if (in_.size() - in_end_ < read_chunk / 4) {
         // Slide the unread part to the front, growing only when one frame needs more room.
@@ -215,7 +221,8 @@ void Connection::receive(Clock::time_point deadline) {
         return;
     }
     if (n < 0) {
-        if (errno != EINTR && errno != EAGAIN) fail(std::strerror(errno));
+        // EAGAIN: the receive timeout passed; the caller re-checks its deadline.
+        if (errno != EINTR && errno != EAGAIN && errno != EWOULDBLOCK) fail(std::strerror(errno));
         return;
     }
     in_end_ += static_cast<std::size_t>(n);

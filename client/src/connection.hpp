@@ -70,6 +70,7 @@ private:
     std::set<std::uint64_t> closed_handles_;
 
     // Only the current reader touches these.
+    std::chrono::microseconds receive_timeout_{0};  ///< SO_RCVTIMEO now set; 0 = blocking forever
     proto::Bytes in_;
     std::size_t in_begin_ = 0;
     std::size_t in_end_ = 0;

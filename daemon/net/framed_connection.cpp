@@ -1,5 +1,7 @@
 #include "framed_connection.hpp"
 
+#include <poll.h>
+
 #include <spdlog/spdlog.h>
 
 #include "plexus/proto/frame.hpp"
@@ -57,6 +59,12 @@ void FramedConnection::fail(const std::string& reason) {
     spdlog::warn("{}: {}", description_, reason);
     send(proto::make_error_frame(reason));
     close_when_drained();
+}
+
+bool FramedConnection::peer_hung_up() {
+    if (closed_) return true;
+    pollfd state{socket_.native_handle(), POLLRDHUP, 0};
+    return ::poll(&state, 1, 0) > 0 && (state.revents & (POLLRDHUP | POLLHUP | POLLERR)) != 0;
 }
 
 Task<bool> FramedConnection::wait_for_hello(std::chrono::steady_clock::duration timeout) {

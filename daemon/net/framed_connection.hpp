@@ -42,6 +42,9 @@ public:
     void set_description(std::string text) { description_ = std::move(text); }
     Outbox& outbox() { return outbox_; }
     asio::any_io_executor executor() { return socket_.get_executor(); }
+    /// True when the peer has closed or reset the connection, even with unread data left: lets a
+    /// session that stopped reading (back-pressure) notice that its client died.
+    bool peer_hung_up();
     /// Waits until the peer's hello arrived or the connection closed.
     Task<bool> wait_for_hello(std::chrono::steady_clock::duration timeout);
 

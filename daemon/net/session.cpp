@@ -86,7 +86,7 @@ Task<bool> Session::on_data(InFrame frame) {
             co_return false;
         }
         auto port = link_port_;
-        while (port->full() && !port->closed() && !closed()) co_await daemon_.space().wait();
+        while (port->full() && !port->closed() && !closed()) co_await wait_for_space();
         if (port->closed() || closed()) co_return false;
         ++link_->received;
         port->deliver(Message{frame.storage, data->record, 0});
@@ -104,10 +104,18 @@ Task<bool> Session::on_data(InFrame frame) {
         fail("message from port '" + std::string(record->source) + "' written on the handle of " + port->name());
         co_return false;
     }
-    while (Router::blocked(*port) && !port->closed() && !closed()) co_await daemon_.space().wait();
+    while (Router::blocked(*port) && !port->closed() && !closed()) co_await wait_for_space();
     if (port->closed() || closed()) co_return !closed();
     Router::route(*port, Message{frame.storage, data->record, record->seq});
     co_return true;
+}
+
+Task<void> Session::wait_for_space() {
+    // While held back this session does not read its socket, so a client that dies now would go
+    // unnoticed: look for a hang-up every time the wait times out.
+    constexpr auto hang_up_check = std::chrono::milliseconds(100);
+    if (co_await daemon_.space().wait_for(hang_up_check)) co_return;
+    if (peer_hung_up()) close("the peer went away while held back by a full reader");
 }
 
 void Session::on_closed(const std::string& reason) {

@@ -39,6 +39,7 @@ protected:
 private:
     Task<bool> on_data(InFrame frame);
     Task<void> serve(proto::Request request);
+    Task<void> wait_for_space();
 
     Daemon& daemon_;
     std::uint64_t id_;
