@@ -4,6 +4,7 @@
 #include <signal.h>
 
 #include <atomic>
+#include <mutex>
 #include <fstream>
 #include <sstream>
 #include <thread>
@@ -152,6 +153,46 @@ TEST(Flow_test, DaemonsRegisterAgainWhenTheNameServerRestarts) {
 
     EXPECT_TRUE(eventually([&] { return run_cli(dir, worker, {"exists", "/worker/in"}).status == 0; }, 20s))
         << "the worker daemon should have registered /worker/in again";
+}
+
+TEST(Flow_test, AnOrderlyShutdownUnregistersAtOnceRatherThanAfterTheGracePeriod) {
+    TempDir dir;
+    {
+        std::ofstream config(dir.file("long-grace.json"));
+        config << R"({"names_grace_ms": 600000})";
+    }
+    Daemon names_host(dir, "host", "", {"--config", dir.file("long-grace.json")});
+    Daemon leaving(dir, "leaving", names_host.names());
+    auto holder = start_cli(dir, leaving, {"read", "/leaving/port", "--timeout", "60"}, "holder");
+    ASSERT_TRUE(wait_port(dir, names_host, "/leaving/port"));
+
+    leaving.process().signal(SIGTERM);
+
+    ASSERT_EQ(leaving.process().wait(10s), 0);
+    EXPECT_EQ(run_cli(dir, names_host, {"exists", "/leaving/port"}).status, 1)
+        << "with a 10-minute grace period only an explicit unregister removes the port this fast";
+}
+
+TEST(Flow_test, ASubscriptionCallsBackForEveryMessage) {
+    TempDir dir;
+    Daemon daemon(dir, "solo");
+    Client reading({daemon.socket()});
+    auto sink = reading.open("/callback/sink");
+    std::mutex mutex;
+    std::vector<std::uint64_t> seen;
+    Subscription subscription(sink, [&](const Received& message) {
+        std::lock_guard lock(mutex);
+        seen.push_back(message.data.get<std::uint64_t>());
+    });
+
+    ASSERT_EQ(run_cli(dir, daemon, {"write", "/callback/source", "/callback/sink"}, "1\n2\n3\n").status, 0);
+
+    EXPECT_TRUE(eventually([&] {
+        std::lock_guard lock(mutex);
+        return seen.size() == 3;
+    }));
+    std::lock_guard lock(mutex);
+    EXPECT_EQ(seen, (std::vector<std::uint64_t>{1, 2, 3}));
 }
 
 }  // namespace
