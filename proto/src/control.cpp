@@ -1,7 +1,6 @@
 #include "plexus/proto/control.hpp"
 
-#include <exception>
-
+#include "plexus/proto/cbor.hpp"
 #include "plexus/proto/fields.hpp"
 #include "plexus/proto/frame.hpp"
 #include "plexus/proto/varint.hpp"
@@ -11,50 +10,6 @@ namespace plexus::proto {
 namespace {
 
 using nlohmann::json;
-
-// A first pass over the CBOR that builds nothing and stops at the first container nested deeper
-// than the limit. nlohmann's CBOR reader recurses once per level, so the depth must be known to be
-// small before from_cbor builds the value.
-class DepthCheck {
-  public:
-    explicit DepthCheck(std::size_t max_depth) : max_depth_(max_depth) {}
-
-    static bool null() { return true; }
-    static bool boolean(bool /*value*/) { return true; }
-    static bool number_integer(json::number_integer_t /*value*/) { return true; }
-    static bool number_unsigned(json::number_unsigned_t /*value*/) { return true; }
-    static bool number_float(json::number_float_t /*value*/, const json::string_t& /*text*/) { return true; }
-    static bool string(json::string_t& /*value*/) { return true; }
-    static bool binary(json::binary_t& /*value*/) { return true; }
-    static bool key(json::string_t& /*value*/) { return true; }
-    bool start_object(std::size_t /*size*/) { return enter(); }
-    bool end_object() { return leave(); }
-    bool start_array(std::size_t /*size*/) { return enter(); }
-    bool end_array() { return leave(); }
-    bool parse_error(std::size_t /*position*/, const std::string& /*token*/, const json::exception& error) {
-        error_ = error.what();
-        return false;
-    }
-
-    const std::string& error() const { return error_; }
-
-  private:
-    bool enter() {
-        if (++depth_ > max_depth_) {
-            error_ = "nested deeper than " + std::to_string(max_depth_) + " levels";
-            return false;
-        }
-        return true;
-    }
-    bool leave() {
-        --depth_;
-        return true;
-    }
-
-    std::size_t max_depth_;
-    std::size_t depth_ = 0;
-    std::string error_;
-};
 
 // The body of a request or reply: a CBOR map. A null body is what a default-constructed json
 // holds, so it is sent as an empty map rather than as a body the peer would refuse.
@@ -84,23 +39,11 @@ Result<json> decode_map(ByteView bytes, std::string_view what) {
 }  // namespace
 
 Result<json> decode_cbor(ByteView bytes, std::size_t max_depth) {
-    // nlohmann may still throw from inside (an excessive declared array size, allocation failure);
-    // nothing may escape a decoder, so every path ends in a value or an Error.
-    try {
-        DepthCheck check(max_depth);
-        if (!json::sax_parse(bytes.begin(), bytes.end(), &check, json::input_format_t::cbor, true)) {
-            return Error{"bad CBOR: " + (check.error().empty() ? std::string("malformed") : check.error())};
-        }
-        json value = json::from_cbor(bytes.begin(), bytes.end(), /*strict=*/true, /*allow_exceptions=*/false);
-        if (value.is_discarded()) {
-            return Error{"bad CBOR: malformed"};
-        }
-        return value;
-    } catch (const std::exception& error) {
-        return Error{std::string("bad CBOR: ") + error.what()};
-    } catch (...) {
-        return Error{"bad CBOR: malformed"};
+    auto value = decode_cbor_fast(bytes, max_depth);
+    if (!value) {
+        return Error{"bad CBOR: " + value.error().message};
     }
+    return value;
 }
 
 Bytes encode_request(const Request& request) {

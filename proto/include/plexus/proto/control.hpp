@@ -41,12 +41,13 @@ Result<Reply> decode_reply(ByteView fields);
 /// A refusal with a reason, the common case.
 Reply make_refusal(std::uint64_t id, ReplyCode code, std::string reason);
 
-/// Deepest nesting of arrays and maps accepted from a peer: deeper CBOR would exhaust the stack of
-/// nlohmann's recursive reader (a 64 MiB frame can nest 64 million levels).
+/// Deepest nesting of arrays and maps accepted from a peer. The decoder does not recurse, but what
+/// later walks the json (dump, to_cbor, ==) does, and a 64 MiB frame can nest 64 million levels.
 inline constexpr std::size_t max_cbor_depth = 128;
 
 /// Decodes one CBOR value that fills `bytes` exactly. Never throws; refuses malformed CBOR,
 /// trailing bytes and nesting deeper than max_depth. Use it for every CBOR that came off the wire.
+/// It is decode_cbor_fast (cbor.hpp) with "bad CBOR: " before the reason.
 Result<nlohmann::json> decode_cbor(ByteView bytes, std::size_t max_depth = max_cbor_depth);
 
 }  // namespace plexus::proto
