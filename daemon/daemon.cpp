@@ -54,34 +54,45 @@ proto::Status Daemon::bind() {
         names_config.state_file = config_.names_state;
         names_config.grace = config_.names_grace;
         embedded_names_ = std::make_unique<names::NameServer>(io_, names_config);
-        if (auto started = embedded_names_->start(); !started) return started;
+        if (auto started = embedded_names_->start(); !started)
+            return started;
         // With port 0 the name server picked a port: the daemon must use that one.
         config_.names = embedded_names_->endpoint();
     }
     boost::system::error_code ec;
     auto address = asio::ip::make_address(config_.listen.host, ec);
-    if (ec) return proto::Error{"--listen host '" + config_.listen.host + "' is not an IP address"};
+    if (ec)
+        return proto::Error{"--listen host '" + config_.listen.host + "' is not an IP address"};
     asio::ip::tcp::endpoint endpoint(address, config_.listen.port);
     tcp_acceptor_.open(endpoint.protocol(), ec);
-    if (!ec) tcp_acceptor_.set_option(asio::socket_base::reuse_address(true), ec);
-    if (!ec) tcp_acceptor_.bind(endpoint, ec);
-    if (!ec) tcp_acceptor_.listen(asio::socket_base::max_listen_connections, ec);
-    if (ec) return proto::Error{"cannot listen on TCP " + config_.listen.text() + ": " + ec.message()};
+    if (!ec)
+        tcp_acceptor_.set_option(asio::socket_base::reuse_address(true), ec);
+    if (!ec)
+        tcp_acceptor_.bind(endpoint, ec);
+    if (!ec)
+        tcp_acceptor_.listen(asio::socket_base::max_listen_connections, ec);
+    if (ec)
+        return proto::Error{"cannot listen on TCP " + config_.listen.text() + ": " + ec.message()};
 
     const std::filesystem::path socket_path(config_.socket_path);
     std::error_code fs_error;
-    if (socket_path.has_parent_path()) std::filesystem::create_directories(socket_path.parent_path(), fs_error);
+    if (socket_path.has_parent_path())
+        std::filesystem::create_directories(socket_path.parent_path(), fs_error);
     if (std::filesystem::exists(socket_path)) {
         // Refuse to steal the socket of a daemon that is still running; clear one left by a crash.
         asio::local::stream_protocol::socket probe(io_);
         probe.connect(asio::local::stream_protocol::endpoint(config_.socket_path), ec);
-        if (!ec) return proto::Error{"another daemon is already serving " + config_.socket_path};
+        if (!ec)
+            return proto::Error{"another daemon is already serving " + config_.socket_path};
         std::filesystem::remove(socket_path, fs_error);
     }
     unix_acceptor_.open(asio::local::stream_protocol(), ec);
-    if (!ec) unix_acceptor_.bind(asio::local::stream_protocol::endpoint(config_.socket_path), ec);
-    if (!ec) unix_acceptor_.listen(asio::socket_base::max_listen_connections, ec);
-    if (ec) return proto::Error{"cannot listen on Unix socket " + config_.socket_path + ": " + ec.message()};
+    if (!ec)
+        unix_acceptor_.bind(asio::local::stream_protocol::endpoint(config_.socket_path), ec);
+    if (!ec)
+        unix_acceptor_.listen(asio::socket_base::max_listen_connections, ec);
+    if (ec)
+        return proto::Error{"cannot listen on Unix socket " + config_.socket_path + ": " + ec.message()};
     return proto::Ok{};
 }
 
@@ -90,10 +101,12 @@ int Daemon::run() {
         spdlog::error("{}", bound.error().message);
         return 4;
     }
-    names_ = std::make_unique<names::NameClient>(io_, config_.names, config_.node, address(), config_.max_frame);
+    names_ =
+        std::make_unique<names::NameClient>(io_, config_.names, config_.node, address(), config_.max_frame);
     names_->ports_to_register = [this] {
         std::vector<std::string> names;
-        for (const auto& [name, port] : router_.ports()) names.push_back(name);
+        for (const auto& [name, port] : router_.ports())
+            names.push_back(name);
         return names;
     };
     names_->on_persistent = [this](const nlohmann::json& persistent) {
@@ -104,7 +117,8 @@ int Daemon::run() {
     asio::co_spawn(io_, accept_tcp(), asio::detached);
     asio::co_spawn(io_, accept_unix(), asio::detached);
     signals_.async_wait([this](boost::system::error_code ec, int signal) {
-        if (ec) return;
+        if (ec)
+            return;
         spdlog::info("signal {}: shutting down", signal);
         asio::co_spawn(io_, shutdown(), asio::detached);
     });
@@ -115,12 +129,14 @@ int Daemon::run() {
 }
 
 Task<void> Daemon::announce_ready() {
-    if (config_.ready_file.empty()) co_return;
+    if (config_.ready_file.empty())
+        co_return;
     while (!stopping_ && !co_await names_->wait_connected(std::chrono::seconds(10))) {
         spdlog::warn("still waiting for the name server at {} before writing {}", config_.names.text(),
                      config_.ready_file);
     }
-    if (stopping_) co_return;
+    if (stopping_)
+        co_return;
     // Write then rename: whoever polls for the file never reads half of it.
     const nlohmann::json ready{{"node", config_.node},
                                {"address", address()},
@@ -134,14 +150,16 @@ Task<void> Daemon::announce_ready() {
     }
     std::error_code ec;
     std::filesystem::rename(temporary, config_.ready_file, ec);
-    if (ec) spdlog::error("cannot write ready file {}: {}", config_.ready_file, ec.message());
+    if (ec)
+        spdlog::error("cannot write ready file {}: {}", config_.ready_file, ec.message());
 }
 
 Task<void> Daemon::accept_tcp() {
     while (!stopping_) {
         auto [ec, socket] = co_await tcp_acceptor_.async_accept(use_nothrow);
         if (ec) {
-            if (stopping_ || ec == asio::error::operation_aborted) co_return;
+            if (stopping_ || ec == asio::error::operation_aborted)
+                co_return;
             spdlog::warn("accept on {} failed: {}", address(), ec.message());
             continue;
         }
@@ -149,8 +167,9 @@ Task<void> Daemon::accept_tcp() {
         boost::system::error_code remote_error;
         auto remote = socket.remote_endpoint(remote_error);
         start_session(Socket(std::move(socket)),
-                      "tcp session from " + (remote_error ? std::string("?") : remote.address().to_string() + ":" +
-                                                                                  std::to_string(remote.port())));
+                      "tcp session from " + (remote_error ? std::string("?")
+                                                          : remote.address().to_string() + ":" +
+                                                                std::to_string(remote.port())));
     }
 }
 
@@ -158,7 +177,8 @@ Task<void> Daemon::accept_unix() {
     while (!stopping_) {
         auto [ec, socket] = co_await unix_acceptor_.async_accept(use_nothrow);
         if (ec) {
-            if (stopping_ || ec == asio::error::operation_aborted) co_return;
+            if (stopping_ || ec == asio::error::operation_aborted)
+                co_return;
             spdlog::warn("accept on {} failed: {}", config_.socket_path, ec.message());
             continue;
         }
@@ -177,8 +197,10 @@ void Daemon::start_session(Socket socket, const std::string& description) {
 
 void Daemon::session_closed(Session& session) {
     sessions_.erase(session.id());
-    if (session.is_link()) std::erase(session.link_port()->inbound, session.link());
-    for (auto& [handle, port] : session.ports) forget_port(port);
+    if (session.is_link())
+        std::erase(session.link_port()->inbound, session.link());
+    for (auto& [handle, port] : session.ports)
+        forget_port(port);
     session.ports.clear();
 }
 
@@ -187,14 +209,16 @@ void Daemon::forget_port(std::shared_ptr<Port> port) {
     auto removed = router_.close(name);
     space_.notify();
     spdlog::info("port {} closed", name);
-    if (stopping_ || !names_) return;
+    if (stopping_ || !names_)
+        return;
     auto names = names_.get();
     // Tell the name server without holding anyone up; it also drops the port after a grace period
     // if this never arrives.
     auto tell = [](names::NameClient* names, std::string port_name,
                    std::vector<std::shared_ptr<Connection>> connections) -> Task<void> {
         for (const auto& c : connections) {
-            nlohmann::json body1 = {{"op", "remove_connection"}, {"source", c->source}, {"destination", c->destination}};
+            nlohmann::json body1 = {
+                {"op", "remove_connection"}, {"source", c->source}, {"destination", c->destination}};
             co_await names->request(body1);
         }
         nlohmann::json body2 = {{"op", "unregister_port"}, {"port", port_name}};
@@ -204,24 +228,31 @@ void Daemon::forget_port(std::shared_ptr<Port> port) {
 }
 
 Task<void> Daemon::shutdown() {
-    if (stopping_) co_return;
+    if (stopping_)
+        co_return;
     boost::system::error_code ignored;
     tcp_acceptor_.close(ignored);
     unix_acceptor_.close(ignored);
     // Unregister first, then close: readers elsewhere see the ports go away cleanly.
     for (const auto& [name, port] : router_.ports()) {
         nlohmann::json body3 = {{"op", "unregister_port"}, {"port", name}};
-        if (names_ && names_->connected()) co_await names_->request(body3);
+        if (names_ && names_->connected())
+            co_await names_->request(body3);
     }
     stopping_ = true;
     std::vector<std::shared_ptr<Port>> ports;
-    for (const auto& [name, port] : router_.ports()) ports.push_back(port);
-    for (auto& port : ports) forget_port(port);
+    for (const auto& [name, port] : router_.ports())
+        ports.push_back(port);
+    for (auto& port : ports)
+        forget_port(port);
     for (auto& [id, weak] : sessions_) {
-        if (auto session = weak.lock()) session->close_when_drained();
+        if (auto session = weak.lock())
+            session->close_when_drained();
     }
-    if (names_) names_->stop();
-    if (embedded_names_) embedded_names_->stop();
+    if (names_)
+        names_->stop();
+    if (embedded_names_)
+        embedded_names_->stop();
     // Links and sessions flush what was written; wait for them, but not forever.
     const auto deadline = std::chrono::steady_clock::now() + shutdown_grace;
     auto busy = [this] {

@@ -37,9 +37,9 @@ struct DaemonConfig {
 /// Daemon-wide counters that `plexus stats` shows.
 struct DaemonCounters {
     std::uint64_t sessions_accepted = 0;
-    std::uint64_t protocol_errors = 0;      ///< peers cut off for breaking the protocol
-    std::uint64_t dropped_unknown_port = 0; ///< data frames for a handle that is not open
-    std::uint64_t dropped_link_down = 0;    ///< messages queued to another daemon when the link died
+    std::uint64_t protocol_errors = 0;       ///< peers cut off for breaking the protocol
+    std::uint64_t dropped_unknown_port = 0;  ///< data frames for a handle that is not open
+    std::uint64_t dropped_link_down = 0;     ///< messages queued to another daemon when the link died
 };
 
 /// The node daemon: hosts ports for local clients, connects them, moves data.

@@ -5,23 +5,26 @@
 #include <fstream>
 #include <iostream>
 
-#include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
+#include <CLI/CLI.hpp>
 
 #include "names/name_server.hpp"
 #include "plexus/proto/defaults.hpp"
 
 int main(int argc, char** argv) {
-    CLI::App app{"plexus-names: the Plexus name server. Registers ports and daemons over TCP, answers "
-                 "look-ups over TCP and UDP on the same port, and keeps persistent connections."};
+    CLI::App app{
+        "plexus-names: the Plexus name server. Registers ports and daemons over TCP, answers "
+        "look-ups over TCP and UDP on the same port, and keeps persistent connections."};
     std::string listen = plexus::proto::default_names();
     std::string state;
     std::string log_level = "info";
     int grace_ms = 2000;
     std::string ready_file;
-    app.add_option("--listen", listen, "HOST:PORT to serve on, TCP and UDP (env PLEXUS_NAMES)")->capture_default_str();
+    app.add_option("--listen", listen, "HOST:PORT to serve on, TCP and UDP (env PLEXUS_NAMES)")
+        ->capture_default_str();
     app.add_option("--state", state, "file that keeps persistent connections across restarts");
-    app.add_option("--grace-ms", grace_ms, "how long a vanished daemon's ports stay registered")->capture_default_str();
+    app.add_option("--grace-ms", grace_ms, "how long a vanished daemon's ports stay registered")
+        ->capture_default_str();
     app.add_option("--ready-file", ready_file, "write {\"names\": HOST:PORT, \"pid\"} here once serving");
     app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
     try {

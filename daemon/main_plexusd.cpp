@@ -4,9 +4,9 @@
 #include <fstream>
 #include <iostream>
 
+#include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
-#include <spdlog/spdlog.h>
 
 #include "daemon.hpp"
 #include "plexus/proto/defaults.hpp"
@@ -15,25 +15,30 @@ namespace {
 
 std::string host_name() {
     char buffer[256] = {};
-    if (::gethostname(buffer, sizeof buffer - 1) != 0 || buffer[0] == '\0') return "node";
+    if (::gethostname(buffer, sizeof buffer - 1) != 0 || buffer[0] == '\0')
+        return "node";
     return buffer;
 }
 
 plexus::proto::Endpoint endpoint_or_throw(const std::string& text, const char* option) {
     auto parsed = plexus::proto::parse_endpoint(text);
-    if (!parsed) throw std::runtime_error(std::string(option) + ": " + parsed.error().message);
+    if (!parsed)
+        throw std::runtime_error(std::string(option) + ": " + parsed.error().message);
     return *parsed;
 }
 
 /// Reads the optional JSON config; command-line flags given explicitly win over it.
 void apply_config_file(const std::string& path, plexus::daemon::DaemonConfig& config) {
     std::ifstream in(path);
-    if (!in) throw std::runtime_error("cannot open config file " + path);
+    if (!in)
+        throw std::runtime_error("cannot open config file " + path);
     auto json = nlohmann::json::parse(in, nullptr, true, true);
-    static const std::set<std::string> known{"max_frame", "default_capacity", "link_capacity", "queue_bytes", "names_grace_ms",
-                                             "names_state", "scripts", "log_level"};
+    static const std::set<std::string> known{"max_frame",   "default_capacity", "link_capacity",
+                                             "queue_bytes", "names_grace_ms",   "names_state",
+                                             "scripts",     "log_level"};
     for (const auto& [key, value] : json.items()) {
-        if (!known.contains(key)) throw std::runtime_error("config " + path + ": unknown key '" + key + "'");
+        if (!known.contains(key))
+            throw std::runtime_error("config " + path + ": unknown key '" + key + "'");
     }
     config.max_frame = json.value("max_frame", config.max_frame);
     config.default_capacity = json.value("default_capacity", config.default_capacity);
@@ -41,15 +46,18 @@ void apply_config_file(const std::string& path, plexus::daemon::DaemonConfig& co
     config.queue_bytes = json.value("queue_bytes", config.queue_bytes);
     config.names_grace = std::chrono::milliseconds(json.value("names_grace_ms", config.names_grace.count()));
     config.names_state = json.value("names_state", config.names_state);
-    for (const auto& dir : json.value("scripts", std::vector<std::string>{})) config.script_dirs.push_back(dir);
-    if (json.contains("log_level")) spdlog::set_level(spdlog::level::from_str(json["log_level"].get<std::string>()));
+    for (const auto& dir : json.value("scripts", std::vector<std::string>{}))
+        config.script_dirs.push_back(dir);
+    if (json.contains("log_level"))
+        spdlog::set_level(spdlog::level::from_str(json["log_level"].get<std::string>()));
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-    CLI::App app{"plexusd: the Plexus node daemon. Hosts the ports of local components, connects them "
-                 "to each other and to other daemons, and moves their data."};
+    CLI::App app{
+        "plexusd: the Plexus node daemon. Hosts the ports of local components, connects them "
+        "to each other and to other daemons, and moves their data."};
     std::string names = plexus::proto::default_names();
     std::string listen = "127.0.0.1:0";
     std::string socket = plexus::proto::default_socket();
@@ -61,13 +69,16 @@ int main(int argc, char** argv) {
     plexus::daemon::DaemonConfig config;
     app.add_option("--names", names, "name server HOST:PORT (env PLEXUS_NAMES)")->capture_default_str();
     app.add_flag("--embedded-names", embedded, "also serve the name server, at the --names address");
-    app.add_option("--names-state", names_state, "with --embedded-names: file keeping persistent connections");
+    app.add_option("--names-state", names_state,
+                   "with --embedded-names: file keeping persistent connections");
     app.add_option("--listen", listen, "TCP HOST:PORT for other daemons and remote clients (port 0: any)")
         ->capture_default_str();
-    app.add_option("--socket", socket, "Unix socket for local clients (env PLEXUS_SOCKET)")->capture_default_str();
+    app.add_option("--socket", socket, "Unix socket for local clients (env PLEXUS_SOCKET)")
+        ->capture_default_str();
     app.add_option("--node", node, "this daemon's node name, unique among daemons")->capture_default_str();
     app.add_option("--scripts", config.script_dirs, "directory of monitor scripts (repeatable)");
-    app.add_option("--config", config_file, "JSON config file (max_frame, default_capacity, link_capacity, ...)");
+    app.add_option("--config", config_file,
+                   "JSON config file (max_frame, default_capacity, link_capacity, ...)");
     app.add_option("--ready-file", config.ready_file,
                    "write a JSON line (node, address, socket, names, pid) here once serving and registered");
     app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
@@ -78,11 +89,13 @@ int main(int argc, char** argv) {
     }
     try {
         spdlog::set_level(spdlog::level::from_str(log_level));
-        if (!config_file.empty()) apply_config_file(config_file, config);
+        if (!config_file.empty())
+            apply_config_file(config_file, config);
         config.names = endpoint_or_throw(names, "--names");
         config.listen = endpoint_or_throw(listen, "--listen");
         config.embedded_names = embedded;
-        if (!names_state.empty()) config.names_state = names_state;
+        if (!names_state.empty())
+            config.names_state = names_state;
         config.socket_path = socket;
         config.node = node;
     } catch (const std::exception& e) {

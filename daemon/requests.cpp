@@ -14,17 +14,21 @@ namespace {
 using proto::ReplyCode;
 constexpr auto peer_timeout = std::chrono::seconds(5);
 
-proto::Reply ok(nlohmann::json body = nlohmann::json::object()) { return {0, ReplyCode::ok, std::move(body)}; }
+proto::Reply ok(nlohmann::json body = nlohmann::json::object()) {
+    return {0, ReplyCode::ok, std::move(body)};
+}
 proto::Reply refuse(std::string why, ReplyCode code = ReplyCode::refused) {
     return proto::make_refusal(0, code, std::move(why));
 }
 std::string text(const nlohmann::json& body, const char* key) {
     auto it = body.find(key);
-    if (it == body.end() || !it->is_string()) return {};
+    if (it == body.end() || !it->is_string())
+        return {};
     return it->get<std::string>();
 }
 proto::Reply relay(const proto::Result<proto::Reply>& reply) {
-    if (!reply) return refuse(reply.error().message);
+    if (!reply)
+        return refuse(reply.error().message);
     return *reply;
 }
 
@@ -33,14 +37,22 @@ proto::Reply relay(const proto::Result<proto::Reply>& reply) {
 Task<proto::Reply> Daemon::handle(std::shared_ptr<Session> session, proto::Request request) {
     const std::string op = request.body["op"];
     const bool from_client = session->role() == "client";
-    if (op == "open" && from_client) co_return co_await open_port(session, request);
-    if (op == "close" && from_client) co_return co_await close_port(session, request);
-    if (op == "attach" && session->role() == "link") co_return co_await attach(session, request);
-    if (op == "connect") co_return co_await connect(request);
-    if (op == "disconnect") co_return co_await disconnect(request);
-    if (op == "stats") co_return co_await stats(request);
-    if (op == "ping") co_return co_await ping(request);
-    if (op == "node") co_return ok({{"node", config_.node}, {"address", address()}, {"names", config_.names.text()}});
+    if (op == "open" && from_client)
+        co_return co_await open_port(session, request);
+    if (op == "close" && from_client)
+        co_return co_await close_port(session, request);
+    if (op == "attach" && session->role() == "link")
+        co_return co_await attach(session, request);
+    if (op == "connect")
+        co_return co_await connect(request);
+    if (op == "disconnect")
+        co_return co_await disconnect(request);
+    if (op == "stats")
+        co_return co_await stats(request);
+    if (op == "ping")
+        co_return co_await ping(request);
+    if (op == "node")
+        co_return ok({{"node", config_.node}, {"address", address()}, {"names", config_.names.text()}});
     if (op == "lookup" || op == "list") {
         nlohmann::json question = {{"op", op}, {"port", text(request.body, "port")}};
         co_return co_await ask_names(request, question);
@@ -55,23 +67,27 @@ Task<proto::Reply> Daemon::ask_names(const proto::Request&, nlohmann::json body)
 Task<proto::Reply> Daemon::open_port(std::shared_ptr<Session> session, const proto::Request& request) {
     const std::string name = text(request.body, "port");
     const auto policy = parse_queue_policy(request.body.value("policy", std::string("strict")));
-    if (!policy) co_return refuse("queue policy must be 'strict' or 'latest'", ReplyCode::usage);
+    if (!policy)
+        co_return refuse("queue policy must be 'strict' or 'latest'", ReplyCode::usage);
     const std::size_t capacity = request.body.value("capacity", config_.default_capacity);
     auto opened = router_.open(name, session->id(), *policy, capacity, config_.queue_bytes);
-    if (!opened) co_return refuse(opened.error().message);
+    if (!opened)
+        co_return refuse(opened.error().message);
     auto port = *opened;
     nlohmann::json body1 = {{"op", "register_port"}, {"port", name}};
     auto registered = co_await names_->request(body1);
     if (!registered || registered->code != ReplyCode::ok || session->closed()) {
         router_.close(name);
-        if (!registered) co_return refuse("cannot register " + name + ": " + registered.error().message);
+        if (!registered)
+            co_return refuse("cannot register " + name + ": " + registered.error().message);
         co_return refuse(registered->body.value("error", std::string("the name server refused ") + name));
     }
     const std::uint64_t handle = session->next_handle++;
     session->ports[handle] = port;
     std::weak_ptr<Session> weak = session;
     port->on_readable = [weak] {
-        if (auto s = weak.lock()) s->wake();
+        if (auto s = weak.lock())
+            s->wake();
     };
     session->outbox().add_source({handle, &port->queue(), &port->delivered, port});
     spdlog::info("port {} opened ({} queue of {})", name, queue_policy_name(*policy), capacity);
@@ -85,7 +101,8 @@ Task<proto::Reply> Daemon::open_port(std::shared_ptr<Session> session, const pro
 Task<proto::Reply> Daemon::close_port(std::shared_ptr<Session> session, const proto::Request& request) {
     const std::uint64_t handle = request.body.value("handle", std::uint64_t{0});
     auto it = session->ports.find(handle);
-    if (it == session->ports.end()) co_return refuse("no open port with handle " + std::to_string(handle));
+    if (it == session->ports.end())
+        co_return refuse("no open port with handle " + std::to_string(handle));
     auto port = it->second;
     session->ports.erase(it);
     session->outbox().remove_source(handle);
@@ -98,17 +115,21 @@ Task<proto::Reply> Daemon::connect(const proto::Request& request) {
     const std::string destination = text(request.body, "destination");
     std::string carrier_text = text(request.body, "carrier");
     for (const auto& name : {source, destination}) {
-        if (auto error = proto::port_name_error(name)) co_return refuse(*error, ReplyCode::usage);
+        if (auto error = proto::port_name_error(name))
+            co_return refuse(*error, ReplyCode::usage);
     }
     bool automatic = carrier_text.empty();
     if (!automatic) {
         auto carrier = proto::parse_carrier(carrier_text);
-        if (!carrier) co_return refuse("bad carrier: " + carrier.error().message);
-        if (auto valid = proto::validate_carrier(*carrier); !valid) co_return refuse(valid.error().message);
+        if (!carrier)
+            co_return refuse("bad carrier: " + carrier.error().message);
+        if (auto valid = proto::validate_carrier(*carrier); !valid)
+            co_return refuse(valid.error().message);
         carrier_text = carrier->text();
     }
     auto port = router_.find(source);
-    if (!port) co_return co_await forward(request, source);
+    if (!port)
+        co_return co_await forward(request, source);
 
     auto local_destination = router_.find(destination);
     const bool wants_tcp = !automatic && carrier_text.rfind("tcp", 0) == 0;
@@ -119,9 +140,13 @@ Task<proto::Reply> Daemon::connect(const proto::Request& request) {
         connection->destination = destination;
         connection->carrier = automatic ? "local" : carrier_text;
         connection->sink = local_destination;
-        if (auto added = router_.add(port, connection); !added) co_return refuse(added.error().message);
-        nlohmann::json body2 = {{"op", "add_connection"}, {"source", source}, {"destination", destination},
-                                  {"carrier", connection->carrier}, {"persistent", request.body.value("persist", false)}};
+        if (auto added = router_.add(port, connection); !added)
+            co_return refuse(added.error().message);
+        nlohmann::json body2 = {{"op", "add_connection"},
+                                {"source", source},
+                                {"destination", destination},
+                                {"carrier", connection->carrier},
+                                {"persistent", request.body.value("persist", false)}};
         co_await names_->request(body2);
         spdlog::info("connected {} -> {} ({})", source, destination, connection->carrier);
         co_return ok({{"carrier", connection->carrier}});
@@ -136,8 +161,10 @@ Task<proto::Reply> Daemon::connect(const proto::Request& request) {
     } else {
         nlohmann::json body3 = {{"op", "lookup"}, {"port", destination}};
         auto found = co_await names_->request(body3);
-        if (!found) co_return refuse(found.error().message);
-        if (found->code != ReplyCode::ok) co_return refuse("port " + destination + " does not exist");
+        if (!found)
+            co_return refuse(found.error().message);
+        if (found->code != ReplyCode::ok)
+            co_return refuse("port " + destination + " does not exist");
         where = text(found->body, "address");
     }
     const std::string chosen = automatic ? std::string("tcp") : carrier_text;
@@ -148,19 +175,22 @@ Task<proto::Reply> Daemon::connect_remote(const proto::Request& request, std::sh
                                           std::string destination, std::string carrier, std::string address) {
     const std::string source = port->name();
     for (const auto& existing : port->outgoing) {
-        if (existing->destination == destination) co_return refuse("ports " + source + " and " + destination + " are already connected");
+        if (existing->destination == destination)
+            co_return refuse("ports " + source + " and " + destination + " are already connected");
     }
     auto endpoint = proto::parse_endpoint(address);
-    if (!endpoint) co_return refuse("the name server gave a bad address for " + destination + ": " + address);
+    if (!endpoint)
+        co_return refuse("the name server gave a bad address for " + destination + ": " + address);
     const proto::Hello hello = our_hello("link");
     auto peer = co_await Peer::connect(io_.get_executor(), *endpoint, hello, config_.max_frame, peer_timeout,
                                        space_notifier());
-    if (!peer) co_return refuse("cannot reach the daemon of " + destination + ": " + peer.error().message);
+    if (!peer)
+        co_return refuse("cannot reach the daemon of " + destination + ": " + peer.error().message);
     auto link_peer = *peer;
     link_peer->set_description("link " + source + " -> " + destination);
-    nlohmann::json body4 = {{"op", "attach"}, {"source", source}, {"destination", destination}, {"carrier", carrier}};
-    auto attached = co_await link_peer->request(
-        body4, peer_timeout);
+    nlohmann::json body4 = {
+        {"op", "attach"}, {"source", source}, {"destination", destination}, {"carrier", carrier}};
+    auto attached = co_await link_peer->request(body4, peer_timeout);
     if (!attached || attached->code != ReplyCode::ok) {
         link_peer->close("attach refused");
         co_return attached ? *attached : refuse(attached.error().message);
@@ -184,11 +214,13 @@ Task<proto::Reply> Daemon::connect_remote(const proto::Request& request, std::sh
     std::weak_ptr<Connection> weak = connection;
     link_peer->closed_handler = [this, weak](const std::string& reason) {
         auto c = weak.lock();
-        if (!c) return;
+        if (!c)
+            return;
         auto* sink = static_cast<Link*>(c->sink.get());
         if (sink->queued() > 0) {
             counters_.dropped_link_down += sink->queued();
-            spdlog::warn("connection {} -> {} lost {} queued messages: {}", c->source, c->destination, sink->queued(), reason);
+            spdlog::warn("connection {} -> {} lost {} queued messages: {}", c->source, c->destination,
+                         sink->queued(), reason);
         }
         if (router_.remove(c)) {
             spdlog::info("connection {} -> {} went down: {}", c->source, c->destination, reason);
@@ -202,8 +234,11 @@ Task<proto::Reply> Daemon::connect_remote(const proto::Request& request, std::sh
             }
         }
     };
-    nlohmann::json body6 = {{"op", "add_connection"}, {"source", source}, {"destination", destination},
-                              {"carrier", carrier}, {"persistent", request.body.value("persist", false)}};
+    nlohmann::json body6 = {{"op", "add_connection"},
+                            {"source", source},
+                            {"destination", destination},
+                            {"carrier", carrier},
+                            {"persistent", request.body.value("persist", false)}};
     co_await names_->request(body6);
     spdlog::info("connected {} -> {} ({} to {})", source, destination, carrier, address);
     co_return ok({{"carrier", carrier}});
@@ -212,8 +247,10 @@ Task<proto::Reply> Daemon::connect_remote(const proto::Request& request, std::sh
 Task<proto::Reply> Daemon::attach(std::shared_ptr<Session> session, const proto::Request& request) {
     const std::string destination = text(request.body, "destination");
     auto port = router_.find(destination);
-    if (!port) co_return refuse("port " + destination + " does not exist on node '" + config_.node + "'");
-    if (session->is_link()) co_return refuse("this link is already attached", ReplyCode::usage);
+    if (!port)
+        co_return refuse("port " + destination + " does not exist on node '" + config_.node + "'");
+    if (session->is_link())
+        co_return refuse("this link is already attached", ReplyCode::usage);
     auto link = std::make_shared<InboundLink>();
     link->source = text(request.body, "source");
     link->carrier = text(request.body, "carrier");
@@ -221,7 +258,8 @@ Task<proto::Reply> Daemon::attach(std::shared_ptr<Session> session, const proto:
     session->become_link(port, link);
     std::weak_ptr<Session> weak = session;
     port->on_close.push_back([weak] {
-        if (auto s = weak.lock()) s->close("destination port closed");
+        if (auto s = weak.lock())
+            s->close("destination port closed");
     });
     session->set_description("link " + link->source + " -> " + destination);
     co_return ok();
@@ -230,11 +268,14 @@ Task<proto::Reply> Daemon::attach(std::shared_ptr<Session> session, const proto:
 Task<proto::Reply> Daemon::disconnect(const proto::Request& request) {
     const std::string source = text(request.body, "source");
     const std::string destination = text(request.body, "destination");
-    if (!router_.find(source)) co_return co_await forward(request, source);
+    if (!router_.find(source))
+        co_return co_await forward(request, source);
     auto removed = router_.remove(source, destination);
-    if (!removed) co_return refuse("ports " + source + " and " + destination + " are not connected", ReplyCode::no);
+    if (!removed)
+        co_return refuse("ports " + source + " and " + destination + " are not connected", ReplyCode::no);
     notify_space();
-    nlohmann::json body7 = {{"op", "remove_connection"}, {"source", source}, {"destination", destination}, {"forget", true}};
+    nlohmann::json body7 = {
+        {"op", "remove_connection"}, {"source", source}, {"destination", destination}, {"forget", true}};
     co_await names_->request(body7);
     spdlog::info("disconnected {} -> {}", source, destination);
     co_return ok();
@@ -242,29 +283,36 @@ Task<proto::Reply> Daemon::disconnect(const proto::Request& request) {
 
 Task<proto::Reply> Daemon::stats(const proto::Request& request) {
     const std::string port = text(request.body, "port");
-    if (!port.empty() && !router_.find(port)) co_return co_await forward(request, port);
+    if (!port.empty() && !router_.find(port))
+        co_return co_await forward(request, port);
     co_return ok(stats_json(port));
 }
 
 Task<proto::Reply> Daemon::ping(const proto::Request& request) {
     const std::string port = text(request.body, "port");
-    if (port.empty() || router_.find(port)) co_return ok({{"node", config_.node}, {"address", address()}});
+    if (port.empty() || router_.find(port))
+        co_return ok({{"node", config_.node}, {"address", address()}});
     co_return co_await forward(request, port);
 }
 
 Task<proto::Reply> Daemon::forward(const proto::Request& request, const std::string& port) {
-    if (request.body.value("forwarded", false)) co_return refuse("port " + port + " is not on node '" + config_.node + "'");
+    if (request.body.value("forwarded", false))
+        co_return refuse("port " + port + " is not on node '" + config_.node + "'");
     nlohmann::json body8 = {{"op", "lookup"}, {"port", port}};
     auto found = co_await names_->request(body8);
-    if (!found) co_return refuse(found.error().message);
-    if (found->code != ReplyCode::ok) co_return refuse("port " + port + " does not exist");
+    if (!found)
+        co_return refuse(found.error().message);
+    if (found->code != ReplyCode::ok)
+        co_return refuse("port " + port + " does not exist");
     const std::string where = text(found->body, "address");
     auto endpoint = proto::parse_endpoint(where);
-    if (!endpoint) co_return refuse("the name server gave a bad address for " + port + ": " + where);
+    if (!endpoint)
+        co_return refuse("the name server gave a bad address for " + port + ": " + where);
     const proto::Hello hello = our_hello("daemon");
     auto peer = co_await Peer::connect(io_.get_executor(), *endpoint, hello, config_.max_frame, peer_timeout,
                                        std::function<void()>{});
-    if (!peer) co_return refuse("cannot reach the daemon of " + port + ": " + peer.error().message);
+    if (!peer)
+        co_return refuse("cannot reach the daemon of " + port + ": " + peer.error().message);
     auto body = request.body;
     body["forwarded"] = true;
     auto reply = co_await (*peer)->request(body, peer_timeout);
@@ -287,7 +335,8 @@ Task<void> Daemon::restore_persistent(nlohmann::json persistent) {
                          request.body["destination"].get<std::string>());
         } else {
             spdlog::debug("persistent connection {} -> {} not restored yet: {}",
-                          request.body["source"].get<std::string>(), request.body["destination"].get<std::string>(),
+                          request.body["source"].get<std::string>(),
+                          request.body["destination"].get<std::string>(),
                           reply.body.value("error", std::string{}));
         }
     }
@@ -296,16 +345,19 @@ Task<void> Daemon::restore_persistent(nlohmann::json persistent) {
 nlohmann::json Daemon::stats_json(const std::string& only_port) const {
     nlohmann::json ports = nlohmann::json::array();
     for (const auto& [name, port] : router_.ports()) {
-        if (!only_port.empty() && name != only_port) continue;
+        if (!only_port.empty() && name != only_port)
+            continue;
         nlohmann::json connections = nlohmann::json::array();
         for (const auto& c : port->outgoing) {
             nlohmann::json entry{{"destination", c->destination}, {"carrier", c->carrier}, {"sent", c->sent}};
-            if (c->remote) entry["queued"] = static_cast<const Link*>(c->sink.get())->queued();
+            if (c->remote)
+                entry["queued"] = static_cast<const Link*>(c->sink.get())->queued();
             connections.push_back(entry);
         }
         nlohmann::json inbound = nlohmann::json::array();
         for (const auto& link : port->inbound) {
-            inbound.push_back({{"source", link->source}, {"carrier", link->carrier}, {"received", link->received}});
+            inbound.push_back(
+                {{"source", link->source}, {"carrier", link->carrier}, {"received", link->received}});
         }
         const auto& queue = port->queue();
         ports.push_back({{"name", name},

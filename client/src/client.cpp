@@ -10,12 +10,14 @@ namespace plexus {
 namespace {
 
 [[noreturn]] void throw_reply(const proto::Reply& reply) {
-    const auto code = static_cast<ErrorCode>(std::clamp<std::uint32_t>(static_cast<std::uint32_t>(reply.code), 1, 4));
+    const auto code =
+        static_cast<ErrorCode>(std::clamp<std::uint32_t>(static_cast<std::uint32_t>(reply.code), 1, 4));
     throw Error(code, reply.body.value("error", std::string("refused by plexusd")));
 }
 
 nlohmann::json checked(const proto::Reply& reply) {
-    if (reply.code != proto::ReplyCode::ok) throw_reply(reply);
+    if (reply.code != proto::ReplyCode::ok)
+        throw_reply(reply);
     return reply.body;
 }
 
@@ -56,7 +58,8 @@ Port::~Port() {
 }
 
 void Port::write(const Value& value, bool flush) {
-    if (!connection_) throw Error(ErrorCode::usage, "port " + name_ + " is closed");
+    if (!connection_)
+        throw Error(ErrorCode::usage, "port " + name_ + " is closed");
     thread_local proto::Bytes payload;
     payload.clear();
     nlohmann::json::to_cbor(value, payload);
@@ -64,22 +67,29 @@ void Port::write(const Value& value, bool flush) {
 }
 
 void Port::flush() {
-    if (connection_) connection_->flush();
+    if (connection_)
+        connection_->flush();
 }
 
 std::optional<Received> Port::read(std::chrono::milliseconds timeout) {
-    if (!connection_) throw Error(ErrorCode::usage, "port " + name_ + " is closed");
+    if (!connection_)
+        throw Error(ErrorCode::usage, "port " + name_ + " is closed");
     auto record = connection_->read(handle_, detail::Clock::now() + timeout);
-    if (!record) return std::nullopt;
+    if (!record)
+        return std::nullopt;
     auto view = proto::decode_record(*record);
-    if (!view) throw Error(ErrorCode::refused, "bad message record: " + view.error().message);
+    if (!view)
+        throw Error(ErrorCode::refused, "bad message record: " + view.error().message);
     auto data = proto::decode_cbor(view->payload);
-    if (!data) throw Error(ErrorCode::refused, "bad payload from " + std::string(view->source) + ": " + data.error().message);
+    if (!data)
+        throw Error(ErrorCode::refused,
+                    "bad payload from " + std::string(view->source) + ": " + data.error().message);
     return Received{{std::string(view->source), view->seq, view->time_ns}, std::move(*data)};
 }
 
 void Port::close() {
-    if (!connection_) return;
+    if (!connection_)
+        return;
     auto connection = std::move(connection_);
     connection_ = nullptr;
     connection->flush();
@@ -93,7 +103,8 @@ Subscription::Subscription(Port& port, std::function<void(const Received&)> call
     : thread_([&port, callback = std::move(callback)](std::stop_token stop) {
           while (!stop.stop_requested()) {
               try {
-                  if (auto message = port.read(std::chrono::milliseconds(100))) callback(*message);
+                  if (auto message = port.read(std::chrono::milliseconds(100)))
+                      callback(*message);
               } catch (const Error&) {
                   return;  // the port or the connection closed
               }
@@ -113,7 +124,8 @@ Client::Client(Options options)
 std::optional<Value> Client::ask_names(const std::string& names_address, const Value& body) {
     auto connection = detail::Connection::to_tcp(names_address);
     auto reply = connection->request(body, std::chrono::milliseconds(10000));
-    if (reply.code == proto::ReplyCode::no) return std::nullopt;
+    if (reply.code == proto::ReplyCode::no)
+        return std::nullopt;
     return checked(reply);
 }
 
@@ -127,13 +139,14 @@ Port Client::open(const std::string& name, PortOptions options) {
     nlohmann::json body{{"op", "open"},
                         {"port", name},
                         {"policy", options.policy == QueuePolicy::strict ? "strict" : "latest"}};
-    if (options.capacity > 0) body["capacity"] = options.capacity;
+    if (options.capacity > 0)
+        body["capacity"] = options.capacity;
     auto reply = request(body);
     return Port(connection_, name, reply.at("handle").get<std::uint64_t>());
 }
 
-std::string Client::connect(const std::string& source, const std::string& destination, const std::string& carrier,
-                            bool persist) {
+std::string Client::connect(const std::string& source, const std::string& destination,
+                            const std::string& carrier, bool persist) {
     auto reply = request({{"op", "connect"},
                           {"source", source},
                           {"destination", destination},
@@ -146,16 +159,23 @@ void Client::disconnect(const std::string& source, const std::string& destinatio
     request({{"op", "disconnect"}, {"source", source}, {"destination", destination}});
 }
 
-Value Client::list() { return request({{"op", "list"}}); }
+Value Client::list() {
+    return request({{"op", "list"}});
+}
 
 std::optional<Value> Client::lookup(const std::string& port) {
     auto reply = connection_->request({{"op", "lookup"}, {"port", port}}, std::chrono::milliseconds(10000));
-    if (reply.code == proto::ReplyCode::no) return std::nullopt;
+    if (reply.code == proto::ReplyCode::no)
+        return std::nullopt;
     return checked(reply);
 }
 
-Value Client::stats(const std::string& port) { return request({{"op", "stats"}, {"port", port}}); }
+Value Client::stats(const std::string& port) {
+    return request({{"op", "stats"}, {"port", port}});
+}
 
-Value Client::ping(const std::string& port) { return request({{"op", "ping"}, {"port", port}}); }
+Value Client::ping(const std::string& port) {
+    return request({{"op", "ping"}, {"port", port}});
+}
 
 }  // namespace plexus

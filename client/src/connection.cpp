@@ -1,19 +1,19 @@
 #include "connection.hpp"
 
-#include <poll.h>
-#include <sys/socket.h>
 #include <netdb.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
+#include <poll.h>
+#include <sys/socket.h>
 #include <sys/un.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <cstring>
 
+#include "plexus/proto/endpoint.hpp"
 #include "plexus/proto/frame.hpp"
 #include "plexus/proto/hello.hpp"
-#include "plexus/proto/endpoint.hpp"
 #include "plexus/proto/message.hpp"
 
 namespace plexus::detail {
@@ -39,41 +39,49 @@ std::shared_ptr<Connection> Connection::to_daemon(const std::string& socket_path
     }
     std::memcpy(address.sun_path, socket_path.c_str(), socket_path.size() + 1);
     const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    if (fd < 0) throw Error(ErrorCode::refused, std::string("socket: ") + std::strerror(errno));
+    if (fd < 0)
+        throw Error(ErrorCode::refused, std::string("socket: ") + std::strerror(errno));
     if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) {
         const int error = errno;
         ::close(fd);
-        throw Error(ErrorCode::refused, "no plexusd is running at " + socket_path + " (" + std::strerror(error) +
-                                            "); start one with `plexusd --embedded-names`, or pass --socket / "
-                                            "set PLEXUS_SOCKET");
+        throw Error(ErrorCode::refused,
+                    "no plexusd is running at " + socket_path + " (" + std::strerror(error) +
+                        "); start one with `plexusd --embedded-names`, or pass --socket / "
+                        "set PLEXUS_SOCKET");
     }
     auto connection = std::make_shared<Connection>(fd, socket_path);
     // A wrong program on the socket is reported now rather than at the first real request.
     proto::Reply reply = connection->request({{"op", "node"}}, std::chrono::milliseconds(5000));
-    if (reply.code != proto::ReplyCode::ok) throw Error(ErrorCode::refused, "the program at " + socket_path + " is not plexusd");
+    if (reply.code != proto::ReplyCode::ok)
+        throw Error(ErrorCode::refused, "the program at " + socket_path + " is not plexusd");
     return connection;
 }
 
 std::shared_ptr<Connection> Connection::to_tcp(const std::string& address) {
     auto endpoint = proto::parse_endpoint(address);
-    if (!endpoint) throw Error(ErrorCode::usage, "bad address '" + address + "': " + endpoint.error().message);
+    if (!endpoint)
+        throw Error(ErrorCode::usage, "bad address '" + address + "': " + endpoint.error().message);
     addrinfo hints{};
     hints.ai_socktype = SOCK_STREAM;
     addrinfo* found = nullptr;
-    if (::getaddrinfo(endpoint->host.c_str(), std::to_string(endpoint->port).c_str(), &hints, &found) != 0 || !found) {
+    if (::getaddrinfo(endpoint->host.c_str(), std::to_string(endpoint->port).c_str(), &hints, &found) != 0 ||
+        !found) {
         throw Error(ErrorCode::refused, "cannot resolve " + address);
     }
     int fd = -1;
     int error = 0;
     for (addrinfo* a = found; a; a = a->ai_next) {
         fd = ::socket(a->ai_family, a->ai_socktype | SOCK_CLOEXEC, a->ai_protocol);
-        if (fd >= 0 && ::connect(fd, a->ai_addr, a->ai_addrlen) == 0) break;
+        if (fd >= 0 && ::connect(fd, a->ai_addr, a->ai_addrlen) == 0)
+            break;
         error = errno;
-        if (fd >= 0) ::close(fd);
+        if (fd >= 0)
+            ::close(fd);
         fd = -1;
     }
     ::freeaddrinfo(found);
-    if (fd < 0) throw Error(ErrorCode::refused, "cannot reach " + address + ": " + std::strerror(error));
+    if (fd < 0)
+        throw Error(ErrorCode::refused, "cannot reach " + address + ": " + std::strerror(error));
     const int one = 1;
     ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
     return std::make_shared<Connection>(fd, address);
@@ -85,17 +93,20 @@ Connection::~Connection() {
     } catch (...) {
         // Nothing to report to in a destructor; the daemon notices the close.
     }
-    if (fd_ >= 0) ::close(fd_);
+    if (fd_ >= 0)
+        ::close(fd_);
 }
 
 void Connection::throw_if_broken() const {
     std::lock_guard lock(state_mutex_);
-    if (!broken_.empty()) throw Error(ErrorCode::refused, broken_);
+    if (!broken_.empty())
+        throw Error(ErrorCode::refused, broken_);
 }
 
 void Connection::fail(const std::string& why) {
     std::lock_guard lock(state_mutex_);
-    if (broken_.empty()) broken_ = "connection to " + path_ + " lost: " + why;
+    if (broken_.empty())
+        broken_ = "connection to " + path_ + " lost: " + why;
     changed_.notify_all();
 }
 
@@ -104,7 +115,8 @@ void Connection::send_locked() {
     while (sent < out_.size()) {
         const ssize_t n = ::send(fd_, out_.data() + sent, out_.size() - sent, MSG_NOSIGNAL);
         if (n < 0) {
-            if (errno == EINTR) continue;
+            if (errno == EINTR)
+                continue;
             const std::string why = std::strerror(errno);
             out_.clear();
             fail(why);
@@ -119,16 +131,19 @@ void Connection::write(std::uint64_t handle, const std::string& source, std::uin
                        const proto::Bytes& payload, bool flush) {
     throw_if_broken();
     const auto now = std::chrono::system_clock::now().time_since_epoch();
-    const auto time_ns = static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(now).count());
+    const auto time_ns =
+        static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(now).count());
     std::lock_guard lock(send_mutex_);
     proto::append_data_frame_prefix(out_, handle, proto::record_size(source, seq, time_ns, payload.size()));
     proto::append_record(out_, source, seq, time_ns, payload);
-    if (flush || out_.size() >= flush_threshold) send_locked();
+    if (flush || out_.size() >= flush_threshold)
+        send_locked();
 }
 
 void Connection::flush() {
     std::lock_guard lock(send_mutex_);
-    if (!out_.empty()) send_locked();
+    if (!out_.empty())
+        send_locked();
 }
 
 proto::Reply Connection::request(nlohmann::json body, std::chrono::milliseconds timeout) {
@@ -145,17 +160,22 @@ proto::Reply Connection::request(nlohmann::json body, std::chrono::milliseconds 
         send_locked();
     }
     std::unique_lock lock(state_mutex_);
-    const bool answered = wait_until(lock, [&] { return replies_[id].has_value(); }, Clock::now() + timeout);
+    const bool answered = wait_until(
+        lock, [&] { return replies_[id].has_value(); }, Clock::now() + timeout);
     auto node = replies_.extract(id);
-    if (answered) return std::move(*node.mapped());
-    if (!broken_.empty()) throw Error(ErrorCode::refused, broken_);
+    if (answered)
+        return std::move(*node.mapped());
+    if (!broken_.empty())
+        throw Error(ErrorCode::refused, broken_);
     throw Error(ErrorCode::timeout, path_ + " did not answer in time");
 }
 
 std::optional<proto::Bytes> Connection::read(std::uint64_t handle, Clock::time_point deadline) {
     std::unique_lock lock(state_mutex_);
-    if (!wait_until(lock, [&] { return !inbox_[handle].empty(); }, deadline)) {
-        if (!broken_.empty()) throw Error(ErrorCode::refused, broken_);
+    if (!wait_until(
+            lock, [&] { return !inbox_[handle].empty(); }, deadline)) {
+        if (!broken_.empty())
+            throw Error(ErrorCode::refused, broken_);
         return std::nullopt;
     }
     auto& ready = inbox_[handle];
@@ -173,8 +193,10 @@ void Connection::forget(std::uint64_t handle) {
 template <typename Ready>
 bool Connection::wait_until(std::unique_lock<std::mutex>& lock, Ready ready, Clock::time_point deadline) {
     while (!ready()) {
-        if (!broken_.empty()) return false;
-        if (Clock::now() >= deadline) return false;
+        if (!broken_.empty())
+            return false;
+        if (Clock::now() >= deadline)
+            return false;
         if (reading_) {
             changed_.wait_until(lock, deadline);
             continue;
@@ -201,19 +223,23 @@ void Connection::receive(Clock::time_point deadline) {
     // system call counts. The timeout is only reset when it would overshoot the deadline by more
     // than a millisecond, or wake up far too early, so a loop of read(1s) sets it once.
     const auto left = std::chrono::duration_cast<std::chrono::microseconds>(deadline - Clock::now());
-    if (left.count() <= 0) return;
+    if (left.count() <= 0)
+        return;
     if (receive_timeout_ > left + std::chrono::milliseconds(1) || receive_timeout_ < left / 2) {
-        timeval tv{static_cast<time_t>(left.count() / 1000000), static_cast<suseconds_t>(left.count() % 1000000)};
+        timeval tv{static_cast<time_t>(left.count() / 1000000),
+                   static_cast<suseconds_t>(left.count() % 1000000)};
         ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
         receive_timeout_ = left;
     }
-    if (in_begin_ == in_end_) in_begin_ = in_end_ = 0;
+    if (in_begin_ == in_end_)
+        in_begin_ = in_end_ = 0;
     if (in_.size() - in_end_ < read_chunk / 4) {
         // Slide the unread part to the front, growing only when one frame needs more room.
         std::memmove(in_.data(), in_.data() + in_begin_, in_end_ - in_begin_);
         in_end_ -= in_begin_;
         in_begin_ = 0;
-        if (in_.size() - in_end_ < read_chunk / 4) in_.resize(in_.size() * 2);
+        if (in_.size() - in_end_ < read_chunk / 4)
+            in_.resize(in_.size() * 2);
     }
     const ssize_t n = ::recv(fd_, in_.data() + in_end_, in_.size() - in_end_, 0);
     if (n == 0) {
@@ -222,7 +248,8 @@ void Connection::receive(Clock::time_point deadline) {
     }
     if (n < 0) {
         // EAGAIN: the receive timeout passed; the caller re-checks its deadline.
-        if (errno != EINTR && errno != EAGAIN && errno != EWOULDBLOCK) fail(std::strerror(errno));
+        if (errno != EINTR && errno != EAGAIN && errno != EWOULDBLOCK)
+            fail(std::strerror(errno));
         return;
     }
     in_end_ += static_cast<std::size_t>(n);
@@ -253,7 +280,8 @@ void Connection::dispatch(proto::FrameType type, proto::ByteView fields) {
             return;
         case proto::FrameType::data: {
             auto data = proto::decode_data(fields);
-            if (!data) return fail("bad data frame: " + data.error().message);
+            if (!data)
+                return fail("bad data frame: " + data.error().message);
             std::lock_guard lock(state_mutex_);
             // Handles are never reused: keep data for any handle not closed, even one whose open
             // reply is still being processed, so nothing that arrives with the reply is lost.
@@ -264,10 +292,12 @@ void Connection::dispatch(proto::FrameType type, proto::ByteView fields) {
         }
         case proto::FrameType::reply: {
             auto reply = proto::decode_reply(fields);
-            if (!reply) return fail("bad reply: " + reply.error().message);
+            if (!reply)
+                return fail("bad reply: " + reply.error().message);
             std::lock_guard lock(state_mutex_);
             auto it = replies_.find(reply->id);
-            if (it != replies_.end()) it->second = std::move(*reply);
+            if (it != replies_.end())
+                it->second = std::move(*reply);
             return;
         }
         case proto::FrameType::error:

@@ -36,8 +36,8 @@ public:
     /// Sends a control request and waits for its reply; throws Error on timeout or a broken link.
     proto::Reply request(nlohmann::json body, std::chrono::milliseconds timeout);
     /// Queues a data frame for `handle` holding a record; sends when `flush` or the buffer is large.
-    void write(std::uint64_t handle, const std::string& source, std::uint64_t seq, const proto::Bytes& payload,
-               bool flush);
+    void write(std::uint64_t handle, const std::string& source, std::uint64_t seq,
+               const proto::Bytes& payload, bool flush);
     void flush();
     /// The next record delivered to `handle`, waiting until `deadline`.
     std::optional<proto::Bytes> read(std::uint64_t handle, Clock::time_point deadline);

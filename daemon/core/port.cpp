@@ -6,16 +6,19 @@ void Port::deliver(const Message& message) {
     ++received;
     const bool was_empty = queue_.empty();
     queue_.push(message);
-    if (was_empty && on_readable) on_readable();
+    if (was_empty && on_readable)
+        on_readable();
 }
 
 void Port::mark_closed() {
-    if (closed_) return;
+    if (closed_)
+        return;
     closed_ = true;
     on_readable = nullptr;
     auto callbacks = std::move(on_close);
     on_close.clear();
-    for (auto& callback : callbacks) callback();
+    for (auto& callback : callbacks)
+        callback();
 }
 
 }  // namespace plexus::daemon

@@ -3,8 +3,10 @@
 namespace plexus::daemon {
 
 std::optional<QueuePolicy> parse_queue_policy(std::string_view text) {
-    if (text == "strict") return QueuePolicy::strict;
-    if (text == "latest") return QueuePolicy::latest;
+    if (text == "strict")
+        return QueuePolicy::strict;
+    if (text == "latest")
+        return QueuePolicy::latest;
     return std::nullopt;
 }
 

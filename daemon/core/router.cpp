@@ -9,9 +9,12 @@ namespace plexus::daemon {
 proto::Result<std::shared_ptr<Port>> Router::open(const std::string& name, std::uint64_t owner,
                                                   QueuePolicy policy, std::size_t capacity,
                                                   std::size_t max_bytes) {
-    if (auto error = proto::port_name_error(name)) return proto::Error{*error};
-    if (capacity == 0) return proto::Error{"queue capacity must be at least 1"};
-    if (ports_.contains(name)) return proto::Error{"port " + name + " is already open on this daemon"};
+    if (auto error = proto::port_name_error(name))
+        return proto::Error{*error};
+    if (capacity == 0)
+        return proto::Error{"queue capacity must be at least 1"};
+    if (ports_.contains(name))
+        return proto::Error{"port " + name + " is already open on this daemon"};
     auto port = std::make_shared<Port>(name, owner, policy, capacity, max_bytes);
     ports_.emplace(name, port);
     return port;
@@ -20,7 +23,8 @@ proto::Result<std::shared_ptr<Port>> Router::open(const std::string& name, std::
 std::vector<std::shared_ptr<Connection>> Router::close(const std::string& name) {
     std::vector<std::shared_ptr<Connection>> removed;
     auto it = ports_.find(name);
-    if (it == ports_.end()) return removed;
+    if (it == ports_.end())
+        return removed;
     auto port = it->second;
     ports_.erase(it);
     for (auto& connection : port->outgoing) {
@@ -61,10 +65,12 @@ proto::Status Router::add(const std::shared_ptr<Port>& source, std::shared_ptr<C
 
 std::shared_ptr<Connection> Router::remove(const std::string& source, const std::string& destination) {
     auto port = find(source);
-    if (!port) return nullptr;
+    if (!port)
+        return nullptr;
     auto& out = port->outgoing;
     auto it = std::find_if(out.begin(), out.end(), [&](auto& c) { return c->destination == destination; });
-    if (it == out.end()) return nullptr;
+    if (it == out.end())
+        return nullptr;
     auto connection = *it;
     out.erase(it);
     connection->sink->close_after_flush();
@@ -73,10 +79,12 @@ std::shared_ptr<Connection> Router::remove(const std::string& source, const std:
 
 bool Router::remove(const std::shared_ptr<Connection>& connection) {
     auto port = find(connection->source);
-    if (!port) return false;
+    if (!port)
+        return false;
     auto& out = port->outgoing;
     auto it = std::find(out.begin(), out.end(), connection);
-    if (it == out.end()) return false;
+    if (it == out.end())
+        return false;
     out.erase(it);
     return true;
 }

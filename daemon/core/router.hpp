@@ -15,8 +15,8 @@ namespace plexus::daemon {
 class Router {
 public:
     /// Opens a port; refused if the name is invalid or already open here.
-    proto::Result<std::shared_ptr<Port>> open(const std::string& name, std::uint64_t owner, QueuePolicy policy,
-                                              std::size_t capacity,
+    proto::Result<std::shared_ptr<Port>> open(const std::string& name, std::uint64_t owner,
+                                              QueuePolicy policy, std::size_t capacity,
                                               std::size_t max_bytes = ReaderQueue::default_max_bytes);
     /// Closes a port: its outgoing connections flush and go; local connections into it go.
     /// Returns every connection removed (the caller unregisters them from the name server).

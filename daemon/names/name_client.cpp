@@ -20,11 +20,14 @@ NameClient::NameClient(asio::io_context& io, proto::Endpoint names, std::string 
       max_frame_(max_frame),
       state_changed_(io.get_executor()) {}
 
-void NameClient::start() { asio::co_spawn(io_, run(), asio::detached); }
+void NameClient::start() {
+    asio::co_spawn(io_, run(), asio::detached);
+}
 
 void NameClient::stop() {
     stopped_ = true;
-    if (peer_) peer_->close("daemon stopping");
+    if (peer_)
+        peer_->close("daemon stopping");
     state_changed_.notify();
 }
 
@@ -32,7 +35,8 @@ Task<bool> NameClient::wait_connected(std::chrono::steady_clock::duration timeou
     const auto deadline = std::chrono::steady_clock::now() + timeout;
     while (!connected() && !stopped_) {
         const auto now = std::chrono::steady_clock::now();
-        if (now >= deadline) break;
+        if (now >= deadline)
+            break;
         co_await state_changed_.wait_for(deadline - now);
     }
     co_return connected();
@@ -41,10 +45,12 @@ Task<bool> NameClient::wait_connected(std::chrono::steady_clock::duration timeou
 Task<proto::Result<proto::Reply>> NameClient::request(nlohmann::json body) {
     using Outcome = proto::Result<proto::Reply>;
     // Just started, or the name server just restarted: give the reconnect loop a moment.
-    if (!connected()) co_await wait_connected(reconnect_patience);
+    if (!connected())
+        co_await wait_connected(reconnect_patience);
     if (!connected()) {
-        co_return Outcome(proto::Error{"the name server at " + names_.text() +
-                                       " is not reachable (start plexus-names, or plexusd --embedded-names)"});
+        co_return Outcome(
+            proto::Error{"the name server at " + names_.text() +
+                         " is not reachable (start plexus-names, or plexusd --embedded-names)"});
     }
     auto peer = peer_;
     co_return co_await peer->request(std::move(body), request_timeout);
@@ -59,9 +65,11 @@ Task<void> NameClient::run() {
         hello_out.node = node_;
         auto connected_peer =
             co_await Peer::connect(io_.get_executor(), names_, hello_out, max_frame_, request_timeout);
-        if (stopped_) co_return;
+        if (stopped_)
+            co_return;
         if (!connected_peer) {
-            if (!warned) spdlog::warn("name server: {}; retrying", connected_peer.error().message);
+            if (!warned)
+                spdlog::warn("name server: {}; retrying", connected_peer.error().message);
             warned = true;
             asio::steady_timer timer(io_, delay);
             co_await timer.async_wait(use_nothrow);
@@ -71,11 +79,11 @@ Task<void> NameClient::run() {
         auto peer = *connected_peer;
         peer->set_description("name server " + names_.text());
         nlohmann::json body1 = {{"op", "register_node"}, {"node", node_}, {"address", address_}};
-        auto hello = co_await peer->request(body1,
-                                            request_timeout);
+        auto hello = co_await peer->request(body1, request_timeout);
         if (!hello || hello->code != proto::ReplyCode::ok) {
             std::string why = hello.ok() ? std::string("refused") : hello.error().message;
-            if (hello.ok() && hello->body.contains("error")) why = hello->body["error"].get<std::string>();
+            if (hello.ok() && hello->body.contains("error"))
+                why = hello->body["error"].get<std::string>();
             spdlog::error("name server refused this daemon: {}", why);
             peer->close("refused");
             asio::steady_timer timer(io_, longest_retry);
@@ -83,7 +91,8 @@ Task<void> NameClient::run() {
             continue;
         }
         std::vector<std::string> ports;
-        if (ports_to_register) ports = ports_to_register();
+        if (ports_to_register)
+            ports = ports_to_register();
         for (const auto& port : ports) {
             nlohmann::json body2 = {{"op", "register_port"}, {"port", port}};
             auto reply = co_await peer->request(body2, request_timeout);
@@ -102,11 +111,13 @@ Task<void> NameClient::run() {
         state_changed_.notify();
         Signal closed(io_.get_executor());
         peer->closed_handler = [&closed](const std::string&) { closed.notify(); };
-        while (!peer->closed()) co_await closed.wait();
+        while (!peer->closed())
+            co_await closed.wait();
         peer->closed_handler = nullptr;
         registered_ = false;
         state_changed_.notify();
-        if (!stopped_) spdlog::warn("lost the name server at {}; reconnecting", names_.text());
+        if (!stopped_)
+            spdlog::warn("lost the name server at {}; reconnecting", names_.text());
     }
 }
 

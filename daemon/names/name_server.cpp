@@ -56,7 +56,9 @@ std::string text_field(const nlohmann::json& body, const char* key) {
 NameServer::NameServer(asio::io_context& io, NameServerConfig config)
     : io_(io), config_(std::move(config)), registry_(config_.grace), acceptor_(io), udp_(io) {}
 
-NameServer::~NameServer() { stop(); }
+NameServer::~NameServer() {
+    stop();
+}
 
 proto::Status NameServer::start() {
     if (!config_.state_file.empty() && std::filesystem::exists(config_.state_file)) {
@@ -76,18 +78,27 @@ proto::Status NameServer::start() {
     }
     boost::system::error_code ec;
     auto address = asio::ip::make_address(config_.listen.host, ec);
-    if (ec) return proto::Error{"name server address '" + config_.listen.host + "' is not an IP address"};
+    if (ec)
+        return proto::Error{"name server address '" + config_.listen.host + "' is not an IP address"};
     asio::ip::tcp::endpoint tcp_endpoint(address, config_.listen.port);
     acceptor_.open(tcp_endpoint.protocol(), ec);
-    if (!ec) acceptor_.set_option(asio::socket_base::reuse_address(true), ec);
-    if (!ec) acceptor_.bind(tcp_endpoint, ec);
-    if (!ec) acceptor_.listen(asio::socket_base::max_listen_connections, ec);
-    if (ec) return proto::Error{"name server cannot listen on TCP " + config_.listen.text() + ": " + ec.message()};
+    if (!ec)
+        acceptor_.set_option(asio::socket_base::reuse_address(true), ec);
+    if (!ec)
+        acceptor_.bind(tcp_endpoint, ec);
+    if (!ec)
+        acceptor_.listen(asio::socket_base::max_listen_connections, ec);
+    if (ec)
+        return proto::Error{"name server cannot listen on TCP " + config_.listen.text() + ": " +
+                            ec.message()};
     const auto bound_port = acceptor_.local_endpoint().port();
     asio::ip::udp::endpoint udp_endpoint(address, bound_port);
     udp_.open(udp_endpoint.protocol(), ec);
-    if (!ec) udp_.bind(udp_endpoint, ec);
-    if (ec) return proto::Error{"name server cannot listen on UDP port " + std::to_string(bound_port) + ": " + ec.message()};
+    if (!ec)
+        udp_.bind(udp_endpoint, ec);
+    if (ec)
+        return proto::Error{"name server cannot listen on UDP port " + std::to_string(bound_port) + ": " +
+                            ec.message()};
     asio::co_spawn(io_, accept_loop(), asio::detached);
     asio::co_spawn(io_, udp_loop(), asio::detached);
     spdlog::info("names: serving on {} (TCP and UDP)", endpoint().text());
@@ -95,7 +106,8 @@ proto::Status NameServer::start() {
 }
 
 void NameServer::stop() {
-    if (stopped_) return;
+    if (stopped_)
+        return;
     stopped_ = true;
     boost::system::error_code ignored;
     acceptor_.close(ignored);
@@ -112,7 +124,8 @@ Task<void> NameServer::accept_loop() {
     while (!stopped_) {
         auto [ec, socket] = co_await acceptor_.async_accept(use_nothrow);
         if (ec) {
-            if (stopped_ || ec == asio::error::operation_aborted) co_return;
+            if (stopped_ || ec == asio::error::operation_aborted)
+                co_return;
             spdlog::warn("names: accept failed: {}", ec.message());
             continue;
         }
@@ -132,7 +145,8 @@ Task<void> NameServer::udp_loop() {
         asio::ip::udp::endpoint from;
         auto [ec, n] = co_await udp_.async_receive_from(asio::buffer(buffer), from, use_nothrow);
         if (ec) {
-            if (stopped_ || ec == asio::error::operation_aborted) co_return;
+            if (stopped_ || ec == asio::error::operation_aborted)
+                co_return;
             continue;
         }
         auto decoded = decoder.decode({buffer.data(), n});
@@ -160,50 +174,64 @@ proto::Reply NameServer::answer(const proto::Request& request, std::uint64_t ses
         return handle(request, session);
     } catch (const std::exception& e) {
         // A field of the wrong JSON type: refuse the request, keep the session and the server.
-        return proto::make_refusal(request.id, ReplyCode::usage, std::string("malformed request: ") + e.what());
+        return proto::make_refusal(request.id, ReplyCode::usage,
+                                   std::string("malformed request: ") + e.what());
     }
 }
 
 proto::Reply NameServer::handle(const proto::Request& request, std::uint64_t session) {
     const auto& body = request.body;
     const std::string op = body["op"];
-    auto ok = [&](nlohmann::json out = nlohmann::json::object()) { return proto::Reply{request.id, ReplyCode::ok, out}; };
+    auto ok = [&](nlohmann::json out = nlohmann::json::object()) {
+        return proto::Reply{request.id, ReplyCode::ok, out};
+    };
     auto refuse = [&](const std::string& why, ReplyCode code = ReplyCode::refused) {
         return proto::make_refusal(request.id, code, why);
     };
-    auto status_reply = [&](const proto::Status& status) { return status ? ok() : refuse(status.error().message); };
+    auto status_reply = [&](const proto::Status& status) {
+        return status ? ok() : refuse(status.error().message);
+    };
 
-    if (op == "ping") return ok({{"names", endpoint().text()}});
+    if (op == "ping")
+        return ok({{"names", endpoint().text()}});
     if (op == "lookup") {
         auto entry = registry_.lookup(text_field(body, "port"));
-        if (!entry) return refuse("port " + text_field(body, "port") + " is not registered", ReplyCode::no);
+        if (!entry)
+            return refuse("port " + text_field(body, "port") + " is not registered", ReplyCode::no);
         return ok({{"port", entry->name}, {"node", entry->node}, {"address", entry->address}});
     }
-    if (op == "list") return ok(registry_.list());
-    if (session == 0) return refuse("'" + op + "' is not available over UDP; use TCP", ReplyCode::usage);
+    if (op == "list")
+        return ok(registry_.list());
+    if (session == 0)
+        return refuse("'" + op + "' is not available over UDP; use TCP", ReplyCode::usage);
 
     if (op == "register_node") {
         auto status = registry_.register_node(text_field(body, "node"), text_field(body, "address"), session);
-        if (status) spdlog::info("names: node '{}' at {}", text_field(body, "node"), text_field(body, "address"));
+        if (status)
+            spdlog::info("names: node '{}' at {}", text_field(body, "node"), text_field(body, "address"));
         return status_reply(status);
     }
     if (op == "register_port") {
         const std::string port = text_field(body, "port");
         auto status = registry_.register_port(port, session);
-        if (!status) return refuse(status.error().message);
+        if (!status)
+            return refuse(status.error().message);
         nlohmann::json persistent = nlohmann::json::array();
         for (const auto& c : registry_.persistent_for(port)) {
-            persistent.push_back({{"source", c.source}, {"destination", c.destination}, {"carrier", c.carrier}});
+            persistent.push_back(
+                {{"source", c.source}, {"destination", c.destination}, {"carrier", c.carrier}});
         }
         return ok({{"persistent", persistent}});
     }
-    if (op == "unregister_port") return status_reply(registry_.unregister_port(text_field(body, "port"), session));
+    if (op == "unregister_port")
+        return status_reply(registry_.unregister_port(text_field(body, "port"), session));
     if (op == "add_connection") {
         const bool persistent = body.value("persistent", false);
-        auto status = registry_.add_connection(
-            {text_field(body, "source"), text_field(body, "destination"), text_field(body, "carrier"), persistent},
-            session);
-        if (status && persistent) save_state();
+        auto status = registry_.add_connection({text_field(body, "source"), text_field(body, "destination"),
+                                                text_field(body, "carrier"), persistent},
+                                               session);
+        if (status && persistent)
+            save_state();
         return status_reply(status);
     }
     if (op == "remove_connection") {
@@ -211,13 +239,16 @@ proto::Reply NameServer::handle(const proto::Request& request, std::uint64_t ses
         if (!forget) {
             // A connection that merely went down stays known when it is persistent.
             for (const auto& c : registry_.persistent()) {
-                if (c.source == text_field(body, "source") && c.destination == text_field(body, "destination")) {
+                if (c.source == text_field(body, "source") &&
+                    c.destination == text_field(body, "destination")) {
                     return ok();
                 }
             }
         }
-        auto status = registry_.remove_connection(text_field(body, "source"), text_field(body, "destination"));
-        if (forget) save_state();
+        auto status =
+            registry_.remove_connection(text_field(body, "source"), text_field(body, "destination"));
+        if (forget)
+            save_state();
         return status_reply(status);
     }
     return refuse("unknown request '" + op + "'", ReplyCode::usage);
@@ -227,13 +258,16 @@ void NameServer::session_closed(std::uint64_t session) {
     registry_.session_closed(session, Clock::now());
     auto timer = std::make_shared<asio::steady_timer>(io_, config_.grace);
     timer->async_wait([this, timer](boost::system::error_code) {
-        if (stopped_) return;
-        for (const auto& name : registry_.expire(Clock::now())) spdlog::info("names: port {} expired", name);
+        if (stopped_)
+            return;
+        for (const auto& name : registry_.expire(Clock::now()))
+            spdlog::info("names: port {} expired", name);
     });
 }
 
 void NameServer::save_state() {
-    if (config_.state_file.empty()) return;
+    if (config_.state_file.empty())
+        return;
     nlohmann::json persistent = nlohmann::json::array();
     for (const auto& c : registry_.persistent()) {
         persistent.push_back({{"source", c.source}, {"destination", c.destination}, {"carrier", c.carrier}});
@@ -250,7 +284,8 @@ void NameServer::save_state() {
     }
     std::error_code ec;
     std::filesystem::rename(temporary, config_.state_file, ec);
-    if (ec) spdlog::error("names: cannot replace state file {}: {}", config_.state_file, ec.message());
+    if (ec)
+        spdlog::error("names: cannot replace state file {}: {}", config_.state_file, ec.message());
 }
 
 }  // namespace plexus::daemon::names

@@ -8,7 +8,8 @@ namespace plexus::daemon::names {
 
 proto::Status Registry::register_node(const std::string& node, const std::string& address,
                                       std::uint64_t session) {
-    if (node.empty()) return proto::Error{"node name is empty"};
+    if (node.empty())
+        return proto::Error{"node name is empty"};
     auto it = nodes_.find(node);
     if (it != nodes_.end() && it->second.session != 0 && it->second.session != session) {
         return proto::Error{"node '" + node + "' is already registered by a running daemon at " +
@@ -26,7 +27,8 @@ proto::Status Registry::register_node(const std::string& node, const std::string
 const Registry::Node* Registry::node_of_session(std::uint64_t session, std::string* name) const {
     for (const auto& [node_name, node] : nodes_) {
         if (node.session == session && session != 0) {
-            if (name) *name = node_name;
+            if (name)
+                *name = node_name;
             return &node;
         }
     }
@@ -34,10 +36,12 @@ const Registry::Node* Registry::node_of_session(std::uint64_t session, std::stri
 }
 
 proto::Status Registry::register_port(const std::string& name, std::uint64_t session) {
-    if (auto error = proto::port_name_error(name)) return proto::Error{*error};
+    if (auto error = proto::port_name_error(name))
+        return proto::Error{*error};
     std::string node_name;
     const Node* node = node_of_session(session, &node_name);
-    if (!node) return proto::Error{"register the node before its ports"};
+    if (!node)
+        return proto::Error{"register the node before its ports"};
     auto it = ports_.find(name);
     if (it != ports_.end() && it->second.node != node_name) {
         return proto::Error{"port " + name + " already exists on node '" + it->second.node + "'"};
@@ -48,10 +52,13 @@ proto::Status Registry::register_port(const std::string& name, std::uint64_t ses
 
 proto::Status Registry::unregister_port(const std::string& name, std::uint64_t session) {
     std::string node_name;
-    if (!node_of_session(session, &node_name)) return proto::Error{"register the node before its ports"};
+    if (!node_of_session(session, &node_name))
+        return proto::Error{"register the node before its ports"};
     auto it = ports_.find(name);
-    if (it == ports_.end()) return proto::Error{"port " + name + " is not registered"};
-    if (it->second.node != node_name) return proto::Error{"port " + name + " belongs to node '" + it->second.node + "'"};
+    if (it == ports_.end())
+        return proto::Error{"port " + name + " is not registered"};
+    if (it->second.node != node_name)
+        return proto::Error{"port " + name + " belongs to node '" + it->second.node + "'"};
     ports_.erase(it);
     std::erase_if(connections_, [&](const ConnectionEntry& c) {
         return !c.persistent && (c.source == name || c.destination == name);
@@ -61,12 +68,14 @@ proto::Status Registry::unregister_port(const std::string& name, std::uint64_t s
 
 std::optional<PortEntry> Registry::lookup(const std::string& name) const {
     auto it = ports_.find(name);
-    if (it == ports_.end()) return std::nullopt;
+    if (it == ports_.end())
+        return std::nullopt;
     return it->second;
 }
 
 proto::Status Registry::add_connection(ConnectionEntry entry, std::uint64_t session) {
-    if (!node_of_session(session, nullptr)) return proto::Error{"register the node before its connections"};
+    if (!node_of_session(session, nullptr))
+        return proto::Error{"register the node before its connections"};
     for (auto& existing : connections_) {
         if (existing.source == entry.source && existing.destination == entry.destination) {
             existing.carrier = entry.carrier;
@@ -80,16 +89,19 @@ proto::Status Registry::add_connection(ConnectionEntry entry, std::uint64_t sess
 
 proto::Status Registry::remove_connection(const std::string& source, const std::string& destination) {
     auto before = connections_.size();
-    std::erase_if(connections_,
-                  [&](const ConnectionEntry& c) { return c.source == source && c.destination == destination; });
-    if (connections_.size() == before) return proto::Error{"no connection " + source + " -> " + destination};
+    std::erase_if(connections_, [&](const ConnectionEntry& c) {
+        return c.source == source && c.destination == destination;
+    });
+    if (connections_.size() == before)
+        return proto::Error{"no connection " + source + " -> " + destination};
     return proto::Ok{};
 }
 
 std::vector<ConnectionEntry> Registry::persistent_for(const std::string& port) const {
     std::vector<ConnectionEntry> out;
     for (const auto& c : connections_) {
-        if (c.persistent && (c.source == port || c.destination == port)) out.push_back(c);
+        if (c.persistent && (c.source == port || c.destination == port))
+            out.push_back(c);
     }
     return out;
 }

@@ -13,7 +13,8 @@ constexpr std::size_t max_spare = 4;
 void FrameReader::make_room(std::size_t needed_total) {
     const std::size_t pending = end_ - begin_;
     const std::size_t want = std::max(needed_total, pending + 1);
-    if (chunk_ && chunk_->size - begin_ >= want) return;
+    if (chunk_ && chunk_->size - begin_ >= want)
+        return;
     if (chunk_ && chunk_.use_count() == 1 && chunk_->size >= want) {
         // Nobody else refers to this chunk: slide the partial frame to the front and reuse it.
         std::memmove(chunk_->data(), chunk_->data() + begin_, pending);
@@ -22,9 +23,11 @@ void FrameReader::make_room(std::size_t needed_total) {
         return;
     }
     auto fresh = take_chunk(std::max(chunk_size, want));
-    if (pending > 0) std::memcpy(fresh->data(), chunk_->data() + begin_, pending);
+    if (pending > 0)
+        std::memcpy(fresh->data(), chunk_->data() + begin_, pending);
     if (chunk_) {
-        if (spare_.size() >= max_spare) spare_.erase(spare_.begin());
+        if (spare_.size() >= max_spare)
+            spare_.erase(spare_.begin());
         spare_.push_back(std::move(chunk_));
     }
     chunk_ = std::move(fresh);
@@ -62,7 +65,8 @@ Task<ReadOutcome> FrameReader::next(Socket& socket) {
         auto [ec, n] = co_await socket.async_read_some(
             asio::buffer(chunk_->data() + end_, chunk_->size - end_), use_nothrow);
         if (ec) {
-            if (ec == asio::error::eof && begin_ == end_) co_return ReadOutcome{std::nullopt, true, false, {}};
+            if (ec == asio::error::eof && begin_ == end_)
+                co_return ReadOutcome{std::nullopt, true, false, {}};
             if (ec == asio::error::eof) {
                 co_return ReadOutcome{std::nullopt, false, true,
                                       "connection closed inside a frame (" + std::to_string(end_ - begin_) +

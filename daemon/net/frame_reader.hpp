@@ -20,7 +20,7 @@ struct InFrame {
 
 struct ReadOutcome {
     std::optional<InFrame> frame{};
-    bool clean_close = false;  ///< the peer closed between frames
+    bool clean_close = false;     ///< the peer closed between frames
     bool protocol_error = false;  ///< the peer broke the protocol: `error` says how
     std::string error;
 };

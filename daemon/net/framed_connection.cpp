@@ -25,18 +25,22 @@ FramedConnection::FramedConnection(Socket socket, std::size_t max_frame, std::fu
 void FramedConnection::start(const proto::Hello& mine) {
     send(proto::encode_hello(mine));
     auto self = shared_from_this();
-    asio::co_spawn(executor(), [self] { return self->read_loop(); }, asio::detached);
-    asio::co_spawn(executor(), [self] { return self->write_loop(); }, asio::detached);
+    asio::co_spawn(
+        executor(), [self] { return self->read_loop(); }, asio::detached);
+    asio::co_spawn(
+        executor(), [self] { return self->write_loop(); }, asio::detached);
 }
 
 void FramedConnection::send(proto::Bytes frame) {
-    if (closed_) return;
+    if (closed_)
+        return;
     outbox_.push_control(std::move(frame));
     wake_.notify();
 }
 
 void FramedConnection::close(const std::string& reason) {
-    if (closed_) return;
+    if (closed_)
+        return;
     closed_ = true;
     boost::system::error_code ignored;
     socket_.shutdown(Socket::shutdown_both, ignored);
@@ -47,22 +51,26 @@ void FramedConnection::close(const std::string& reason) {
 }
 
 void FramedConnection::close_when_drained() {
-    if (closed_ || draining_) return;
+    if (closed_ || draining_)
+        return;
     draining_ = true;
     wake_.notify();
     auto self = shared_from_this();
-    asio::co_spawn(executor(), [self] { return self->close_after(close_grace); }, asio::detached);
+    asio::co_spawn(
+        executor(), [self] { return self->close_after(close_grace); }, asio::detached);
 }
 
 void FramedConnection::fail(const std::string& reason) {
-    if (closed_) return;
+    if (closed_)
+        return;
     spdlog::warn("{}: {}", description_, reason);
     send(proto::make_error_frame(reason));
     close_when_drained();
 }
 
 bool FramedConnection::peer_hung_up() {
-    if (closed_) return true;
+    if (closed_)
+        return true;
     pollfd state{socket_.native_handle(), POLLRDHUP, 0};
     return ::poll(&state, 1, 0) > 0 && (state.revents & (POLLRDHUP | POLLHUP | POLLERR)) != 0;
 }
@@ -72,7 +80,8 @@ Task<bool> FramedConnection::wait_for_hello(std::chrono::steady_clock::duration 
     const auto deadline = std::chrono::steady_clock::now() + timeout;
     while (!peer_hello_ && !closed_) {
         const auto now = std::chrono::steady_clock::now();
-        if (now >= deadline) break;
+        if (now >= deadline)
+            break;
         co_await hello_signal_.wait_for(deadline - now);
     }
     co_return peer_hello_.has_value() && !closed_;
@@ -89,7 +98,8 @@ Task<void> FramedConnection::read_loop() {
     auto self = shared_from_this();
     while (!closed_) {
         ReadOutcome outcome = co_await reader_.next(socket_);
-        if (closed_) break;
+        if (closed_)
+            break;
         if (!outcome.frame) {
             if (outcome.protocol_error) {
                 fail(outcome.error);
@@ -101,7 +111,8 @@ Task<void> FramedConnection::read_loop() {
         InFrame& frame = *outcome.frame;
         if (!peer_hello_) {
             if (frame.type != proto::FrameType::hello) {
-                fail("expected a hello frame first, got " + proto::frame_type_name(static_cast<std::uint8_t>(frame.type)));
+                fail("expected a hello frame first, got " +
+                     proto::frame_type_name(static_cast<std::uint8_t>(frame.type)));
                 break;
             }
             auto hello = proto::decode_hello(frame.fields);
@@ -110,8 +121,9 @@ Task<void> FramedConnection::read_loop() {
                 break;
             }
             if (hello->version != proto::protocol_version) {
-                fail("protocol version " + std::to_string(hello->version) + " is not supported (this daemon speaks " +
-                     std::to_string(proto::protocol_version) + ")");
+                fail("protocol version " + std::to_string(hello->version) +
+                     " is not supported (this daemon speaks " + std::to_string(proto::protocol_version) +
+                     ")");
                 break;
             }
             if (auto accepted = on_hello(*hello); !accepted) {
@@ -126,7 +138,8 @@ Task<void> FramedConnection::read_loop() {
             close("peer reported an error: " + std::string(proto::as_string_view(frame.fields)));
             break;
         }
-        if (!co_await on_frame(std::move(frame))) break;
+        if (!co_await on_frame(std::move(frame)))
+            break;
     }
 }
 

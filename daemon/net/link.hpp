@@ -14,14 +14,16 @@ namespace plexus::daemon {
 class Link : public MessageSink {
 public:
     Link(std::shared_ptr<Peer> peer, std::size_t capacity, std::size_t max_bytes)
-        : peer_(std::move(peer)), queue_(std::make_shared<ReaderQueue>(QueuePolicy::strict, capacity, max_bytes)) {
+        : peer_(std::move(peer)),
+          queue_(std::make_shared<ReaderQueue>(QueuePolicy::strict, capacity, max_bytes)) {
         peer_->outbox().add_source({0, queue_.get(), nullptr, queue_});
     }
     bool full() const override { return queue_->full(); }
     void deliver(const Message& message) override {
         const bool was_empty = queue_->empty();
         queue_->push(message);
-        if (was_empty) peer_->wake();
+        if (was_empty)
+            peer_->wake();
     }
     void close_after_flush() override { peer_->close_when_drained(); }
     /// Messages still queued (lost if the link died).

@@ -26,8 +26,8 @@ void Outbox::remove_source(std::uint64_t handle) {
 }
 
 bool Outbox::empty() const {
-    return control_.empty() &&
-           std::none_of(sources_.begin(), sources_.end(), [](const OutSource& s) { return !s.queue->empty(); });
+    return control_.empty() && std::none_of(sources_.begin(), sources_.end(),
+                                            [](const OutSource& s) { return !s.queue->empty(); });
 }
 
 void Outbox::fill(Batch& batch, std::size_t budget) {
@@ -50,19 +50,23 @@ void Outbox::fill(Batch& batch, std::size_t budget) {
         progress = false;
         for (std::size_t step = 0; step < sources_.size(); ++step) {
             auto& source = sources_[(next_source_ + step) % sources_.size()];
-            if (source.queue->empty()) continue;
+            if (source.queue->empty())
+                continue;
             const bool was_full = source.queue->full();
             Message message = source.queue->pop();
-            if (source.sent_counter) ++*source.sent_counter;
+            if (source.sent_counter)
+                ++*source.sent_counter;
             const std::size_t offset = batch.prefixes.size();
             proto::append_data_frame_prefix(batch.prefixes, source.handle, message.record.size());
             pieces.push_back({Piece::prefix, offset, batch.prefixes.size() - offset});
             pieces.push_back({Piece::record, batch.messages.size(), message.record.size()});
             batch.bytes += batch.prefixes.size() - offset + message.record.size();
             batch.messages.push_back(std::move(message));
-            if (was_full && !source.queue->full() && on_space_) on_space_();
+            if (was_full && !source.queue->full() && on_space_)
+                on_space_();
             progress = true;
-            if (batch.bytes >= budget || pieces.size() + 2 > max_buffers) break;
+            if (batch.bytes >= budget || pieces.size() + 2 > max_buffers)
+                break;
         }
         next_source_ = sources_.empty() ? 0 : (next_source_ + 1) % sources_.size();
     }

@@ -15,26 +15,32 @@ Peer::Peer(Socket socket, std::size_t max_frame, std::function<void()> on_space,
     set_description(std::move(description));
 }
 
-Task<proto::Result<std::shared_ptr<Peer>>> Peer::connect(asio::any_io_executor executor, proto::Endpoint endpoint,
-                                                         proto::Hello mine, std::size_t max_frame,
-                                                         Duration timeout, std::function<void()> on_space) {
+Task<proto::Result<std::shared_ptr<Peer>>> Peer::connect(asio::any_io_executor executor,
+                                                         proto::Endpoint endpoint, proto::Hello mine,
+                                                         std::size_t max_frame, Duration timeout,
+                                                         std::function<void()> on_space) {
     using namespace asio::experimental::awaitable_operators;
     using Outcome = proto::Result<std::shared_ptr<Peer>>;
     const std::string where = endpoint.text();
     asio::ip::tcp::resolver resolver(executor);
     asio::steady_timer deadline(executor, timeout);
-    auto resolved = co_await (resolver.async_resolve(endpoint.host, std::to_string(endpoint.port), use_nothrow) ||
-                              deadline.async_wait(use_nothrow));
-    if (resolved.index() == 1) co_return Outcome(proto::Error{"timed out resolving " + where});
+    auto resolved =
+        co_await (resolver.async_resolve(endpoint.host, std::to_string(endpoint.port), use_nothrow) ||
+                  deadline.async_wait(use_nothrow));
+    if (resolved.index() == 1)
+        co_return Outcome(proto::Error{"timed out resolving " + where});
     auto [resolve_error, results] = std::get<0>(resolved);
-    if (resolve_error) co_return Outcome(proto::Error{"cannot resolve " + where + ": " + resolve_error.message()});
+    if (resolve_error)
+        co_return Outcome(proto::Error{"cannot resolve " + where + ": " + resolve_error.message()});
 
     asio::ip::tcp::socket tcp_socket(executor);
     auto connected =
         co_await (asio::async_connect(tcp_socket, results, use_nothrow) || deadline.async_wait(use_nothrow));
-    if (connected.index() == 1) co_return Outcome(proto::Error{"timed out connecting to " + where});
+    if (connected.index() == 1)
+        co_return Outcome(proto::Error{"timed out connecting to " + where});
     auto [connect_error, unused] = std::get<0>(connected);
-    if (connect_error) co_return Outcome(proto::Error{"cannot connect to " + where + ": " + connect_error.message()});
+    if (connect_error)
+        co_return Outcome(proto::Error{"cannot connect to " + where + ": " + connect_error.message()});
     tcp_socket.set_option(asio::ip::tcp::no_delay(true));
 
     auto peer = std::make_shared<Peer>(Socket(std::move(tcp_socket)), max_frame, std::move(on_space), where);
@@ -51,7 +57,8 @@ Task<proto::Result<std::shared_ptr<Peer>>> Peer::connect(asio::any_io_executor e
 Task<proto::Result<proto::Reply>> Peer::request(nlohmann::json body, Duration timeout) {
     using Outcome = proto::Result<proto::Reply>;
     auto self = shared_from_this();
-    if (closed()) co_return Outcome(proto::Error{description() + " is closed: " + closed_reason_});
+    if (closed())
+        co_return Outcome(proto::Error{description() + " is closed: " + closed_reason_});
     const std::uint64_t id = next_id_++;
     auto pending = std::make_shared<Pending>(executor());
     pending_.emplace(id, pending);
@@ -59,16 +66,21 @@ Task<proto::Result<proto::Reply>> Peer::request(nlohmann::json body, Duration ti
     const auto deadline = std::chrono::steady_clock::now() + timeout;
     while (!pending->reply && !closed()) {
         const auto now = std::chrono::steady_clock::now();
-        if (now >= deadline) break;
+        if (now >= deadline)
+            break;
         co_await pending->done.wait_for(deadline - now);
     }
     pending_.erase(id);
-    if (pending->reply) co_return Outcome(std::move(*pending->reply));
-    if (closed()) co_return Outcome(proto::Error{description() + " closed: " + closed_reason_});
+    if (pending->reply)
+        co_return Outcome(std::move(*pending->reply));
+    if (closed())
+        co_return Outcome(proto::Error{description() + " closed: " + closed_reason_});
     co_return Outcome(proto::Error{description() + " did not answer in time"});
 }
 
-proto::Status Peer::on_hello(const proto::Hello&) { return proto::Ok{}; }
+proto::Status Peer::on_hello(const proto::Hello&) {
+    return proto::Ok{};
+}
 
 Task<bool> Peer::on_frame(InFrame frame) {
     if (frame.type != proto::FrameType::reply) {
@@ -90,7 +102,8 @@ Task<bool> Peer::on_frame(InFrame frame) {
 
 void Peer::on_closed(const std::string& reason) {
     closed_reason_ = reason;
-    for (auto& [id, pending] : pending_) pending->done.notify();
+    for (auto& [id, pending] : pending_)
+        pending->done.notify();
     if (closed_handler) {
         auto handler = std::move(closed_handler);
         closed_handler = nullptr;

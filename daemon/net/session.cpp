@@ -39,8 +39,9 @@ Task<bool> Session::on_frame(InFrame frame) {
             }
             auto self = std::static_pointer_cast<Session>(shared_from_this());
             // Requests may wait on other daemons: serve each on its own coroutine so data keeps flowing.
-            asio::co_spawn(executor(), [self, r = std::move(*request)]() mutable { return self->serve(std::move(r)); },
-                           asio::detached);
+            asio::co_spawn(
+                executor(), [self, r = std::move(*request)]() mutable { return self->serve(std::move(r)); },
+                asio::detached);
             co_return true;
         }
         default:
@@ -58,7 +59,8 @@ Task<void> Session::serve(proto::Request request) {
         reply = co_await daemon_.handle(self, std::move(request));
     } catch (const std::exception& e) {
         // A malformed field (wrong JSON type) must not take the daemon down: refuse the request.
-        reply = proto::make_refusal(id, proto::ReplyCode::usage, std::string("malformed request: ") + e.what());
+        reply =
+            proto::make_refusal(id, proto::ReplyCode::usage, std::string("malformed request: ") + e.what());
     }
     reply.id = id;
     send(proto::encode_reply(reply));
@@ -82,12 +84,15 @@ Task<bool> Session::on_data(InFrame frame) {
         // so that TCP carries the back-pressure to the sending daemon.
         if (record->source != link_->source) {
             ++daemon_.counters().protocol_errors;
-            fail("message from port '" + std::string(record->source) + "' on the link attached for " + link_->source);
+            fail("message from port '" + std::string(record->source) + "' on the link attached for " +
+                 link_->source);
             co_return false;
         }
         auto port = link_port_;
-        while (port->full() && !port->closed() && !closed()) co_await wait_for_space();
-        if (port->closed() || closed()) co_return false;
+        while (port->full() && !port->closed() && !closed())
+            co_await wait_for_space();
+        if (port->closed() || closed())
+            co_return false;
         ++link_->received;
         port->deliver(Message{frame.storage, data->record, 0});
         co_return true;
@@ -101,11 +106,14 @@ Task<bool> Session::on_data(InFrame frame) {
     auto port = it->second;
     if (record->source != port->name()) {
         ++daemon_.counters().protocol_errors;
-        fail("message from port '" + std::string(record->source) + "' written on the handle of " + port->name());
+        fail("message from port '" + std::string(record->source) + "' written on the handle of " +
+             port->name());
         co_return false;
     }
-    while (Router::blocked(*port) && !port->closed() && !closed()) co_await wait_for_space();
-    if (port->closed() || closed()) co_return !closed();
+    while (Router::blocked(*port) && !port->closed() && !closed())
+        co_await wait_for_space();
+    if (port->closed() || closed())
+        co_return !closed();
     Router::route(*port, Message{frame.storage, data->record, record->seq});
     co_return true;
 }
@@ -114,8 +122,10 @@ Task<void> Session::wait_for_space() {
     // While held back this session does not read its socket, so a client that dies now would go
     // unnoticed: look for a hang-up every time the wait times out.
     constexpr auto hang_up_check = std::chrono::milliseconds(100);
-    if (co_await daemon_.space().wait_for(hang_up_check)) co_return;
-    if (peer_hung_up()) close("the peer went away while held back by a full reader");
+    if (co_await daemon_.space().wait_for(hang_up_check))
+        co_return;
+    if (peer_hung_up())
+        close("the peer went away while held back by a full reader");
 }
 
 void Session::on_closed(const std::string& reason) {

@@ -25,7 +25,8 @@ public:
     void notify() {
         auto handlers = std::move(handlers_);
         handlers_.clear();
-        for (auto& handler : handlers) asio::post(executor_, std::move(handler));
+        for (auto& handler : handlers)
+            asio::post(executor_, std::move(handler));
         for (auto* waiter : timed_) {
             waiter->notified = true;
             waiter->timer.cancel();

@@ -60,7 +60,7 @@ struct Frame {
 // The open arrays and maps, innermost last. The first few live inside the object, so a shallow value
 // (the usual message) costs no allocation for them; deeper ones spill to the heap.
 class FrameStack {
-  public:
+public:
     bool empty() const { return size_ == 0; }
     std::size_t size() const { return size_; }
     Frame& back() { return size_ <= inline_.size() ? inline_[size_ - 1] : heap_.back(); }
@@ -79,7 +79,7 @@ class FrameStack {
         --size_;
     }
 
-  private:
+private:
     // Left uninitialised on purpose: only slots below size_ are read, and clearing 16 frames
     // would cost a small message more than decoding one of its fields.
     std::array<Frame, 16> inline_;  // NOLINT(cppcoreguidelines-pro-type-member-init)
@@ -143,7 +143,7 @@ double half_to_double(std::uint64_t half) {
 // stack rather than the call stack: the depth limit is the caller's choice, and no choice of it
 // may let the input overflow the thread's stack.
 class Decoder {
-  public:
+public:
     Decoder(ByteView bytes, std::size_t max_depth)
         : data_(bytes.data()), size_(bytes.size()), max_depth_(max_depth) {}
 
@@ -197,7 +197,7 @@ class Decoder {
         return root;
     }
 
-  private:
+private:
     bool fail(std::string message) {
         error_ = std::move(message);
         return false;

@@ -4,8 +4,8 @@
 #include <signal.h>
 
 #include <atomic>
-#include <mutex>
 #include <fstream>
+#include <mutex>
 #include <sstream>
 #include <thread>
 
@@ -18,7 +18,8 @@ namespace {
 nlohmann::json port_stats(Client& client, const std::string& port) {
     auto stats = client.stats(port);
     for (const auto& p : stats["ports"]) {
-        if (p["name"] == port) return p;
+        if (p["name"] == port)
+            return p;
     }
     return nullptr;
 }
@@ -34,7 +35,8 @@ TEST(Flow_test, LatestPolicyNeverBlocksTheWriterAndCountsEveryDrop) {
     const std::string kilobyte(1024, 'x');
     constexpr int total = 50000;  // 50 MB: far more than any socket buffer holds
 
-    for (int i = 0; i < total; ++i) source.write(kilobyte, false);  // returns: the writer is never held
+    for (int i = 0; i < total; ++i)
+        source.write(kilobyte, false);  // returns: the writer is never held
     source.flush();
 
     // Everything written was either delivered to the reader's socket, dropped, or is still queued.
@@ -42,7 +44,8 @@ TEST(Flow_test, LatestPolicyNeverBlocksTheWriterAndCountsEveryDrop) {
     auto stats = port_stats(writing, "/slow");
     EXPECT_GT(stats["dropped_queue"].get<int>(), 0);
     EXPECT_LE(stats["depth"].get<int>(), 8);
-    EXPECT_EQ(stats["delivered"].get<int>() + stats["dropped_queue"].get<int>() + stats["depth"].get<int>(), total);
+    EXPECT_EQ(stats["delivered"].get<int>() + stats["dropped_queue"].get<int>() + stats["depth"].get<int>(),
+              total);
     // The reader then gets what was kept, newest last, with gaps where drops happened.
     std::uint64_t last_seq = 0;
     int read = 0;
@@ -69,7 +72,8 @@ TEST(Flow_test, StrictPolicyLosesNothingAndHoldsTheWriterBack) {
     Client observing({daemon.socket()});
     std::atomic<bool> done{false};
     std::thread writer([&] {
-        for (int i = 0; i < total; ++i) source.write(kilobyte, false);
+        for (int i = 0; i < total; ++i)
+            source.write(kilobyte, false);
         source.flush();
         done = true;
     });
@@ -96,7 +100,8 @@ TEST(Flow_test, AClientThatDiesMidWriteLosesItsPortsAndNobodyElseIsHurt) {
     Client reading({daemon.socket()});
     auto sink = reading.open("/sink", {QueuePolicy::strict, 4});
     std::ostringstream lines;
-    for (int i = 0; i < 200000; ++i) lines << "\"" << std::string(512, 'z') << i << "\"\n";
+    for (int i = 0; i < 200000; ++i)
+        lines << "\"" << std::string(512, 'z') << i << "\"\n";
     {
         std::ofstream input(dir.file("many.in"));
         input << lines.str();
@@ -136,7 +141,11 @@ TEST(Flow_test, ADaemonThatGoesAwayTakesItsPortsOffTheNameServer) {
     other->process().signal(SIGKILL);  // no orderly unregistering: the name server must notice
     ASSERT_TRUE(other->process().wait(10s).has_value());
 
-    EXPECT_TRUE(eventually([&] { return run_cli(dir, names_host, {"exists", "/leaving/port"}).status == 1; }, 20s));
+    EXPECT_TRUE(eventually(
+        [&] {
+            return run_cli(dir, names_host, {"exists", "/leaving/port"}).status == 1;
+        },
+        20s));
 }
 
 TEST(Flow_test, DaemonsRegisterAgainWhenTheNameServerRestarts) {
@@ -151,7 +160,11 @@ TEST(Flow_test, DaemonsRegisterAgainWhenTheNameServerRestarts) {
     ASSERT_TRUE(host.process().wait(10s).has_value());
     Process standalone({names_path(), "--listen", where}, {}, dir.file("names"));
 
-    EXPECT_TRUE(eventually([&] { return run_cli(dir, worker, {"exists", "/worker/in"}).status == 0; }, 20s))
+    EXPECT_TRUE(eventually(
+        [&] {
+            return run_cli(dir, worker, {"exists", "/worker/in"}).status == 0;
+        },
+        20s))
         << "the worker daemon should have registered /worker/in again";
 }
 

@@ -15,13 +15,20 @@
 
 namespace plexus::test {
 
-std::string plexusd_path() { return PLEXUSD_PATH; }
-std::string plexus_path() { return PLEXUS_CLI_PATH; }
-std::string names_path() { return PLEXUS_NAMES_PATH; }
+std::string plexusd_path() {
+    return PLEXUSD_PATH;
+}
+std::string plexus_path() {
+    return PLEXUS_CLI_PATH;
+}
+std::string names_path() {
+    return PLEXUS_NAMES_PATH;
+}
 
 TempDir::TempDir() {
     std::string pattern = (std::filesystem::temp_directory_path() / "plexus-test-XXXXXX").string();
-    if (!::mkdtemp(pattern.data())) throw std::runtime_error("mkdtemp failed");
+    if (!::mkdtemp(pattern.data()))
+        throw std::runtime_error("mkdtemp failed");
     path_ = pattern;
 }
 
@@ -34,7 +41,8 @@ bool eventually(const std::function<bool()>& condition, std::chrono::millisecond
     const auto deadline = std::chrono::steady_clock::now() + timeout;
     auto pause = std::chrono::milliseconds(1);
     while (std::chrono::steady_clock::now() < deadline) {
-        if (condition()) return true;
+        if (condition())
+            return true;
         std::this_thread::sleep_for(pause);  // polling interval, not a wait for an outcome
         pause = std::min(pause * 2, std::chrono::milliseconds(50));
     }
@@ -52,7 +60,8 @@ Process::Process(const std::vector<std::string>& argv, const std::map<std::strin
                  const std::string& log_prefix, const std::string& stdin_file)
     : out_path_(log_prefix + ".out"), err_path_(log_prefix + ".err") {
     pid_ = ::fork();
-    if (pid_ < 0) throw std::runtime_error("fork failed");
+    if (pid_ < 0)
+        throw std::runtime_error("fork failed");
     if (pid_ == 0) {
         ::setpgid(0, 0);
         const int in = ::open(stdin_file.empty() ? "/dev/null" : stdin_file.c_str(), O_RDONLY);
@@ -61,9 +70,11 @@ Process::Process(const std::vector<std::string>& argv, const std::map<std::strin
         ::dup2(in, 0);
         ::dup2(out, 1);
         ::dup2(err, 2);
-        for (const auto& [key, value] : env) ::setenv(key.c_str(), value.c_str(), 1);
+        for (const auto& [key, value] : env)
+            ::setenv(key.c_str(), value.c_str(), 1);
         std::vector<char*> args;
-        for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+        for (const auto& a : argv)
+            args.push_back(const_cast<char*>(a.c_str()));
         args.push_back(nullptr);
         ::execv(args[0], args.data());
         ::_exit(127);
@@ -76,7 +87,8 @@ Process::Process(Process&& other) noexcept
 }
 
 Process::~Process() {
-    if (pid_ <= 0 || status_) return;
+    if (pid_ <= 0 || status_)
+        return;
     ::kill(pid_, SIGTERM);
     if (!wait(5s)) {
         ::kill(pid_, SIGKILL);
@@ -85,33 +97,42 @@ Process::~Process() {
 }
 
 std::optional<int> Process::wait(std::chrono::milliseconds timeout) {
-    if (status_) return status_;
+    if (status_)
+        return status_;
     eventually(
         [&] {
             int raw = 0;
             const pid_t done = ::waitpid(pid_, &raw, WNOHANG);
-            if (done == pid_) status_ = WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + WTERMSIG(raw);
+            if (done == pid_)
+                status_ = WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + WTERMSIG(raw);
             return status_.has_value();
         },
         timeout);
     return status_;
 }
 
-bool Process::running() { return !wait(0ms).has_value(); }
-
-void Process::signal(int sig) {
-    if (!status_) ::kill(pid_, sig);
+bool Process::running() {
+    return !wait(0ms).has_value();
 }
 
-std::string Process::out() const { return read_file(out_path_); }
-std::string Process::err() const { return read_file(err_path_); }
+void Process::signal(int sig) {
+    if (!status_)
+        ::kill(pid_, sig);
+}
+
+std::string Process::out() const {
+    return read_file(out_path_);
+}
+std::string Process::err() const {
+    return read_file(err_path_);
+}
 
 Daemon::Daemon(const TempDir& dir, const std::string& node, const std::string& names,
                const std::vector<std::string>& extra)
     : socket_(dir.file(node + ".sock")) {
     const std::string ready = dir.file(node + ".ready");
-    std::vector<std::string> argv{plexusd_path(), "--node",     node,  "--socket",    socket_,
-                                  "--listen",     "127.0.0.1:0", "--ready-file", ready, "--log-level", "debug"};
+    std::vector<std::string> argv{plexusd_path(), "--node",       node,  "--socket",    socket_, "--listen",
+                                  "127.0.0.1:0",  "--ready-file", ready, "--log-level", "debug"};
     if (names.empty()) {
         argv.insert(argv.end(), {"--embedded-names", "--names", "127.0.0.1:0"});
     } else {
@@ -132,7 +153,8 @@ long Daemon::rss_kib() const {
     std::ifstream status("/proc/" + std::to_string(process_->pid()) + "/status");
     std::string line;
     while (std::getline(status, line)) {
-        if (line.rfind("VmRSS:", 0) == 0) return std::stol(line.substr(6));
+        if (line.rfind("VmRSS:", 0) == 0)
+            return std::stol(line.substr(6));
     }
     return -1;
 }
@@ -157,8 +179,8 @@ CliResult run_cli(const TempDir& dir, const Daemon& daemon, const std::vector<st
     return {status.value_or(-1), process.out(), process.err()};
 }
 
-std::unique_ptr<Process> start_cli(const TempDir& dir, const Daemon& daemon, const std::vector<std::string>& args,
-                                   const std::string& name) {
+std::unique_ptr<Process> start_cli(const TempDir& dir, const Daemon& daemon,
+                                   const std::vector<std::string>& args, const std::string& name) {
     std::vector<std::string> argv{plexus_path()};
     argv.insert(argv.end(), args.begin(), args.end());
     return std::make_unique<Process>(argv, daemon.env(), dir.file(name));

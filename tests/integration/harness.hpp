@@ -98,8 +98,8 @@ CliResult run_cli(const TempDir& dir, const Daemon& daemon, const std::vector<st
                   const std::string& input = "", std::chrono::milliseconds timeout = 60s);
 
 /// Starts `plexus args...` in the background (for readers).
-std::unique_ptr<Process> start_cli(const TempDir& dir, const Daemon& daemon, const std::vector<std::string>& args,
-                                   const std::string& name);
+std::unique_ptr<Process> start_cli(const TempDir& dir, const Daemon& daemon,
+                                   const std::vector<std::string>& args, const std::string& name);
 
 /// Polls until `plexus exists PORT` succeeds on that daemon's name server.
 bool wait_port(const TempDir& dir, const Daemon& daemon, const std::string& port);

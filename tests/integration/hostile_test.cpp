@@ -191,7 +191,7 @@ void PrintTo(End end, std::ostream* out) {
 }
 
 class Stream {
-  public:
+public:
     static Stream tcp(const std::string& host_port) {
         const sockaddr_in address = inet_address(host_port);
         Stream stream(::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0));
@@ -319,7 +319,7 @@ class Stream {
 
     End end() const { return end_; }
 
-  private:
+private:
     explicit Stream(int fd) : fd_(fd) {
         if (fd_ < 0)
             throw std::runtime_error(std::string("socket: ") + std::strerror(errno));
@@ -366,7 +366,7 @@ class Stream {
 // The name server's UDP port.
 
 class Datagrams {
-  public:
+public:
     explicit Datagrams(const std::string& host_port) : fd_(::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0)) {
         if (fd_ < 0)
             throw std::runtime_error(std::string("socket: ") + std::strerror(errno));
@@ -421,7 +421,7 @@ class Datagrams {
         return Frame{decoded.type, Bytes(decoded.fields.begin(), decoded.fields.end())};
     }
 
-  private:
+private:
     int fd_;
 };
 

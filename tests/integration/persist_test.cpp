@@ -11,7 +11,8 @@ namespace {
 
 bool connection_listed(const TempDir& dir, const Daemon& daemon, const std::string& state) {
     auto list = run_cli(dir, daemon, {"list", "--json"});
-    if (list.status != 0) return false;
+    if (list.status != 0)
+        return false;
     const auto listed = nlohmann::json::parse(list.out);  // named: a temporary would dangle in the loop
     for (const auto& c : listed["connections"]) {
         if (c["source"] == "/src" && c["destination"] == "/sink" && c["persistent"] == true &&
@@ -48,9 +49,9 @@ TEST(Persist_test, TheNameServerKeepsPersistentConnectionsAcrossARestart) {
     TempDir dir;
     const std::string state = dir.file("names.json");
     const std::string ready = dir.file("names.ready");
-    auto names = std::make_unique<Process>(
-        std::vector<std::string>{names_path(), "--listen", "127.0.0.1:0", "--state", state, "--ready-file", ready},
-        std::map<std::string, std::string>{}, dir.file("names1"));
+    auto names = std::make_unique<Process>(std::vector<std::string>{names_path(), "--listen", "127.0.0.1:0",
+                                                                    "--state", state, "--ready-file", ready},
+                                           std::map<std::string, std::string>{}, dir.file("names1"));
     ASSERT_TRUE(eventually([&] { return std::filesystem::exists(ready); }));
     const std::string where = nlohmann::json::parse(read_file(ready))["names"];
     {

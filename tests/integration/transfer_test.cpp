@@ -12,7 +12,8 @@ namespace {
 
 std::string numbered_lines(int n) {
     std::ostringstream out;
-    for (int i = 1; i <= n; ++i) out << i << '\n';
+    for (int i = 1; i <= n; ++i)
+        out << i << '\n';
     return out.str();
 }
 
@@ -35,7 +36,8 @@ TEST(Transfer_test, TenThousandMessagesOverTcpBetweenTwoDaemonsArriveInOrder) {
     TempDir dir;
     Daemon first(dir, "first");
     Daemon second(dir, "second", first.names());
-    auto reader = start_cli(dir, second, {"read", "/far/sink", "--count", "10000", "--timeout", "60"}, "reader");
+    auto reader =
+        start_cli(dir, second, {"read", "/far/sink", "--count", "10000", "--timeout", "60"}, "reader");
     ASSERT_TRUE(wait_port(dir, first, "/far/sink"));
 
     auto written = run_cli(dir, first, {"write", "/near/source", "/far/sink"}, numbered_lines(10000));
@@ -66,12 +68,22 @@ TEST(Transfer_test, JsonValuesArriveIdentical) {
     Daemon daemon(dir, "solo");
     const std::vector<std::string> values{
         R"({"nested":{"list":[1,-2,3.5,"four",null,true,false],"empty":{},"none":[]}})",
-        "-9223372036854775808", "18446744073709551615", "0.1", "1e+300", R"("text with \"quotes\" and ünïcödé")",
-        "null", "true", "false", R"([[[[]]]])", "plain words become a string"};
+        "-9223372036854775808",
+        "18446744073709551615",
+        "0.1",
+        "1e+300",
+        R"("text with \"quotes\" and ünïcödé")",
+        "null",
+        "true",
+        "false",
+        R"([[[[]]]])",
+        "plain words become a string"};
     std::string input;
-    for (const auto& v : values) input += v + "\n";
-    auto reader = start_cli(dir, daemon,
-                            {"read", "/sink", "--count", std::to_string(values.size()), "--timeout", "30"}, "reader");
+    for (const auto& v : values)
+        input += v + "\n";
+    auto reader =
+        start_cli(dir, daemon, {"read", "/sink", "--count", std::to_string(values.size()), "--timeout", "30"},
+                  "reader");
     ASSERT_TRUE(wait_port(dir, daemon, "/sink"));
 
     ASSERT_EQ(run_cli(dir, daemon, {"write", "/source", "/sink"}, input).status, 0);
@@ -82,7 +94,8 @@ TEST(Transfer_test, JsonValuesArriveIdentical) {
     for (const auto& v : values) {
         ASSERT_TRUE(std::getline(lines, line));
         auto expected = nlohmann::json::parse(v, nullptr, false);
-        if (expected.is_discarded()) expected = v;
+        if (expected.is_discarded())
+            expected = v;
         EXPECT_EQ(nlohmann::json::parse(line), expected) << "sent " << v << " got " << line;
     }
 }
@@ -93,7 +106,8 @@ TEST(Transfer_test, OneMebibyteBlobFromTheLibraryArrivesByteForByte) {
     Daemon second(dir, "second", first.names());
     std::vector<std::uint8_t> blob(1 << 20);
     std::mt19937 random(42);
-    for (auto& byte : blob) byte = static_cast<std::uint8_t>(random());
+    for (auto& byte : blob)
+        byte = static_cast<std::uint8_t>(random());
 
     Client receiving({second.socket()});
     auto sink = receiving.open("/blob/sink");

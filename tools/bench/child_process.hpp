@@ -17,7 +17,7 @@ bool poll_until(const std::function<bool()>& condition, std::chrono::millisecond
 
 /// A running child process with stdout and stderr sent to `log_path`; stopped on destruction.
 class ChildProcess {
-  public:
+public:
     ChildProcess(const std::vector<std::string>& argv, const std::string& log_path);
     ~ChildProcess();
     ChildProcess(const ChildProcess&) = delete;
@@ -29,7 +29,7 @@ class ChildProcess {
     /// The last lines of its log, for error messages.
     std::string log_tail() const;
 
-  private:
+private:
     pid_t pid_ = -1;
     bool reaped_ = false;
     std::string log_path_;
@@ -37,14 +37,14 @@ class ChildProcess {
 
 /// A fresh directory under /tmp (short: Unix socket paths are limited to 107 bytes), removed afterwards.
 class TempDir {
-  public:
+public:
     TempDir();
     ~TempDir();
     TempDir(const TempDir&) = delete;
     TempDir& operator=(const TempDir&) = delete;
     std::string file(const std::string& name) const { return path_ + "/" + name; }
 
-  private:
+private:
     std::string path_;
 };
 

@@ -31,7 +31,7 @@ void check_payload(const FloorFrame& frame, std::size_t size) {
 }
 
 class FloorLatency : public Measurement {
-  public:
+public:
     FloorLatency(const Topology& topology, const Options& options)
         : pids_(topology.pids()),
           size_(options.size),
@@ -65,7 +65,7 @@ class FloorLatency : public Measurement {
         return summarize(samples, 2 * count_, size_, elapsed, cpu);
     }
 
-  private:
+private:
     double round_trip() {
         const auto sent = Clock::now();
         near_.write(seq_, now_ns(), payload_, true);
@@ -112,7 +112,7 @@ class FloorLatency : public Measurement {
 };
 
 class FloorThroughput : public Measurement {
-  public:
+public:
     FloorThroughput(const Topology& topology, const Options& options)
         : pids_(topology.pids()),
           size_(options.size),
@@ -131,7 +131,7 @@ class FloorThroughput : public Measurement {
         return summarize(latencies, count_, size_, last - start, cpu);
     }
 
-  private:
+private:
     struct Streamed {
         std::vector<double> latencies_us;
         Clock::time_point last;

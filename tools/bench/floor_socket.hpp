@@ -21,7 +21,7 @@ struct FloorFrame {
 };
 
 class FloorSocket {
-  public:
+public:
     /// Connects to a relay's Unix socket; reads give up (throw) after `read_timeout`.
     FloorSocket(const std::string& path, std::chrono::milliseconds read_timeout);
     ~FloorSocket();
@@ -34,7 +34,7 @@ class FloorSocket {
     /// The next frame; nullopt if none arrives within the read timeout; throws if the relay closed.
     std::optional<FloorFrame> read();
 
-  private:
+private:
     void send_all(std::span<const std::uint8_t> first, std::span<const std::uint8_t> second);
 
     int fd_ = -1;

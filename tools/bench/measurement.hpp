@@ -18,7 +18,7 @@ struct RunResult {
 
 /// A prepared scenario on one system (processes started, clients connected); run() measures once.
 class Measurement {
-  public:
+public:
     virtual ~Measurement() = default;
     virtual RunResult run() = 0;
 };

@@ -54,7 +54,7 @@ PortOptions queue(const Options& options) {
 }
 
 class PlexusLatency : public Measurement {
-  public:
+public:
     PlexusLatency(const Topology& topology, const Options& options)
         : pids_(topology.pids()),
           size_(options.size),
@@ -94,7 +94,7 @@ class PlexusLatency : public Measurement {
         return summarize(samples, 2 * count_, size_, elapsed, cpu);
     }
 
-  private:
+private:
     /// One ping and its echo; returns half the round trip in microseconds.
     double round_trip() {
         const auto sent = Clock::now();
@@ -142,7 +142,7 @@ class PlexusLatency : public Measurement {
 };
 
 class PlexusThroughput : public Measurement {
-  public:
+public:
     PlexusThroughput(const Topology& topology, const Options& options)
         : pids_(topology.pids()),
           size_(options.size),
@@ -164,7 +164,7 @@ class PlexusThroughput : public Measurement {
         return summarize(latencies, count_, size_, last - start, cpu);
     }
 
-  private:
+private:
     struct Streamed {
         std::vector<double> latencies_us;
         Clock::time_point last;

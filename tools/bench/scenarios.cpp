@@ -31,7 +31,7 @@ void on_deadline(int /*signal*/) {
 
 /// Arms the deadline for the duration of one run.
 class RunDeadline {
-  public:
+public:
     RunDeadline() {
         ::signal(SIGALRM, on_deadline);
         ::alarm(run_deadline_s);

@@ -13,7 +13,7 @@
 namespace plexus::bench {
 
 class Topology {
-  public:
+public:
     /// One plexusd with its embedded name server; with hops == 2 a second one that uses it.
     static std::unique_ptr<Topology> plexus(const TempDir& dir, const std::string& plexusd, int hops);
     /// One relay (this program's hidden `relay` command); with hops == 2 two, linked by tcp.
@@ -26,7 +26,7 @@ class Topology {
     /// The broker processes (daemons or relays), whose CPU time is the cost being measured.
     std::vector<pid_t> pids() const;
 
-  private:
+private:
     Topology() = default;
     /// Starts a process and waits until its ready file parses as JSON; returns that JSON text.
     std::string start(const std::vector<std::string>& argv, const std::string& ready_file,

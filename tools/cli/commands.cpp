@@ -17,15 +17,19 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-plexus::Client make_client(const Common& common) { return plexus::Client({common.socket}); }
+plexus::Client make_client(const Common& common) {
+    return plexus::Client({common.socket});
+}
 
 void require_port_name(const std::string& name) {
-    if (auto error = proto::port_name_error(name)) throw Error(ErrorCode::usage, *error);
+    if (auto error = proto::port_name_error(name))
+        throw Error(ErrorCode::usage, *error);
 }
 
 /// True when stdin has nothing more to read right now: the moment to send what is buffered.
 bool stdin_idle() {
-    if (std::cin.rdbuf()->in_avail() > 0) return false;
+    if (std::cin.rdbuf()->in_avail() > 0)
+        return false;
     pollfd in{STDIN_FILENO, POLLIN, 0};
     return ::poll(&in, 1, 0) == 0;
 }
@@ -44,15 +48,16 @@ int list(const Common& common, bool json) {
     }
     std::cout << pad("PORT", 32) << pad("NODE", 16) << "ADDRESS\n";
     for (const auto& port : answer.value("ports", Value::array())) {
-        std::cout << pad(port.value("name", ""), 32) << pad(port.value("node", ""), 16) << port.value("address", "")
-                  << '\n';
+        std::cout << pad(port.value("name", ""), 32) << pad(port.value("node", ""), 16)
+                  << port.value("address", "") << '\n';
     }
     const auto connections = answer.value("connections", Value::array());
     if (!connections.empty()) {
         std::cout << '\n' << pad("CONNECTION", 48) << pad("CARRIER", 16) << "STATE\n";
         for (const auto& c : connections) {
             std::string state = c.value("live", false) ? "up" : "waiting";
-            if (c.value("persistent", false)) state += ", persistent";
+            if (c.value("persistent", false))
+                state += ", persistent";
             std::cout << pad(c.value("source", "") + " -> " + c.value("destination", ""), 48)
                       << pad(c.value("carrier", ""), 16) << state << '\n';
         }
@@ -80,15 +85,18 @@ int disconnect(const Common& common, const std::string& source, const std::strin
 
 int write(const Common& common, const std::string& port_name, const std::vector<std::string>& destinations) {
     require_port_name(port_name);
-    for (const auto& d : destinations) require_port_name(d);
+    for (const auto& d : destinations)
+        require_port_name(d);
     auto client = make_client(common);
     auto port = client.open(port_name);
-    for (const auto& destination : destinations) client.connect(port_name, destination);
+    for (const auto& destination : destinations)
+        client.connect(port_name, destination);
     std::ios::sync_with_stdio(false);
     std::string line;
     while (std::getline(std::cin, line)) {
         Value value = Value::parse(line, nullptr, false);
-        if (value.is_discarded()) value = line;
+        if (value.is_discarded())
+            value = line;
         // Batch while stdin has more ready; send as soon as it goes quiet (interactive use).
         port.write(value, stdin_idle());
     }
@@ -98,16 +106,19 @@ int write(const Common& common, const std::string& port_name, const std::vector<
 
 int read(const Common& common, const ReadOptions& options) {
     require_port_name(options.port);
-    if (!options.source.empty()) require_port_name(options.source);
+    if (!options.source.empty())
+        require_port_name(options.source);
     auto client = make_client(common);
     PortOptions port_options;
     port_options.policy = options.policy == "latest" ? QueuePolicy::latest : QueuePolicy::strict;
     port_options.capacity = options.capacity;
     auto port = client.open(options.port, port_options);
-    if (!options.source.empty()) client.connect(options.source, options.port, options.carrier);
-    const auto deadline = options.timeout ? Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                                                std::chrono::duration<double>(*options.timeout))
-                                          : Clock::time_point::max();
+    if (!options.source.empty())
+        client.connect(options.source, options.port, options.carrier);
+    const auto deadline = options.timeout
+                              ? Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                                   std::chrono::duration<double>(*options.timeout))
+                              : Clock::time_point::max();
     long received = 0;
     std::string out;
     while (!options.count || received < *options.count) {
@@ -122,7 +133,8 @@ int read(const Common& common, const ReadOptions& options) {
                               : std::chrono::duration_cast<std::chrono::milliseconds>(deadline - now) +
                                     std::chrono::milliseconds(1);
         auto message = port.read(std::min(wait, std::chrono::milliseconds(1000)));
-        if (!message) continue;
+        if (!message)
+            continue;
         ++received;
         if (options.envelope) {
             out = Value{{"from", message->envelope.source},
@@ -142,11 +154,13 @@ int read(const Common& common, const ReadOptions& options) {
 
 int exists(const Common& common, const std::string& port, const std::string& destination) {
     require_port_name(port);
-    if (destination.empty()) return Client::ask_names(common.names, {{"op", "lookup"}, {"port", port}}) ? 0 : 1;
+    if (destination.empty())
+        return Client::ask_names(common.names, {{"op", "lookup"}, {"port", port}}) ? 0 : 1;
     require_port_name(destination);
     auto answer = Client::ask_names(common.names, {{"op", "list"}}).value_or(Value::object());
     for (const auto& c : answer.value("connections", Value::array())) {
-        if (c.value("source", "") == port && c.value("destination", "") == destination && c.value("live", false)) {
+        if (c.value("source", "") == port && c.value("destination", "") == destination &&
+            c.value("live", false)) {
             return 0;
         }
     }
@@ -159,10 +173,12 @@ int wait(const Common& common, const std::string& port, double timeout) {
     auto pause = std::chrono::milliseconds(10);
     for (;;) {
         try {
-            if (Client::ask_names(common.names, {{"op", "lookup"}, {"port", port}})) return 0;
+            if (Client::ask_names(common.names, {{"op", "lookup"}, {"port", port}}))
+                return 0;
         } catch (const Error& e) {
             // The name server may not be up yet: waiting for it is part of waiting for the port.
-            if (e.code() == ErrorCode::usage) throw;
+            if (e.code() == ErrorCode::usage)
+                throw;
         }
         if (timeout > 0 && Clock::now() - start >= std::chrono::duration<double>(timeout)) {
             std::cerr << "plexus: " << port << " did not appear within " << timeout << " s\n";
@@ -185,13 +201,14 @@ int ping(const Common& common, const std::string& port, int count) {
     }
     std::sort(times.begin(), times.end());
     std::cout << port << " is on node '" << where.value("node", "?") << "' at " << where.value("address", "?")
-              << ": round trip min " << times.front() << " us, median " << times[times.size() / 2] << " us, max "
-              << times.back() << " us (" << count << " pings through the local daemon)\n";
+              << ": round trip min " << times.front() << " us, median " << times[times.size() / 2]
+              << " us, max " << times.back() << " us (" << count << " pings through the local daemon)\n";
     return 0;
 }
 
 int stats(const Common& common, const std::string& port, bool json) {
-    if (!port.empty()) require_port_name(port);
+    if (!port.empty())
+        require_port_name(port);
     auto client = make_client(common);
     auto answer = client.stats(port);
     if (json) {
@@ -199,12 +216,13 @@ int stats(const Common& common, const std::string& port, bool json) {
         return 0;
     }
     std::cout << "node '" << answer.value("node", "") << "' at " << answer.value("address", "") << '\n';
-    std::cout << pad("PORT", 28) << pad("POLICY", 14) << pad("DEPTH", 8) << pad("WRITTEN", 10) << pad("RECEIVED", 10)
-              << pad("DELIVERED", 10) << "DROPPED\n";
+    std::cout << pad("PORT", 28) << pad("POLICY", 14) << pad("DEPTH", 8) << pad("WRITTEN", 10)
+              << pad("RECEIVED", 10) << pad("DELIVERED", 10) << "DROPPED\n";
     for (const auto& p : answer.value("ports", Value::array())) {
         std::cout << pad(p.value("name", ""), 28)
                   << pad(p.value("policy", "") + "/" + std::to_string(p.value("capacity", 0)), 14)
-                  << pad(std::to_string(p.value("depth", 0)), 8) << pad(std::to_string(p.value("written", 0)), 10)
+                  << pad(std::to_string(p.value("depth", 0)), 8)
+                  << pad(std::to_string(p.value("written", 0)), 10)
                   << pad(std::to_string(p.value("received", 0)), 10)
                   << pad(std::to_string(p.value("delivered", 0)), 10) << p.value("dropped_queue", 0) << '\n';
         for (const auto& c : p.value("outgoing", Value::array())) {

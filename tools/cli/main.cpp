@@ -9,12 +9,15 @@
 
 int main(int argc, char** argv) {
     using namespace plexus::cli;
-    CLI::App app{"plexus: connect Plexus ports, read and write them, inspect the live system.\n"
-                 "Exit status: 0 success, 1 a \"no\" answer, 2 usage error, 3 timeout, 4 refused."};
+    CLI::App app{
+        "plexus: connect Plexus ports, read and write them, inspect the live system.\n"
+        "Exit status: 0 success, 1 a \"no\" answer, 2 usage error, 3 timeout, 4 refused."};
     app.require_subcommand(1);
     Common common{plexus::proto::default_names(), plexus::proto::default_socket()};
-    app.add_option("--names", common.names, "name server HOST:PORT (env PLEXUS_NAMES)")->capture_default_str();
-    app.add_option("--socket", common.socket, "local daemon socket (env PLEXUS_SOCKET)")->capture_default_str();
+    app.add_option("--names", common.names, "name server HOST:PORT (env PLEXUS_NAMES)")
+        ->capture_default_str();
+    app.add_option("--socket", common.socket, "local daemon socket (env PLEXUS_SOCKET)")
+        ->capture_default_str();
     int status = 0;
 
     bool json = false;
@@ -27,11 +30,13 @@ int main(int argc, char** argv) {
     std::string carrier;
     bool persist = false;
     bool strict = false;
-    auto* connect_cmd = app.add_subcommand("connect", "connect SRC to DST with a carrier (default: local or tcp)");
+    auto* connect_cmd =
+        app.add_subcommand("connect", "connect SRC to DST with a carrier (default: local or tcp)");
     connect_cmd->add_option("SRC", source, "source port")->required();
     connect_cmd->add_option("DST", destination, "destination port")->required();
     connect_cmd->add_option("CARRIER", carrier, "carrier string, e.g. tcp or local");
-    connect_cmd->add_flag("--persist", persist, "the name server remembers it and restores it when the ports return");
+    connect_cmd->add_flag("--persist", persist,
+                          "the name server remembers it and restores it when the ports return");
     connect_cmd->add_flag("--strict", strict, "fail instead of warning when arbitration rules overlap");
     connect_cmd->callback([&] { status = connect(common, source, destination, carrier, persist, strict); });
 
@@ -53,7 +58,8 @@ int main(int argc, char** argv) {
     read_cmd->add_option("PORT", read_options.port, "port to open and read")->required();
     read_cmd->add_option("SRC", read_options.source, "connect SRC -> PORT first");
     read_cmd->add_option("CARRIER", read_options.carrier, "carrier for that connection");
-    read_cmd->add_option("--count", read_options.count, "exit 0 after N messages")->check(CLI::PositiveNumber);
+    read_cmd->add_option("--count", read_options.count, "exit 0 after N messages")
+        ->check(CLI::PositiveNumber);
     read_cmd->add_option("--timeout", read_options.timeout, "exit 3 if not done after SEC seconds")
         ->check(CLI::NonNegativeNumber);
     read_cmd->add_flag("--envelope", read_options.envelope, R"(print {"from","seq","time","data"})");
@@ -63,7 +69,8 @@ int main(int argc, char** argv) {
     read_cmd->add_option("--queue", read_options.capacity, "reader queue length (default: the daemon's)");
     read_cmd->callback([&] { status = read(common, read_options); });
 
-    auto* exists_cmd = app.add_subcommand("exists", "exit 0 if PORT (or the connection SRC DST) exists, else 1");
+    auto* exists_cmd =
+        app.add_subcommand("exists", "exit 0 if PORT (or the connection SRC DST) exists, else 1");
     exists_cmd->add_option("PORT", port, "port, or source of a connection")->required();
     exists_cmd->add_option("DST", destination, "destination of a connection");
     exists_cmd->callback([&] { status = exists(common, port, destination); });
@@ -78,7 +85,9 @@ int main(int argc, char** argv) {
     int count = 3;
     auto* ping_cmd = app.add_subcommand("ping", "where PORT lives and how fast its daemon answers");
     ping_cmd->add_option("PORT", port, "port")->required();
-    ping_cmd->add_option("--count", count, "round trips to time")->check(CLI::PositiveNumber)->capture_default_str();
+    ping_cmd->add_option("--count", count, "round trips to time")
+        ->check(CLI::PositiveNumber)
+        ->capture_default_str();
     ping_cmd->callback([&] { status = ping(common, port, count); });
 
     auto* stats_cmd = app.add_subcommand("stats", "counters of the local daemon, or of PORT's daemon");

@@ -35,8 +35,8 @@ private:
 
 /// The envelope of a received message.
 struct Envelope {
-    std::string source;    ///< the port that wrote it
-    std::uint64_t seq = 0; ///< per-source sequence number, from 1
+    std::string source;         ///< the port that wrote it
+    std::uint64_t seq = 0;      ///< per-source sequence number, from 1
     std::uint64_t time_ns = 0;  ///< send time, ns since the Unix epoch
 };
 
@@ -126,8 +126,8 @@ public:
     Port open(const std::string& name, PortOptions options = {});
     /// Connects two ports (anywhere); carrier "" chooses local or tcp by where they live.
     /// Returns the carrier used.
-    std::string connect(const std::string& source, const std::string& destination, const std::string& carrier = "",
-                        bool persist = false);
+    std::string connect(const std::string& source, const std::string& destination,
+                        const std::string& carrier = "", bool persist = false);
     void disconnect(const std::string& source, const std::string& destination);
     /// Ports and connections, as the name server knows them: {"ports": [...], "connections": [...]}.
     Value list();

@@ -5,21 +5,26 @@
 namespace plexus::daemon {
 namespace {
 
-Message numbered(std::uint64_t seq) { return Message{nullptr, {}, seq}; }
+Message numbered(std::uint64_t seq) {
+    return Message{nullptr, {}, seq};
+}
 
 TEST(ReaderQueue_test, StrictQueueReportsFullAtCapacityAndNeverDrops) {
     ReaderQueue queue(QueuePolicy::strict, 3);
-    for (std::uint64_t i = 1; i <= 3; ++i) queue.push(numbered(i));
+    for (std::uint64_t i = 1; i <= 3; ++i)
+        queue.push(numbered(i));
     EXPECT_TRUE(queue.full());
     queue.push(numbered(4));  // past the bound, still kept: nothing promised is lost
     EXPECT_EQ(queue.depth(), 4u);
     EXPECT_EQ(queue.dropped(), 0u);
-    for (std::uint64_t i = 1; i <= 4; ++i) EXPECT_EQ(queue.pop().seq, i);
+    for (std::uint64_t i = 1; i <= 4; ++i)
+        EXPECT_EQ(queue.pop().seq, i);
 }
 
 TEST(ReaderQueue_test, LatestQueueKeepsTheNewestAndCountsDrops) {
     ReaderQueue queue(QueuePolicy::latest, 2);
-    for (std::uint64_t i = 1; i <= 5; ++i) queue.push(numbered(i));
+    for (std::uint64_t i = 1; i <= 5; ++i)
+        queue.push(numbered(i));
     EXPECT_FALSE(queue.full());
     EXPECT_EQ(queue.depth(), 2u);
     EXPECT_EQ(queue.dropped(), 3u);
@@ -62,7 +67,8 @@ TEST(ReaderQueue_test, AStrictQueueIsAlsoFullWhenItHoldsItsByteBound) {
 TEST(ReaderQueue_test, ALatestQueueDropsOldestToStayWithinItsByteBoundButKeepsTheNewest) {
     auto chunk = std::make_shared<Chunk>(1000);
     ReaderQueue queue(QueuePolicy::latest, 100, 2500);
-    for (std::uint64_t i = 1; i <= 4; ++i) queue.push(sized(i, chunk, 1000));
+    for (std::uint64_t i = 1; i <= 4; ++i)
+        queue.push(sized(i, chunk, 1000));
     EXPECT_EQ(queue.depth(), 2u);
     EXPECT_EQ(queue.dropped(), 2u);
     ReaderQueue tiny(QueuePolicy::latest, 100, 10);

@@ -5,7 +5,8 @@
 namespace plexus::daemon {
 namespace {
 
-std::shared_ptr<Connection> local_connection(const std::shared_ptr<Port>& from, const std::shared_ptr<Port>& to) {
+std::shared_ptr<Connection> local_connection(const std::shared_ptr<Port>& from,
+                                             const std::shared_ptr<Port>& to) {
     auto connection = std::make_shared<Connection>();
     connection->source = from->name();
     connection->destination = to->name();

@@ -31,7 +31,7 @@ struct Clause {
 };
 
 struct Carrier {
-    std::string base;  ///< "tcp", "udp", "mcast", "local"
+    std::string base;             ///< "tcp", "udp", "mcast", "local"
     std::vector<Clause> clauses;  ///< in the order written; send and recv interleaved as given
     /// The canonical text (what parse_carrier would read back to the same Carrier).
     std::string text() const;
@@ -55,7 +55,8 @@ struct CarrierSupport {
 
 /// Checks a parsed carrier against what the build supports. Errors name the part:
 /// "unknown carrier 'foo'", "unknown modifier 'recv.bogus'",
-/// "modifier 'recv.portmonitor' is not supported by this build", "carrier 'udp' is not supported by this build".
+/// "modifier 'recv.portmonitor' is not supported by this build", "carrier 'udp' is not supported by this
+/// build".
 Status validate_carrier(const Carrier& carrier, const CarrierSupport& support = {});
 
 }  // namespace plexus::proto

@@ -14,10 +14,10 @@ namespace plexus::proto {
 /// Reply codes. They match the CLI's exit statuses where a reply ends a command.
 enum class ReplyCode : std::uint32_t {
     ok = 0,
-    no = 1,        ///< a "no" answer (does not exist)
-    usage = 2,     ///< the request itself is malformed
+    no = 1,     ///< a "no" answer (does not exist)
+    usage = 2,  ///< the request itself is malformed
     timeout = 3,
-    refused = 4,   ///< refused by the system; body["error"] says why
+    refused = 4,  ///< refused by the system; body["error"] says why
 };
 
 struct Request {

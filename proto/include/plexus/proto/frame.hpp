@@ -28,11 +28,11 @@ enum class DecodeStatus { frame, need_more, bad };
 
 struct FrameDecode {
     DecodeStatus status;
-    FrameType type{};       ///< valid when status == frame
-    ByteView fields;        ///< the body after the type byte, a view into the input; when status == frame
-    std::size_t used = 0;   ///< bytes of the input this frame took; when status == frame
-    std::size_t needed = 0; ///< when need_more: total input size needed to make progress (at least input+1)
-    std::string error;      ///< when bad: why, e.g. "frame length 4294967296 exceeds limit 67108864"
+    FrameType type{};        ///< valid when status == frame
+    ByteView fields;         ///< the body after the type byte, a view into the input; when status == frame
+    std::size_t used = 0;    ///< bytes of the input this frame took; when status == frame
+    std::size_t needed = 0;  ///< when need_more: total input size needed to make progress (at least input+1)
+    std::string error;       ///< when bad: why, e.g. "frame length 4294967296 exceeds limit 67108864"
 };
 
 /// Decodes one frame from the start of a contiguous buffer; keeps no state between calls.

@@ -12,6 +12,8 @@ namespace plexus::proto {
 /// "port name \"a/b\" must start with '/'".
 std::optional<std::string> port_name_error(std::string_view name);
 
-inline bool is_valid_port_name(std::string_view name) { return !port_name_error(name); }
+inline bool is_valid_port_name(std::string_view name) {
+    return !port_name_error(name);
+}
 
 }  // namespace plexus::proto
