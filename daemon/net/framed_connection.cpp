@@ -97,7 +97,8 @@ Task<void> FramedConnection::close_after(std::chrono::steady_clock::duration gra
 Task<void> FramedConnection::read_loop() {
     auto self = shared_from_this();
     while (!closed_) {
-        ReadOutcome outcome = co_await reader_.next(socket_);
+        ReadOutcome outcome = reader_.try_next();
+        if (!outcome.frame && !outcome.protocol_error) outcome = co_await reader_.next(socket_);
         if (closed_)
             break;
         if (!outcome.frame) {
@@ -138,6 +139,11 @@ Task<void> FramedConnection::read_loop() {
             close("peer reported an error: " + std::string(proto::as_string_view(frame.fields)));
             break;
         }
+        const FrameAction action = on_frame_now(frame);
+        if (action == FrameAction::handled)
+            continue;
+        if (action == FrameAction::stop)
+            break;
         if (!co_await on_frame(std::move(frame)))
             break;
     }

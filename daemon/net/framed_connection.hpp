@@ -51,7 +51,11 @@ public:
 protected:
     /// Called for the peer's hello; an error refuses the peer (it is told why).
     virtual proto::Status on_hello(const proto::Hello& hello) = 0;
-    /// Called for every frame after the hello; return false to stop reading (after fail()).
+    enum class FrameAction { handled, stop, wait };
+    /// Called first for every frame after the hello, without a coroutine: handle it now, stop
+    /// reading (after fail() or close()), or `wait` to have on_frame() called, which may suspend.
+    virtual FrameAction on_frame_now(InFrame& frame) { return FrameAction::wait; }
+    /// Called for frames on_frame_now() left; return false to stop reading (after fail()).
     virtual Task<bool> on_frame(InFrame frame) = 0;
     /// Called once, after the connection closed for any reason.
     virtual void on_closed(const std::string& reason) = 0;

@@ -66,18 +66,18 @@ Task<void> Session::serve(proto::Request request) {
     send(proto::encode_reply(reply));
 }
 
-Task<bool> Session::on_data(InFrame frame) {
+Session::DataOutcome Session::try_deliver(const InFrame& frame) {
     auto data = proto::decode_data(frame.fields);
     if (!data) {
         ++daemon_.counters().protocol_errors;
         fail("bad data frame: " + data.error().message);
-        co_return false;
+        return DataOutcome::stop;
     }
     auto record = proto::decode_record(data->record);
     if (!record) {
         ++daemon_.counters().protocol_errors;
         fail("bad message record: " + record.error().message);
-        co_return false;
+        return DataOutcome::stop;
     }
     if (link_port_) {
         // The receiving end of a connection from another daemon: hold back while the reader is full,
@@ -86,36 +86,57 @@ Task<bool> Session::on_data(InFrame frame) {
             ++daemon_.counters().protocol_errors;
             fail("message from port '" + std::string(record->source) + "' on the link attached for " +
                  link_->source);
-            co_return false;
+            return DataOutcome::stop;
         }
-        auto port = link_port_;
-        while (port->full() && !port->closed() && !closed())
-            co_await wait_for_space();
-        if (port->closed() || closed())
-            co_return false;
+        if (link_port_->closed() || closed()) return DataOutcome::stop;
+        if (link_port_->full()) return DataOutcome::blocked;
         ++link_->received;
-        port->deliver(Message{frame.storage, data->record, 0});
-        co_return true;
+        link_port_->deliver(Message{frame.storage, data->record, 0});
+        return DataOutcome::delivered;
     }
     auto it = ports.find(data->handle);
-    if (it == ports.end()) {
+    if (it == ports.end() || it->second->closed()) {
         // The client may write while its close is in flight; count it rather than cut it off.
         ++daemon_.counters().dropped_unknown_port;
-        co_return true;
+        return DataOutcome::delivered;
     }
-    auto port = it->second;
-    if (record->source != port->name()) {
+    Port& port = *it->second;
+    if (record->source != port.name()) {
         ++daemon_.counters().protocol_errors;
-        fail("message from port '" + std::string(record->source) + "' written on the handle of " +
-             port->name());
-        co_return false;
+        fail("message from port '" + std::string(record->source) + "' written on the handle of " + port.name());
+        return DataOutcome::stop;
     }
-    while (Router::blocked(*port) && !port->closed() && !closed())
+    if (Router::blocked(port)) return DataOutcome::blocked;
+    Router::route(port, Message{frame.storage, data->record, record->seq});
+    return DataOutcome::delivered;
+}
+
+FramedConnection::FrameAction Session::on_frame_now(InFrame& frame) {
+    if (frame.type != proto::FrameType::data) return FrameAction::wait;
+    switch (try_deliver(frame)) {
+        case DataOutcome::delivered:
+            return FrameAction::handled;
+        case DataOutcome::stop:
+            return FrameAction::stop;
+        case DataOutcome::blocked:
+            break;
+    }
+    return FrameAction::wait;
+}
+
+Task<bool> Session::on_data(InFrame frame) {
+    for (;;) {
+        switch (try_deliver(frame)) {
+            case DataOutcome::delivered:
+                co_return true;
+            case DataOutcome::stop:
+                co_return false;
+            case DataOutcome::blocked:
+                break;
+        }
         co_await wait_for_space();
-    if (port->closed() || closed())
-        co_return !closed();
-    Router::route(*port, Message{frame.storage, data->record, record->seq});
-    co_return true;
+        if (closed()) co_return false;
+    }
 }
 
 Task<void> Session::wait_for_space() {

@@ -33,10 +33,15 @@ public:
 
 protected:
     proto::Status on_hello(const proto::Hello& hello) override;
+    FrameAction on_frame_now(InFrame& frame) override;
     Task<bool> on_frame(InFrame frame) override;
     void on_closed(const std::string& reason) override;
 
 private:
+    enum class DataOutcome { delivered, blocked, stop };
+    /// Routes a data frame now if nothing holds it back. Decoding twice when blocked is fine:
+    /// blocking is the slow path by definition.
+    DataOutcome try_deliver(const InFrame& frame);
     Task<bool> on_data(InFrame frame);
     Task<void> serve(proto::Request request);
     Task<void> wait_for_space();
