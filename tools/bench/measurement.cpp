@@ -1,5 +1,7 @@
 #include "measurement.hpp"
 
+#include "process_stats.hpp"
+
 #include <algorithm>
 #include <functional>
 #include <stdexcept>
@@ -50,6 +52,21 @@ RunResult median_of(const std::vector<RunResult>& runs) {
     };
     return {figure(&RunResult::p50_us), figure(&RunResult::p99_us), figure(&RunResult::msgs_per_s),
             figure(&RunResult::mb_per_s), figure(&RunResult::cpu_us_per_msg)};
+}
+
+RunResult time_round_trips(std::size_t count, std::size_t payload_size, const std::vector<pid_t>& broker_pids,
+                           const std::function<double()>& round_trip) {
+    for (std::size_t i = 0; i < std::min<std::size_t>(count / 10 + 1, 1000); ++i)
+        round_trip();
+    std::vector<double> samples;
+    samples.reserve(count);
+    const double cpu_before = cpu_seconds(broker_pids);
+    const auto start = std::chrono::steady_clock::now();
+    for (std::size_t i = 0; i < count; ++i)
+        samples.push_back(round_trip());
+    const auto elapsed = std::chrono::steady_clock::now() - start;
+    const double cpu = cpu_seconds(broker_pids) - cpu_before;
+    return summarize(samples, 2 * count, payload_size, elapsed, cpu);
 }
 
 }  // namespace plexus::bench

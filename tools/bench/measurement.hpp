@@ -1,8 +1,11 @@
 #pragma once
 // One measured run of one system, and how runs are summarized.
 
+#include <sys/types.h>
+
 #include <chrono>
 #include <cstddef>
+#include <functional>
 #include <vector>
 
 namespace plexus::bench {
@@ -27,6 +30,12 @@ public:
 /// the broker carried in `elapsed`, while its processes used `cpu_seconds`.
 RunResult summarize(std::vector<double>& latencies_us, std::size_t messages, std::size_t payload_size,
                     std::chrono::steady_clock::duration elapsed, double cpu_seconds);
+
+/// The ping-pong run shared by every system: a warm-up of count/10 (at most 1,000) round trips,
+/// then `count` timed ones, with the broker processes' CPU measured around them.
+/// `round_trip` returns half a round trip in microseconds.
+RunResult time_round_trips(std::size_t count, std::size_t payload_size, const std::vector<pid_t>& broker_pids,
+                           const std::function<double()>& round_trip);
 
 /// The median of each figure over several runs (each figure on its own).
 RunResult median_of(const std::vector<RunResult>& runs);

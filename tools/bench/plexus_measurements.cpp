@@ -81,17 +81,7 @@ public:
     }
 
     RunResult run() override {
-        for (std::size_t i = 0; i < std::min<std::size_t>(count_ / 10 + 1, 1000); ++i)
-            round_trip();
-        std::vector<double> samples;
-        samples.reserve(count_);
-        const double cpu_before = cpu_seconds(pids_);
-        const auto start = Clock::now();
-        for (std::size_t i = 0; i < count_; ++i)
-            samples.push_back(round_trip());
-        const auto elapsed = Clock::now() - start;
-        const double cpu = cpu_seconds(pids_) - cpu_before;
-        return summarize(samples, 2 * count_, size_, elapsed, cpu);
+        return time_round_trips(count_, size_, pids_, [this] { return round_trip(); });
     }
 
 private:
