@@ -47,14 +47,16 @@ std::shared_ptr<Chunk> FrameReader::take_chunk(std::size_t size) {
 }
 
 ReadOutcome FrameReader::try_next() {
-    if (!chunk_) return {};
+    if (!chunk_)
+        return {};
     auto decoded = decoder_.decode({chunk_->data() + begin_, end_ - begin_});
     if (decoded.status == proto::DecodeStatus::frame) {
         InFrame frame{decoded.type, decoded.fields, chunk_};
         begin_ += decoded.used;
         return ReadOutcome{std::move(frame), false, false, {}};
     }
-    if (decoded.status == proto::DecodeStatus::bad) return ReadOutcome{std::nullopt, false, true, decoded.error};
+    if (decoded.status == proto::DecodeStatus::bad)
+        return ReadOutcome{std::nullopt, false, true, decoded.error};
     return {};
 }
 

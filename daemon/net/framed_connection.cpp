@@ -98,7 +98,8 @@ Task<void> FramedConnection::read_loop() {
     auto self = shared_from_this();
     while (!closed_) {
         ReadOutcome outcome = reader_.try_next();
-        if (!outcome.frame && !outcome.protocol_error) outcome = co_await reader_.next(socket_);
+        if (!outcome.frame && !outcome.protocol_error)
+            outcome = co_await reader_.next(socket_);
         if (closed_)
             break;
         if (!outcome.frame) {

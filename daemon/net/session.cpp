@@ -88,8 +88,10 @@ Session::DataOutcome Session::try_deliver(const InFrame& frame) {
                  link_->source);
             return DataOutcome::stop;
         }
-        if (link_port_->closed() || closed()) return DataOutcome::stop;
-        if (link_port_->full()) return DataOutcome::blocked;
+        if (link_port_->closed() || closed())
+            return DataOutcome::stop;
+        if (link_port_->full())
+            return DataOutcome::blocked;
         ++link_->received;
         link_port_->deliver(Message{frame.storage, data->record, 0});
         return DataOutcome::delivered;
@@ -103,16 +105,19 @@ Session::DataOutcome Session::try_deliver(const InFrame& frame) {
     Port& port = *it->second;
     if (record->source != port.name()) {
         ++daemon_.counters().protocol_errors;
-        fail("message from port '" + std::string(record->source) + "' written on the handle of " + port.name());
+        fail("message from port '" + std::string(record->source) + "' written on the handle of " +
+             port.name());
         return DataOutcome::stop;
     }
-    if (Router::blocked(port)) return DataOutcome::blocked;
+    if (Router::blocked(port))
+        return DataOutcome::blocked;
     Router::route(port, Message{frame.storage, data->record, record->seq});
     return DataOutcome::delivered;
 }
 
 FramedConnection::FrameAction Session::on_frame_now(InFrame& frame) {
-    if (frame.type != proto::FrameType::data) return FrameAction::wait;
+    if (frame.type != proto::FrameType::data)
+        return FrameAction::wait;
     switch (try_deliver(frame)) {
         case DataOutcome::delivered:
             return FrameAction::handled;
@@ -135,7 +140,8 @@ Task<bool> Session::on_data(InFrame frame) {
                 break;
         }
         co_await wait_for_space();
-        if (closed()) co_return false;
+        if (closed())
+            co_return false;
     }
 }
 
