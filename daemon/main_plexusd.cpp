@@ -1,4 +1,5 @@
 // plexusd: the node daemon. Parses the command line and config, then runs the daemon.
+#include <malloc.h>
 #include <unistd.h>
 
 #include <fstream>
@@ -102,6 +103,11 @@ int main(int argc, char** argv) {
         std::cerr << "plexusd: " << e.what() << '\n';
         return 2;
     }
+    // Large frames come and go at a high rate: keep freed memory in the heap instead of returning it
+    // to the kernel (and page-faulting it back in on the next frame). Memory is still bounded by
+    // the queues' byte limits; what is kept is at most the peak in use.
+    ::mallopt(M_MMAP_THRESHOLD, static_cast<int>(config.max_frame + 4096));
+    ::mallopt(M_TRIM_THRESHOLD, 256 * 1024 * 1024);
     boost::asio::io_context io(1);
     plexus::daemon::Daemon daemon(io, config);
     return daemon.run();
