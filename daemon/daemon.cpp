@@ -8,6 +8,7 @@
 #include <spdlog/spdlog.h>
 
 #include "net/session.hpp"
+#include "script_host.hpp"
 
 namespace plexus::daemon {
 
@@ -21,9 +22,21 @@ Daemon::Daemon(asio::io_context& io, DaemonConfig config)
       space_(io.get_executor()),
       tcp_acceptor_(io),
       unix_acceptor_(io),
-      signals_(io, SIGINT, SIGTERM) {}
+      signals_(io, SIGINT, SIGTERM) {
+    scripts_ = std::make_unique<ScriptHost>(io_, *this);
+}
 
 Daemon::~Daemon() {
+    // Monitors call back into the script host when they go: let them go while it still exists,
+    // even those held by sessions that outlive the daemon.
+    for (const auto& [name, port] : router_.ports()) {
+        for (auto& connection : port->outgoing)
+            connection->send_chain.reset();
+        for (const auto& weak : port->inbound) {
+            if (auto inlet = weak.lock())
+                inlet->chain.reset();
+        }
+    }
     if (!config_.socket_path.empty() && unix_acceptor_.is_open()) {
         std::error_code ignored;
         std::filesystem::remove(config_.socket_path, ignored);
@@ -198,10 +211,34 @@ void Daemon::start_session(Socket socket, const std::string& description) {
 void Daemon::session_closed(Session& session) {
     sessions_.erase(session.id());
     if (session.is_link())
-        std::erase(session.link_port()->inbound, session.link());
+        std::erase_if(session.link_port()->inbound, [&](const std::weak_ptr<Inlet>& inlet) {
+            return inlet.expired() || inlet.lock() == session.link();
+        });
     for (auto& [handle, port] : session.ports)
         forget_port(port);
     session.ports.clear();
+}
+
+proto::Result<std::shared_ptr<Port>> Daemon::open_hosted_port(const std::string& name) {
+    // Nobody reads a hosted port itself (readers connect to it), so its own queue stays empty.
+    auto opened = router_.open(name, 0, QueuePolicy::latest, 1, config_.queue_bytes);
+    if (!opened)
+        return opened.error();
+    if (!names_)
+        return opened;
+    auto tell = [](names::NameClient* names, Daemon* daemon, std::shared_ptr<Port> port) -> Task<void> {
+        nlohmann::json body = {{"op", "register_port"}, {"port", port->name()}};
+        auto registered = co_await names->request(body);
+        if (!registered || registered->code != proto::ReplyCode::ok) {
+            spdlog::warn("port {} published by a monitor could not be registered: {}", port->name(),
+                         registered ? registered->body.value("error", std::string("refused"))
+                                    : registered.error().message);
+            if (!port->closed())
+                daemon->forget_port(port);
+        }
+    };
+    asio::co_spawn(io_, tell(names_.get(), this, *opened), asio::detached);
+    return opened;
 }
 
 void Daemon::forget_port(std::shared_ptr<Port> port) {

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/router.hpp"
+#include "monitor/monitor.hpp"
 #include "names/name_client.hpp"
 #include "names/name_server.hpp"
 #include "net/asio.hpp"
@@ -17,6 +18,7 @@
 namespace plexus::daemon {
 
 class Session;
+class ScriptHost;
 
 struct DaemonConfig {
     proto::Endpoint names{"127.0.0.1", 10100};
@@ -32,6 +34,7 @@ struct DaemonConfig {
     std::size_t link_capacity = 1024;     ///< messages queued towards another daemon per connection
     std::size_t queue_bytes = ReaderQueue::default_max_bytes;  ///< byte bound of every queue
     std::chrono::milliseconds names_grace{2000};
+    monitor::MonitorPolicy monitors;  ///< memory cap, time budget, quarantine of every port monitor
 };
 
 /// Daemon-wide counters that `plexus stats` shows.
@@ -64,6 +67,11 @@ public:
     Router& router() { return router_; }
     std::uint64_t next_session_id() { return next_session_++; }
 
+    // --- used by the script host ---
+    /// Opens a port that the daemon itself writes (a monitor's publish port) and registers it.
+    proto::Result<std::shared_ptr<Port>> open_hosted_port(const std::string& name);
+    void close_hosted_port(std::shared_ptr<Port> port) { forget_port(std::move(port)); }
+
 private:
     proto::Status bind();
     Task<void> accept_tcp();
@@ -76,10 +84,14 @@ private:
     Task<proto::Reply> close_port(std::shared_ptr<Session> session, const proto::Request& request);
     Task<proto::Reply> connect(const proto::Request& request);
     Task<proto::Reply> connect_remote(const proto::Request& request, std::shared_ptr<Port> source,
-                                      std::string destination, std::string carrier, std::string address);
+                                      std::string destination, std::string carrier, std::string address,
+                                      std::shared_ptr<monitor::MonitorChain> send_chain);
     Task<proto::Reply> disconnect(const proto::Request& request);
     Task<proto::Reply> attach(std::shared_ptr<Session> session, const proto::Request& request);
     Task<proto::Reply> stats(const proto::Request& request);
+    Task<proto::Reply> param(const proto::Request& request);
+    /// The recv half of `plexus param`: the monitors of the inlet source -> destination here.
+    Task<proto::Reply> param_recv(const proto::Request& request);
     Task<proto::Reply> ping(const proto::Request& request);
     Task<proto::Reply> ask_names(const proto::Request& request, nlohmann::json body);
     /// Sends the request to the daemon that hosts `port` and relays its reply.
@@ -96,6 +108,7 @@ private:
 
     asio::io_context& io_;
     DaemonConfig config_;
+    std::unique_ptr<ScriptHost> scripts_;  ///< before router_: monitors in connections die first
     Router router_;
     Signal space_;
     DaemonCounters counters_;

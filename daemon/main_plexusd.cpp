@@ -36,7 +36,8 @@ void apply_config_file(const std::string& path, plexus::daemon::DaemonConfig& co
     auto json = nlohmann::json::parse(in, nullptr, true, true);
     static const std::set<std::string> known{"max_frame",   "default_capacity", "link_capacity",
                                              "queue_bytes", "names_grace_ms",   "names_state",
-                                             "scripts",     "log_level"};
+                                             "scripts",     "log_level",        "monitor_memory_bytes",
+                                             "monitor_budget_ms", "monitor_quarantine_after"};
     for (const auto& [key, value] : json.items()) {
         if (!known.contains(key))
             throw std::runtime_error("config " + path + ": unknown key '" + key + "'");
@@ -49,6 +50,17 @@ void apply_config_file(const std::string& path, plexus::daemon::DaemonConfig& co
     config.names_state = json.value("names_state", config.names_state);
     for (const auto& dir : json.value("scripts", std::vector<std::string>{}))
         config.script_dirs.push_back(dir);
+    auto& monitors = config.monitors;
+    monitors.limits.memory_bytes = json.value("monitor_memory_bytes", monitors.limits.memory_bytes);
+    monitors.limits.budget =
+        std::chrono::milliseconds(json.value("monitor_budget_ms", monitors.limits.budget.count()));
+    monitors.quarantine_after = json.value("monitor_quarantine_after", monitors.quarantine_after);
+    if (monitors.limits.memory_bytes < 256 * 1024 || monitors.limits.budget.count() < 1 ||
+        monitors.quarantine_after < 1) {
+        throw std::runtime_error("config " + path +
+                                 ": monitor_memory_bytes must be at least 262144, monitor_budget_ms and "
+                                 "monitor_quarantine_after at least 1");
+    }
     if (json.contains("log_level"))
         spdlog::set_level(spdlog::level::from_str(json["log_level"].get<std::string>()));
 }
@@ -79,7 +91,8 @@ int main(int argc, char** argv) {
     app.add_option("--node", node, "this daemon's node name, unique among daemons")->capture_default_str();
     app.add_option("--scripts", config.script_dirs, "directory of monitor scripts (repeatable)");
     app.add_option("--config", config_file,
-                   "JSON config file (max_frame, default_capacity, link_capacity, ...)");
+                   "JSON config file (max_frame, default_capacity, link_capacity, monitor_memory_bytes, "
+                   "monitor_budget_ms, monitor_quarantine_after, ...)");
     app.add_option("--ready-file", config.ready_file,
                    "write a JSON line (node, address, socket, names, pid) here once serving and registered");
     app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();

@@ -4,6 +4,7 @@
 #include "daemon.hpp"
 #include "net/link.hpp"
 #include "net/session.hpp"
+#include "script_host.hpp"
 #include "plexus/proto/carrier.hpp"
 #include "plexus/proto/port_name.hpp"
 
@@ -49,6 +50,10 @@ Task<proto::Reply> Daemon::handle(std::shared_ptr<Session> session, proto::Reque
         co_return co_await disconnect(request);
     if (op == "stats")
         co_return co_await stats(request);
+    if (op == "param")
+        co_return co_await param(request);
+    if (op == "param_recv")
+        co_return co_await param_recv(request);
     if (op == "ping")
         co_return co_await ping(request);
     if (op == "node")
@@ -119,29 +124,43 @@ Task<proto::Reply> Daemon::connect(const proto::Request& request) {
             co_return refuse(*error, ReplyCode::usage);
     }
     bool automatic = carrier_text.empty();
+    proto::Carrier carrier;
     if (!automatic) {
-        auto carrier = proto::parse_carrier(carrier_text);
-        if (!carrier)
-            co_return refuse("bad carrier: " + carrier.error().message);
-        if (auto valid = proto::validate_carrier(*carrier); !valid)
+        auto parsed = proto::parse_carrier(carrier_text);
+        if (!parsed)
+            co_return refuse("bad carrier: " + parsed.error().message);
+        if (auto valid = proto::validate_carrier(*parsed); !valid)
             co_return refuse(valid.error().message);
-        carrier_text = carrier->text();
+        carrier = std::move(*parsed);
+        carrier_text = carrier.text();
     }
     auto port = router_.find(source);
     if (!port)
         co_return co_await forward(request, source);
+    // The send-side monitors run here whatever the destination; made first, so that a script
+    // that fails leaves nothing behind.
+    auto send_chain = scripts_->build_chain(carrier, proto::Side::send, source, destination);
+    if (!send_chain)
+        co_return refuse(send_chain.error().message);
 
     auto local_destination = router_.find(destination);
     const bool wants_tcp = !automatic && carrier_text.rfind("tcp", 0) == 0;
     const bool wants_local = !automatic && carrier_text.rfind("local", 0) == 0;
     if (local_destination && !wants_tcp) {
+        auto recv_chain = scripts_->build_chain(carrier, proto::Side::recv, source, destination);
+        if (!recv_chain)
+            co_return refuse(recv_chain.error().message);
         auto connection = std::make_shared<Connection>();
         connection->source = source;
         connection->destination = destination;
         connection->carrier = automatic ? "local" : carrier_text;
-        connection->sink = local_destination;
+        auto inlet = std::make_shared<Inlet>(local_destination, source, connection->carrier);
+        inlet->chain = std::move(*recv_chain);
+        connection->sink = inlet;
+        connection->send_chain = std::move(*send_chain);
         if (auto added = router_.add(port, connection); !added)
             co_return refuse(added.error().message);
+        local_destination->inbound.push_back(inlet);
         nlohmann::json body2 = {{"op", "add_connection"},
                                 {"source", source},
                                 {"destination", destination},
@@ -167,12 +186,16 @@ Task<proto::Reply> Daemon::connect(const proto::Request& request) {
             co_return refuse("port " + destination + " does not exist");
         where = text(found->body, "address");
     }
-    const std::string chosen = automatic ? std::string("tcp") : carrier_text;
-    co_return co_await connect_remote(request, port, destination, chosen, where);
+    std::string chosen = carrier_text;
+    if (automatic)
+        chosen = "tcp";
+    std::shared_ptr<monitor::MonitorChain> chain = std::move(*send_chain);
+    co_return co_await connect_remote(request, port, destination, chosen, where, chain);
 }
 
 Task<proto::Reply> Daemon::connect_remote(const proto::Request& request, std::shared_ptr<Port> port,
-                                          std::string destination, std::string carrier, std::string address) {
+                                          std::string destination, std::string carrier, std::string address,
+                                          std::shared_ptr<monitor::MonitorChain> send_chain) {
     const std::string source = port->name();
     for (const auto& existing : port->outgoing) {
         if (existing->destination == destination)
@@ -206,6 +229,7 @@ Task<proto::Reply> Daemon::connect_remote(const proto::Request& request, std::sh
     connection->carrier = carrier;
     connection->remote = true;
     connection->sink = link;
+    connection->send_chain = std::move(send_chain);
     if (auto added = router_.add(port, connection); !added) {
         link_peer->close("duplicate");
         co_return refuse(added.error().message);
@@ -251,17 +275,27 @@ Task<proto::Reply> Daemon::attach(std::shared_ptr<Session> session, const proto:
         co_return refuse("port " + destination + " does not exist on node '" + config_.node + "'");
     if (session->is_link())
         co_return refuse("this link is already attached", ReplyCode::usage);
-    auto link = std::make_shared<InboundLink>();
-    link->source = text(request.body, "source");
-    link->carrier = text(request.body, "carrier");
+    const std::string source = text(request.body, "source");
+    if (auto error = proto::port_name_error(source))
+        co_return refuse(*error, ReplyCode::usage);
+    auto carrier = proto::parse_carrier(text(request.body, "carrier"));
+    if (!carrier)
+        co_return refuse("bad carrier: " + carrier.error().message);
+    if (auto valid = proto::validate_carrier(*carrier); !valid)
+        co_return refuse(valid.error().message);
+    auto recv_chain = scripts_->build_chain(*carrier, proto::Side::recv, source, destination);
+    if (!recv_chain)
+        co_return refuse(recv_chain.error().message);
+    auto link = std::make_shared<Inlet>(port, source, carrier->text());
+    link->chain = std::move(*recv_chain);
     port->inbound.push_back(link);
-    session->become_link(port, link);
+    session->become_link(link);
     std::weak_ptr<Session> weak = session;
     port->on_close.push_back([weak] {
         if (auto s = weak.lock())
             s->close("destination port closed");
     });
-    session->set_description("link " + link->source + " -> " + destination);
+    session->set_description("link " + source + " -> " + destination);
     co_return ok();
 }
 
@@ -349,15 +383,29 @@ nlohmann::json Daemon::stats_json(const std::string& only_port) const {
             continue;
         nlohmann::json connections = nlohmann::json::array();
         for (const auto& c : port->outgoing) {
-            nlohmann::json entry{{"destination", c->destination}, {"carrier", c->carrier}, {"sent", c->sent}};
+            nlohmann::json entry{{"destination", c->destination},
+                                 {"carrier", c->carrier},
+                                 {"sent", c->sent},
+                                 {"dropped_by_monitor", c->dropped_by_monitor}};
             if (c->remote)
                 entry["queued"] = static_cast<const Link*>(c->sink.get())->queued();
+            if (c->send_chain)
+                entry["monitors"] = c->send_chain->stats();
             connections.push_back(entry);
         }
         nlohmann::json inbound = nlohmann::json::array();
-        for (const auto& link : port->inbound) {
-            inbound.push_back(
-                {{"source", link->source}, {"carrier", link->carrier}, {"received", link->received}});
+        for (const auto& weak : port->inbound) {
+            auto inlet = weak.lock();
+            if (!inlet)
+                continue;
+            nlohmann::json entry{{"source", inlet->source()},
+                                 {"carrier", inlet->carrier()},
+                                 {"received", inlet->received},
+                                 {"dropped_by_monitor", inlet->dropped_by_monitor},
+                                 {"delivered", inlet->delivered}};
+            if (inlet->chain)
+                entry["monitors"] = inlet->chain->stats();
+            inbound.push_back(entry);
         }
         const auto& queue = port->queue();
         ports.push_back({{"name", name},
@@ -380,7 +428,9 @@ nlohmann::json Daemon::stats_json(const std::string& only_port) const {
               {"sessions_accepted", counters_.sessions_accepted},
               {"protocol_errors", counters_.protocol_errors},
               {"dropped_unknown_port", counters_.dropped_unknown_port},
-              {"dropped_link_down", counters_.dropped_link_down}}}};
+              {"dropped_link_down", counters_.dropped_link_down},
+              {"monitor_published", scripts_->published()},
+              {"monitor_publish_dropped", scripts_->publish_dropped()}}}};
 }
 
 }  // namespace plexus::daemon

@@ -9,6 +9,10 @@
 
 namespace plexus::daemon {
 
+namespace monitor {
+struct MonitorChain;
+}
+
 /// Where a connection delivers: a port of this daemon, or a link to another daemon.
 class MessageSink {
 public:
@@ -27,7 +31,9 @@ struct Connection {
     std::string carrier;  ///< canonical carrier text
     bool remote = false;  ///< true when the destination lives on another daemon (or the carrier forces tcp)
     std::shared_ptr<MessageSink> sink;
-    std::uint64_t sent = 0;
+    std::shared_ptr<monitor::MonitorChain> send_chain;  ///< send-side monitors; null when there are none
+    std::uint64_t sent = 0;                             ///< messages written into the source
+    std::uint64_t dropped_by_monitor = 0;               ///< dropped by a send-side monitor
 };
 
 }  // namespace plexus::daemon

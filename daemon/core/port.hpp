@@ -12,12 +12,7 @@
 
 namespace plexus::daemon {
 
-/// A connection that arrives at this port from a port of another daemon.
-struct InboundLink {
-    std::string source;
-    std::string carrier;
-    std::uint64_t received = 0;
-};
+class Inlet;
 
 /// A port hosted by this daemon for one client session. The client writes into it (the messages go
 /// out along its connections) and reads from it (what its inbound connections deliver).
@@ -42,7 +37,8 @@ public:
     std::vector<std::function<void()>> on_close;
 
     std::vector<std::shared_ptr<Connection>> outgoing;
-    std::vector<std::shared_ptr<InboundLink>> inbound;
+    /// The connections into this port (owned by their connections or link sessions).
+    std::vector<std::weak_ptr<Inlet>> inbound;
 
     std::uint64_t written = 0;    ///< messages its client wrote into it
     std::uint64_t received = 0;   ///< messages that arrived through connections

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "../monitor/chain.hpp"
 #include "plexus/proto/port_name.hpp"
 
 namespace plexus::daemon {
@@ -98,7 +99,15 @@ void Router::route(Port& source, const Message& message) {
     ++source.written;
     for (auto& connection : source.outgoing) {
         ++connection->sent;
-        connection->sink->deliver(message);
+        if (!connection->send_chain) {
+            connection->sink->deliver(message);
+            continue;
+        }
+        Message passed = message;
+        if (connection->send_chain->process(passed))
+            connection->sink->deliver(passed);
+        else
+            ++connection->dropped_by_monitor;
     }
 }
 

@@ -54,7 +54,7 @@ protected:
     enum class FrameAction { handled, stop, wait };
     /// Called first for every frame after the hello, without a coroutine: handle it now, stop
     /// reading (after fail() or close()), or `wait` to have on_frame() called, which may suspend.
-    virtual FrameAction on_frame_now(InFrame& frame) { return FrameAction::wait; }
+    virtual FrameAction on_frame_now(InFrame& /*frame*/) { return FrameAction::wait; }
     /// Called for frames on_frame_now() left; return false to stop reading (after fail()).
     virtual Task<bool> on_frame(InFrame frame) = 0;
     /// Called once, after the connection closed for any reason.

@@ -21,8 +21,8 @@ proto::Status Session::on_hello(const proto::Hello& hello) {
     return proto::Ok{};
 }
 
-void Session::become_link(std::shared_ptr<Port> port, std::shared_ptr<InboundLink> link) {
-    link_port_ = std::move(port);
+void Session::become_link(std::shared_ptr<Inlet> link) {
+    link_port_ = link->port();
     link_ = std::move(link);
 }
 
@@ -82,18 +82,17 @@ Session::DataOutcome Session::try_deliver(const InFrame& frame) {
     if (link_port_) {
         // The receiving end of a connection from another daemon: hold back while the reader is full,
         // so that TCP carries the back-pressure to the sending daemon.
-        if (record->source != link_->source) {
+        if (record->source != link_->source()) {
             ++daemon_.counters().protocol_errors;
             fail("message from port '" + std::string(record->source) + "' on the link attached for " +
-                 link_->source);
+                 link_->source());
             return DataOutcome::stop;
         }
         if (link_port_->closed() || closed())
             return DataOutcome::stop;
         if (link_port_->full())
             return DataOutcome::blocked;
-        ++link_->received;
-        link_port_->deliver(Message{frame.storage, data->record, 0});
+        link_->deliver(Message{frame.storage, data->record, record->seq});
         return DataOutcome::delivered;
     }
     auto it = ports.find(data->handle);

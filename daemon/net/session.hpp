@@ -4,7 +4,7 @@
 #include <map>
 #include <memory>
 
-#include "../core/port.hpp"
+#include "../core/inlet.hpp"
 #include "framed_connection.hpp"
 #include "plexus/proto/control.hpp"
 
@@ -22,14 +22,14 @@ public:
     const std::string& role() const { return role_; }
     bool is_link() const { return link_port_ != nullptr; }
     const std::shared_ptr<Port>& link_port() const { return link_port_; }
-    const std::shared_ptr<InboundLink>& link() const { return link_; }
+    const std::shared_ptr<Inlet>& link() const { return link_; }
 
     /// Ports this session opened, by the handle its data frames carry.
     std::map<std::uint64_t, std::shared_ptr<Port>> ports;
     std::uint64_t next_handle = 1;
 
     /// Makes this session the receiving end of a connection into `port`.
-    void become_link(std::shared_ptr<Port> port, std::shared_ptr<InboundLink> link);
+    void become_link(std::shared_ptr<Inlet> link);
 
 protected:
     proto::Status on_hello(const proto::Hello& hello) override;
@@ -50,7 +50,7 @@ private:
     std::uint64_t id_;
     std::string role_;
     std::shared_ptr<Port> link_port_;
-    std::shared_ptr<InboundLink> link_;
+    std::shared_ptr<Inlet> link_;
 };
 
 }  // namespace plexus::daemon

@@ -38,6 +38,19 @@ std::string pad(const std::string& text, std::size_t width) {
     return text.size() >= width ? text + " " : text + std::string(width - text.size(), ' ');
 }
 
+void print_monitors(const Value& connection) {
+    for (const auto& m : connection.value("monitors", Value::array())) {
+        std::cout << "         monitor " << m.value("script", "") << " (" << m.value("side", "")
+                  << "): " << m.value("messages", 0) << " messages, " << m.value("dropped", 0) << " dropped, "
+                  << m.value("rewritten", 0) << " rewritten, " << m.value("errors", 0) << " errors ("
+                  << m.value("timeouts", 0) << " timeouts, " << m.value("out_of_memory", 0) << " out of memory), "
+                  << m.value("memory_bytes", 0) << " bytes";
+        if (m.value("quarantined", false))
+            std::cout << "  QUARANTINED: " << m.value("last_error", "");
+        std::cout << '\n';
+    }
+}
+
 }  // namespace
 
 int list(const Common& common, bool json) {
@@ -227,11 +240,15 @@ int stats(const Common& common, const std::string& port, bool json) {
                   << pad(std::to_string(p.value("delivered", 0)), 10) << p.value("dropped_queue", 0) << '\n';
         for (const auto& c : p.value("outgoing", Value::array())) {
             std::cout << "    -> " << pad(c.value("destination", ""), 24) << pad(c.value("carrier", ""), 10)
-                      << "sent " << c.value("sent", 0) << '\n';
+                      << "sent " << c.value("sent", 0) << ", dropped by monitors "
+                      << c.value("dropped_by_monitor", 0) << '\n';
+            print_monitors(c);
         }
         for (const auto& c : p.value("inbound", Value::array())) {
             std::cout << "    <- " << pad(c.value("source", ""), 24) << pad(c.value("carrier", ""), 10)
-                      << "received " << c.value("received", 0) << '\n';
+                      << "received " << c.value("received", 0) << ", dropped by monitors "
+                      << c.value("dropped_by_monitor", 0) << '\n';
+            print_monitors(c);
         }
     }
     const auto d = answer.value("daemon", Value::object());

@@ -34,5 +34,9 @@ int exists(const Common& common, const std::string& port, const std::string& des
 int wait(const Common& common, const std::string& port, double timeout);
 int ping(const Common& common, const std::string& port, int count);
 int stats(const Common& common, const std::string& port, bool json);
+/// Prints, as a JSON array, {script, side, param} for each monitor on SRC -> DST; `set` calls
+/// setparam with the KEY=VALUE pairs first.
+int param(const Common& common, const std::string& action, const std::string& source,
+          const std::string& destination, const std::vector<std::string>& assignments);
 
 }  // namespace plexus::cli

@@ -95,6 +95,19 @@ int main(int argc, char** argv) {
     stats_cmd->add_flag("--json", json, "print JSON");
     stats_cmd->callback([&] { status = stats(common, port, json); });
 
+    std::vector<std::string> assignments;
+    auto* param_cmd = app.add_subcommand("param", "get or set the parameters of the monitors on SRC -> DST");
+    param_cmd->require_subcommand(1);
+    auto* param_get = param_cmd->add_subcommand("get", "print getparam() of each monitor, as JSON");
+    param_get->add_option("SRC", source, "source port")->required();
+    param_get->add_option("DST", destination, "destination port")->required();
+    param_get->callback([&] { status = param(common, "get", source, destination, {}); });
+    auto* param_set = param_cmd->add_subcommand("set", "call setparam({KEY=VALUE...}), then print as get does");
+    param_set->add_option("SRC", source, "source port")->required();
+    param_set->add_option("DST", destination, "destination port")->required();
+    param_set->add_option("KEY=VALUE", assignments, "VALUE is JSON if it parses, else a string")->required();
+    param_set->callback([&] { status = param(common, "set", source, destination, assignments); });
+
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

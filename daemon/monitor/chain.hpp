@@ -1,0 +1,34 @@
+#pragma once
+// Threading: the daemon's one thread.
+
+#include <memory>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "monitor.hpp"
+
+namespace plexus::daemon::monitor {
+
+/// The monitors of one side of one connection, applied in the order the carrier lists them.
+struct MonitorChain {
+    std::vector<std::unique_ptr<Monitor>> monitors;
+
+    /// False when a monitor dropped the message; `message` may have been rewritten on the way.
+    bool process(Message& message) {
+        for (auto& monitor : monitors) {
+            if (monitor->process(message) == Monitor::Verdict::drop)
+                return false;
+        }
+        return true;
+    }
+
+    nlohmann::json stats() const {
+        auto list = nlohmann::json::array();
+        for (const auto& monitor : monitors)
+            list.push_back(monitor->stats());
+        return list;
+    }
+};
+
+}  // namespace plexus::daemon::monitor

@@ -1,0 +1,216 @@
+#include "lua_sandbox.hpp"
+
+#include <cstdlib>
+#include <new>
+#include <stdexcept>
+
+namespace plexus::daemon::monitor {
+
+namespace {
+
+/// Instructions between two looks at the clock: small enough to stop a loop within microseconds
+/// of the deadline, large enough that the look costs nothing measurable.
+constexpr int instructions_per_check = 1000;
+
+int traceback(lua_State* L) {
+    const char* message = lua_tostring(L, 1);
+    if (!message)
+        message = lua_pushfstring(L, "(error object is a %s value)", luaL_typename(L, 1));
+    luaL_traceback(L, L, message, 1);
+    return 1;
+}
+
+}  // namespace
+
+LuaSandbox::LuaSandbox(SandboxLimits limits, std::function<void(std::string_view)> log)
+    : limits_(limits), log_(std::move(log)) {
+    L_ = lua_newstate(&LuaSandbox::allocate, this);
+    if (!L_)
+        throw std::runtime_error("cannot create a Lua state within the memory cap");
+    *static_cast<LuaSandbox**>(lua_getextraspace(L_)) = this;
+    if (auto error = run([this](lua_State*) { open_safe_libraries(); })) {
+        lua_close(L_);
+        L_ = nullptr;
+        throw std::runtime_error("cannot set up the script sandbox: " + error->message);
+    }
+}
+
+LuaSandbox::~LuaSandbox() {
+    if (L_) {
+        arm_budget();  // finalizers that lua_close runs get the same budget as any call
+        lua_close(L_);
+    }
+}
+
+LuaSandbox& LuaSandbox::of(lua_State* L) {
+    return **static_cast<LuaSandbox**>(lua_getextraspace(L));
+}
+
+void* LuaSandbox::allocate(void* self, void* block, std::size_t old_size, std::size_t new_size) {
+    auto& box = *static_cast<LuaSandbox*>(self);
+    const std::size_t old_bytes = block ? old_size : 0;
+    if (new_size == 0) {
+        std::free(block);
+        box.used_ -= old_bytes;
+        return nullptr;
+    }
+    // Growing past the cap fails, which Lua turns into a "not enough memory" error after a full
+    // collection; shrinking must never fail.
+    if (new_size > old_bytes && box.used_ - old_bytes + new_size > box.limits_.memory_bytes)
+        return nullptr;
+    void* moved = std::realloc(block, new_size);
+    if (!moved)
+        return nullptr;
+    box.used_ = box.used_ - old_bytes + new_size;
+    return moved;
+}
+
+void LuaSandbox::arm_budget() {
+    deadline_ = std::chrono::steady_clock::now() + limits_.budget;
+    aborting_ = false;
+    lua_sethook(L_, &LuaSandbox::budget_hook, LUA_MASKCOUNT, instructions_per_check);
+}
+
+void LuaSandbox::budget_hook(lua_State* L, lua_Debug*) {
+    auto& box = of(L);
+    if (!box.aborting_ && std::chrono::steady_clock::now() < box.deadline_)
+        return;
+    box.aborting_ = true;
+    // From now on every instruction raises, so a pcall in the script cannot resume the loop.
+    lua_sethook(L, &LuaSandbox::budget_hook, LUA_MASKCOUNT, 1);
+    luaL_error(L, "time budget of %d ms exceeded", static_cast<int>(box.limits_.budget.count()));
+}
+
+int LuaSandbox::guarded_call(lua_State* L) {
+    const int arguments = lua_gettop(L);
+    lua_pushvalue(L, lua_upvalueindex(1));
+    lua_insert(L, 1);
+    lua_callk(L, arguments, LUA_MULTRET, 0, &LuaSandbox::guarded_continue);
+    return guarded_continue(L, LUA_OK, 0);
+}
+
+int LuaSandbox::guarded_continue(lua_State* L, int, lua_KContext) {
+    auto& box = of(L);
+    if (box.aborting_)
+        return luaL_error(L, "time budget of %d ms exceeded", static_cast<int>(box.limits_.budget.count()));
+    return lua_gettop(L);
+}
+
+int LuaSandbox::text_only_load(lua_State* L) {
+    // load(chunk [, chunkname [, mode [, env]]]), with mode forced to "t": no bytecode, ever.
+    if (lua_gettop(L) < 3)
+        lua_settop(L, 3);
+    lua_pushliteral(L, "t");
+    lua_replace(L, 3);
+    lua_pushvalue(L, lua_upvalueindex(1));
+    lua_insert(L, 1);
+    lua_call(L, lua_gettop(L) - 1, LUA_MULTRET);
+    return lua_gettop(L);
+}
+
+int LuaSandbox::print_to_log(lua_State* L) {
+    luaL_Buffer line;
+    luaL_buffinit(L, &line);
+    const int n = lua_gettop(L);
+    for (int i = 1; i <= n; ++i) {
+        if (i > 1)
+            luaL_addchar(&line, '\t');
+        luaL_tolstring(L, i, nullptr);
+        luaL_addvalue(&line);
+    }
+    luaL_pushresult(&line);
+    std::size_t size = 0;
+    const char* text = lua_tolstring(L, -1, &size);
+    if (of(L).log_)
+        of(L).log_(std::string_view(text, size));
+    return 0;
+}
+
+void LuaSandbox::open_safe_libraries() {
+    lua_State* L = L_;
+    const std::pair<const char*, lua_CFunction> libraries[] = {
+        {LUA_GNAME, luaopen_base},       {LUA_STRLIBNAME, luaopen_string}, {LUA_TABLIBNAME, luaopen_table},
+        {LUA_MATHLIBNAME, luaopen_math}, {LUA_UTF8LIBNAME, luaopen_utf8},  {LUA_COLIBNAME, luaopen_coroutine},
+    };
+    for (const auto& [name, open] : libraries) {
+        luaL_requiref(L, name, open, 1);
+        lua_pop(L, 1);
+    }
+    for (const char* unsafe : {"dofile", "loadfile", "collectgarbage"}) {
+        lua_pushnil(L);
+        lua_setglobal(L, unsafe);
+    }
+    lua_getglobal(L, LUA_STRLIBNAME);
+    lua_pushnil(L);
+    lua_setfield(L, -2, "dump");
+    lua_pop(L, 1);
+
+    for (const char* catcher : {"pcall", "xpcall"}) {
+        lua_getglobal(L, catcher);
+        lua_pushcclosure(L, &LuaSandbox::guarded_call, 1);
+        lua_setglobal(L, catcher);
+    }
+    lua_getglobal(L, LUA_COLIBNAME);
+    lua_getfield(L, -1, "resume");
+    lua_pushcclosure(L, &LuaSandbox::guarded_call, 1);
+    lua_setfield(L, -2, "resume");
+    lua_pop(L, 1);
+
+    lua_getglobal(L, "load");
+    lua_pushcclosure(L, &LuaSandbox::text_only_load, 1);
+    lua_setglobal(L, "load");
+    lua_pushcfunction(L, &LuaSandbox::print_to_log);
+    lua_setglobal(L, "print");
+}
+
+int LuaSandbox::trampoline(lua_State* L) {
+    const auto& body = *static_cast<const std::function<void(lua_State*)>*>(lua_touserdata(L, 1));
+    lua_settop(L, 0);
+    std::string failure;
+    try {
+        body(L);
+        return 0;
+    } catch (const std::bad_alloc&) {
+        failure = "not enough memory";
+    } catch (const std::exception& e) {
+        failure = e.what();
+    }
+    // Outside the catch block: a Lua error is itself a C++ exception in this build of Lua.
+    lua_pushlstring(L, failure.data(), failure.size());
+    return lua_error(L);
+}
+
+std::optional<ScriptError> LuaSandbox::run(const std::function<void(lua_State*)>& body) {
+    if (!L_)
+        return ScriptError{"the script's Lua state is closed", false, false};
+    const int base = lua_gettop(L_);
+    lua_pushcfunction(L_, traceback);
+    lua_pushcfunction(L_, &LuaSandbox::trampoline);
+    lua_pushlightuserdata(L_, const_cast<void*>(static_cast<const void*>(&body)));
+    arm_budget();
+    const int status = lua_pcall(L_, 1, 0, base + 1);
+    std::optional<ScriptError> error;
+    if (status != LUA_OK) {
+        std::size_t size = 0;
+        const char* text = lua_tolstring(L_, -1, &size);
+        error = ScriptError{text ? std::string(text, size) : std::string("(error without a message)"),
+                            aborting_, status == LUA_ERRMEM};
+    }
+    aborting_ = false;
+    lua_settop(L_, base);
+    return error;
+}
+
+proto::Status LuaSandbox::load(std::string_view code, const std::string& chunk_name) {
+    auto error = run([&](lua_State* L) {
+        const std::string name = "@" + chunk_name;
+        if (luaL_loadbufferx(L, code.data(), code.size(), name.c_str(), "t") != LUA_OK)
+            lua_error(L);
+        lua_call(L, 0, 0);
+    });
+    if (error)
+        return proto::Error{error->message};
+    return proto::Ok{};
+}
+
+}  // namespace plexus::daemon::monitor

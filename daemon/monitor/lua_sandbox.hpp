@@ -1,0 +1,73 @@
+#pragma once
+// Threading: one Lua state, used from the daemon's one thread.
+//
+// A Lua state that untrusted scripts can run in: only the safe libraries, a memory cap enforced by
+// its allocator, and a time budget per call enforced by an instruction-count hook. Once the budget
+// is spent the hook raises an error on every instruction, and the sandbox's pcall, xpcall and
+// coroutine.resume re-raise it, so a script cannot catch its way past the deadline.
+
+#include <chrono>
+#include <cstddef>
+#include <functional>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include <lua.hpp>
+
+#include "plexus/proto/bytes.hpp"
+
+namespace plexus::daemon::monitor {
+
+struct SandboxLimits {
+    std::size_t memory_bytes = 16u * 1024u * 1024u;
+    std::chrono::milliseconds budget{20};  ///< per call into the script
+};
+
+/// How a call into the script went wrong.
+struct ScriptError {
+    std::string message;  ///< with the script's file, line and traceback when Lua gives them
+    bool timeout = false;
+    bool out_of_memory = false;
+};
+
+class LuaSandbox {
+public:
+    /// `print` goes to `log`. Throws std::runtime_error if the state cannot even be created.
+    LuaSandbox(SandboxLimits limits, std::function<void(std::string_view)> log);
+    ~LuaSandbox();
+    LuaSandbox(const LuaSandbox&) = delete;
+    LuaSandbox& operator=(const LuaSandbox&) = delete;
+
+    lua_State* state() { return L_; }
+    std::size_t memory_in_use() const { return used_; }
+
+    /// Compiles and runs a script's text (never bytecode) under the budget.
+    proto::Status load(std::string_view code, const std::string& chunk_name);
+
+    /// Runs `body` inside a protected call, with the time budget armed. `body` may call any Lua API
+    /// function and lua_call into the script; Lua errors and C++ exceptions both end up here.
+    std::optional<ScriptError> run(const std::function<void(lua_State*)>& body);
+
+private:
+    static void* allocate(void* self, void* block, std::size_t old_size, std::size_t new_size);
+    static void budget_hook(lua_State* L, lua_Debug* debug);
+    static int trampoline(lua_State* L);
+    static int guarded_call(lua_State* L);
+    static int guarded_continue(lua_State* L, int status, lua_KContext context);
+    static int text_only_load(lua_State* L);
+    static int print_to_log(lua_State* L);
+    static LuaSandbox& of(lua_State* L);
+
+    void open_safe_libraries();
+    void arm_budget();
+
+    SandboxLimits limits_;
+    std::function<void(std::string_view)> log_;
+    std::size_t used_ = 0;
+    std::chrono::steady_clock::time_point deadline_{};
+    bool aborting_ = false;  ///< the budget is spent: every instruction raises until the call unwinds
+    lua_State* L_ = nullptr;
+};
+
+}  // namespace plexus::daemon::monitor

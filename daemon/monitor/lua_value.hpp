@@ -1,0 +1,21 @@
+#pragma once
+// Converting message payloads between nlohmann::json (what CBOR decodes to) and Lua values.
+// Maps become tables, arrays sequences, binary blobs strings. Going back, a Lua string becomes a
+// binary blob where the original value had one (the "hint"), else text when it is valid UTF-8.
+
+#include <string>
+
+#include <lua.hpp>
+#include <nlohmann/json.hpp>
+
+namespace plexus::daemon::monitor {
+
+/// Pushes `value` onto the Lua stack. Raises a Lua error (memory) like any Lua API call.
+void push_json(lua_State* L, const nlohmann::json& value);
+
+/// Converts the Lua value at `index`. `hint`, when given, is the value it was decoded from: it
+/// keeps blobs blobs and empty tables arrays. Raises a Lua error for functions, userdata, cycles
+/// and nesting deeper than 64.
+nlohmann::json to_json(lua_State* L, int index, const nlohmann::json* hint = nullptr);
+
+}  // namespace plexus::daemon::monitor

@@ -1,0 +1,110 @@
+// `plexus param get|set SRC DST`: the daemon of SRC answers for the send-side monitors and asks
+// the daemon of DST for the recv-side ones (itself, when the connection is local).
+#include <spdlog/spdlog.h>
+
+#include "core/inlet.hpp"
+#include "daemon.hpp"
+#include "monitor/chain.hpp"
+
+namespace plexus::daemon {
+
+namespace {
+
+using proto::ReplyCode;
+
+std::string text(const nlohmann::json& body, const char* key) {
+    auto it = body.find(key);
+    return it != body.end() && it->is_string() ? it->get<std::string>() : std::string{};
+}
+
+/// Runs get or set on every monitor of a chain and appends {script, side, param} per monitor.
+proto::Status apply(monitor::MonitorChain* chain, const nlohmann::json& body, nlohmann::json& results,
+                    bool& any_setparam) {
+    if (!chain)
+        return proto::Ok{};
+    const bool set = text(body, "action") == "set";
+    for (auto& monitor : chain->monitors) {
+        if (set) {
+            auto called = monitor->setparam(body.value("values", nlohmann::json::object()));
+            if (!called)
+                return called.error();
+            any_setparam = any_setparam || *called;
+        }
+        auto param = monitor->getparam();
+        if (!param)
+            return param.error();
+        auto stats = monitor->stats();
+        results.push_back({{"script", stats["script"]}, {"side", stats["side"]}, {"param", *param}});
+    }
+    return proto::Ok{};
+}
+
+proto::Reply answer(const nlohmann::json& results, bool any_setparam, const nlohmann::json& body) {
+    return {0, ReplyCode::ok, {{"monitors", results}, {"any_setparam", any_setparam}, {"action", text(body, "action")}}};
+}
+
+}  // namespace
+
+Task<proto::Reply> Daemon::param(const proto::Request& request) {
+    const std::string source = text(request.body, "source");
+    const std::string destination = text(request.body, "destination");
+    const std::string action = text(request.body, "action");
+    if (action != "get" && action != "set")
+        co_return proto::make_refusal(0, ReplyCode::usage, "param action must be get or set");
+    auto port = router_.find(source);
+    if (!port)
+        co_return co_await forward(request, source);
+    std::shared_ptr<Connection> connection;
+    for (const auto& c : port->outgoing) {
+        if (c->destination == destination)
+            connection = c;
+    }
+    if (!connection)
+        co_return proto::make_refusal(0, ReplyCode::refused, "ports " + source + " and " + destination +
+                                                                  " are not connected");
+    nlohmann::json results = nlohmann::json::array();
+    bool any_setparam = false;
+    if (auto applied = apply(connection->send_chain.get(), request.body, results, any_setparam); !applied)
+        co_return proto::make_refusal(0, ReplyCode::refused, applied.error().message);
+    if (!connection->remote) {
+        auto* inlet = static_cast<Inlet*>(connection->sink.get());
+        if (auto applied = apply(inlet->chain.get(), request.body, results, any_setparam); !applied)
+            co_return proto::make_refusal(0, ReplyCode::refused, applied.error().message);
+    } else {
+        proto::Request recv_half;
+        recv_half.body = request.body;
+        recv_half.body["op"] = "param_recv";
+        recv_half.body.erase("forwarded");
+        auto reply = co_await forward(recv_half, destination);
+        if (reply.code != ReplyCode::ok)
+            co_return reply;
+        for (const auto& entry : reply.body.value("monitors", nlohmann::json::array()))
+            results.push_back(entry);
+        any_setparam = any_setparam || reply.body.value("any_setparam", false);
+    }
+    if (action == "set" && !any_setparam) {
+        co_return proto::make_refusal(0, ReplyCode::refused,
+                                      "no monitor on " + source + " -> " + destination + " has setparam");
+    }
+    co_return answer(results, any_setparam, request.body);
+}
+
+Task<proto::Reply> Daemon::param_recv(const proto::Request& request) {
+    const std::string source = text(request.body, "source");
+    const std::string destination = text(request.body, "destination");
+    auto port = router_.find(destination);
+    if (!port)
+        co_return proto::make_refusal(0, ReplyCode::refused, "port " + destination + " is not on this daemon");
+    nlohmann::json results = nlohmann::json::array();
+    bool any_setparam = false;
+    for (const auto& weak : port->inbound) {
+        auto inlet = weak.lock();
+        if (!inlet || inlet->source() != source)
+            continue;
+        if (auto applied = apply(inlet->chain.get(), request.body, results, any_setparam); !applied)
+            co_return proto::make_refusal(0, ReplyCode::refused, applied.error().message);
+    }
+    co_return answer(results, any_setparam, request.body);
+}
+
+}  // namespace plexus::daemon

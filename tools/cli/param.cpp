@@ -1,0 +1,47 @@
+// plexus param get|set SRC DST [KEY=VALUE...]: talks to the monitors on one connection.
+#include <iostream>
+
+#include "commands.hpp"
+#include "plexus/client.hpp"
+#include "plexus/proto/port_name.hpp"
+
+namespace plexus::cli {
+
+namespace {
+
+/// KEY=VALUE, VALUE read as JSON when it parses (0.8, true, [1,2]) and as a string otherwise.
+Value parse_assignments(const std::vector<std::string>& assignments) {
+    Value values = Value::object();
+    for (const auto& assignment : assignments) {
+        const auto equals = assignment.find('=');
+        if (equals == std::string::npos || equals == 0)
+            throw Error(ErrorCode::usage, "'" + assignment + "' is not KEY=VALUE");
+        const std::string text = assignment.substr(equals + 1);
+        Value value = Value::parse(text, nullptr, false);
+        values[assignment.substr(0, equals)] = value.is_discarded() ? Value(text) : value;
+    }
+    return values;
+}
+
+}  // namespace
+
+int param(const Common& common, const std::string& action, const std::string& source,
+          const std::string& destination, const std::vector<std::string>& assignments) {
+    for (const auto& name : {source, destination}) {
+        if (auto error = proto::port_name_error(name))
+            throw Error(ErrorCode::usage, *error);
+    }
+    if (action == "get" && !assignments.empty())
+        throw Error(ErrorCode::usage, "param get takes no KEY=VALUE");
+    if (action == "set" && assignments.empty())
+        throw Error(ErrorCode::usage, "param set needs at least one KEY=VALUE");
+    Value body = {{"op", "param"}, {"action", action}, {"source", source}, {"destination", destination}};
+    if (action == "set")
+        body["values"] = parse_assignments(assignments);
+    plexus::Client client({common.socket});
+    const Value reply = client.request(body);
+    std::cout << reply.value("monitors", Value::array()).dump() << '\n';
+    return 0;
+}
+
+}  // namespace plexus::cli
