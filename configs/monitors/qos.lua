@@ -1,7 +1,8 @@
 -- Quality of service (monitor paper: notice that a source went silent and tell a coordinator).
 -- Every `period` seconds, trig checks when the last message came; after `timeout` seconds of
 -- silence it publishes {event="e_qos_not_ok"} on `port`, and {event="e_qos_ok"} once data flows
--- again. A coordinator (or `plexus read`) connects to that port like to any other.
+-- again. A coordinator (or `plexus read`) connects to that port like to any other; the port
+-- exists from the moment the connection is made (create publishes the initial "ok").
 --   tcp+recv.portmonitor+type.lua+file.qos+timeout.0.5+port./camera/qos
 -- Options: timeout (s, default 1), period (s, default timeout/5), port (default /qos:event).
 
@@ -15,6 +16,7 @@ PortMonitor.create = function(options)
     port = options.port or "/qos:event"
     last_seen = PortMonitor.now()
     PortMonitor.setTrigInterval(period)
+    PortMonitor.publish(port, { event = "e_qos_ok", source = options.source })
     return true
 end
 

@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -23,6 +24,10 @@ std::string plexus_path() {
 }
 std::string names_path() {
     return PLEXUS_NAMES_PATH;
+}
+
+std::string monitors_dir() {
+    return PLEXUS_MONITORS_DIR;
 }
 
 TempDir::TempDir() {
@@ -184,6 +189,40 @@ std::unique_ptr<Process> start_cli(const TempDir& dir, const Daemon& daemon,
     std::vector<std::string> argv{plexus_path()};
     argv.insert(argv.end(), args.begin(), args.end());
     return std::make_unique<Process>(argv, daemon.env(), dir.file(name));
+}
+
+CliWriter::CliWriter(const TempDir& dir, const Daemon& daemon, const std::string& port, const std::string& name) {
+    const std::string fifo = dir.file(name + ".fifo");
+    if (::mkfifo(fifo.c_str(), 0600) != 0)
+        throw std::runtime_error("mkfifo " + fifo + " failed");
+    process_ = std::make_unique<Process>(std::vector<std::string>{plexus_path(), "write", port}, daemon.env(),
+                                         dir.file(name), fifo);
+    // Blocks until the child opens its end, which it does right after fork.
+    fd_ = ::open(fifo.c_str(), O_WRONLY | O_CLOEXEC);  // later children must not hold it open
+    if (fd_ < 0)
+        throw std::runtime_error("cannot open " + fifo);
+}
+
+CliWriter::~CliWriter() {
+    if (fd_ >= 0)
+        ::close(fd_);
+}
+
+void CliWriter::send(const std::string& lines) {
+    std::size_t sent = 0;
+    while (sent < lines.size()) {
+        const ssize_t n = ::write(fd_, lines.data() + sent, lines.size() - sent);
+        if (n <= 0)
+            throw std::runtime_error("the writer process stopped reading its stdin");
+        sent += static_cast<std::size_t>(n);
+    }
+}
+
+int CliWriter::finish(std::chrono::milliseconds timeout) {
+    if (fd_ >= 0)
+        ::close(fd_);
+    fd_ = -1;
+    return process_->wait(timeout).value_or(-1);
 }
 
 bool wait_port(const TempDir& dir, const Daemon& daemon, const std::string& port) {

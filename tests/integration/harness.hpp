@@ -22,6 +22,8 @@ using namespace std::chrono_literals;
 std::string plexusd_path();
 std::string plexus_path();
 std::string names_path();
+/// The example monitors shipped in configs/monitors.
+std::string monitors_dir();
 
 /// A fresh directory, removed afterwards.
 class TempDir {
@@ -100,6 +102,24 @@ CliResult run_cli(const TempDir& dir, const Daemon& daemon, const std::vector<st
 /// Starts `plexus args...` in the background (for readers).
 std::unique_ptr<Process> start_cli(const TempDir& dir, const Daemon& daemon,
                                    const std::vector<std::string>& args, const std::string& name);
+
+/// `plexus write PORT` fed through a FIFO, so that lines can be sent while it runs: open the port,
+/// connect it with any carrier, then send. finish() closes its stdin and waits for the exit.
+class CliWriter {
+public:
+    CliWriter(const TempDir& dir, const Daemon& daemon, const std::string& port, const std::string& name);
+    ~CliWriter();
+    CliWriter(const CliWriter&) = delete;
+    CliWriter& operator=(const CliWriter&) = delete;
+    void send(const std::string& lines);
+    /// Exit status (-1 if it did not exit in time).
+    int finish(std::chrono::milliseconds timeout = 60s);
+    Process& process() { return *process_; }
+
+private:
+    int fd_ = -1;
+    std::unique_ptr<Process> process_;
+};
 
 /// Polls until `plexus exists PORT` succeeds on that daemon's name server.
 bool wait_port(const TempDir& dir, const Daemon& daemon, const std::string& port);
