@@ -28,6 +28,17 @@ LuaSandbox::LuaSandbox(SandboxLimits limits, std::function<void(std::string_view
     if (!L_)
         throw std::runtime_error("cannot create a Lua state within the memory cap");
     *static_cast<LuaSandbox**>(lua_getextraspace(L_)) = this;
+    // An error outside any protected call would abort the daemon; make it an exception instead
+    // (this build of Lua is C++, so unwinding through it is safe).
+    lua_atpanic(L_, [](lua_State* L) -> int {
+        const char* message = lua_tostring(L, -1);
+        throw std::runtime_error(std::string("Lua error outside a protected call: ") +
+                                 (message ? message : "?"));
+    });
+    lua_sethook(L_, &LuaSandbox::budget_hook, LUA_MASKCOUNT, instructions_per_check);
+    // Each message leaves a little garbage (its decoded payload) that dies young: the generational
+    // collector handles exactly that pattern more cheaply than the incremental one.
+    lua_gc(L_, LUA_GCGEN, 0, 0);
     if (auto error = run([this](lua_State*) { open_safe_libraries(); })) {
         lua_close(L_);
         L_ = nullptr;
@@ -66,16 +77,28 @@ void* LuaSandbox::allocate(void* self, void* block, std::size_t old_size, std::s
 }
 
 void LuaSandbox::arm_budget() {
-    deadline_ = std::chrono::steady_clock::now() + limits_.budget;
+    deadline_set_ = false;
     aborting_ = false;
-    lua_sethook(L_, &LuaSandbox::budget_hook, LUA_MASKCOUNT, instructions_per_check);
+    if (hook_tightened_) {
+        lua_sethook(L_, &LuaSandbox::budget_hook, LUA_MASKCOUNT, instructions_per_check);
+        hook_tightened_ = false;
+    }
 }
 
 void LuaSandbox::budget_hook(lua_State* L, lua_Debug*) {
     auto& box = of(L);
-    if (!box.aborting_ && std::chrono::steady_clock::now() < box.deadline_)
-        return;
+    if (!box.aborting_) {
+        const auto now = std::chrono::steady_clock::now();
+        if (!box.deadline_set_) {
+            box.deadline_ = now + box.limits_.budget;
+            box.deadline_set_ = true;
+            return;
+        }
+        if (now < box.deadline_)
+            return;
+    }
     box.aborting_ = true;
+    box.hook_tightened_ = true;
     // From now on every instruction raises, so a pcall in the script cannot resume the loop.
     lua_sethook(L, &LuaSandbox::budget_hook, LUA_MASKCOUNT, 1);
     luaL_error(L, "time budget of %d ms exceeded", static_cast<int>(box.limits_.budget.count()));
@@ -189,6 +212,12 @@ std::optional<ScriptError> LuaSandbox::run(const std::function<void(lua_State*)>
     lua_pushlightuserdata(L_, const_cast<void*>(static_cast<const void*>(&body)));
     arm_budget();
     const int status = lua_pcall(L_, 1, 0, base + 1);
+    auto error = error_from_stack(status);
+    lua_settop(L_, base);
+    return error;
+}
+
+std::optional<ScriptError> LuaSandbox::error_from_stack(int status) {
     std::optional<ScriptError> error;
     if (status != LUA_OK) {
         std::size_t size = 0;
@@ -197,7 +226,20 @@ std::optional<ScriptError> LuaSandbox::run(const std::function<void(lua_State*)>
                             aborting_, status == LUA_ERRMEM};
     }
     aborting_ = false;
-    lua_settop(L_, base);
+    return error;
+}
+
+std::optional<ScriptError> LuaSandbox::call(int arguments, int results) {
+    const int function = lua_gettop(L_) - arguments;
+    lua_pushcfunction(L_, traceback);
+    lua_insert(L_, function);
+    arm_budget();
+    const int status = lua_pcall(L_, arguments, results, function);
+    auto error = error_from_stack(status);
+    if (error)
+        lua_settop(L_, function - 1);
+    else
+        lua_remove(L_, function);  // the traceback handler, below the results
     return error;
 }
 

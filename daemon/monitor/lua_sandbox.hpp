@@ -49,6 +49,11 @@ public:
     /// function and lua_call into the script; Lua errors and C++ exceptions both end up here.
     std::optional<ScriptError> run(const std::function<void(lua_State*)>& body);
 
+    /// The fast path for per-message calls: calls the function below `arguments` values on the
+    /// stack, like lua_pcall, under the budget and with a traceback on error. Everything pushed
+    /// before must have been pushed with functions that cannot raise (rawget and the like).
+    std::optional<ScriptError> call(int arguments, int results);
+
 private:
     static void* allocate(void* self, void* block, std::size_t old_size, std::size_t new_size);
     static void budget_hook(lua_State* L, lua_Debug* debug);
@@ -61,12 +66,17 @@ private:
 
     void open_safe_libraries();
     void arm_budget();
+    std::optional<ScriptError> error_from_stack(int status);
 
     SandboxLimits limits_;
     std::function<void(std::string_view)> log_;
     std::size_t used_ = 0;
     std::chrono::steady_clock::time_point deadline_{};
+    /// The clock is read at the first hook of a call, not at its start: a short call (fewer
+    /// instructions than one hook period) never reads it.
+    bool deadline_set_ = false;
     bool aborting_ = false;  ///< the budget is spent: every instruction raises until the call unwinds
+    bool hook_tightened_ = false;  ///< the hook fires on every instruction since the last abort
     lua_State* L_ = nullptr;
 };
 

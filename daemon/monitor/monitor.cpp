@@ -55,8 +55,9 @@ struct MessageBox {
 namespace {
 
 MessageView& view_of(lua_State* L) {
-    auto* box = static_cast<MessageBox*>(luaL_checkudata(L, 1, message_type));
-    if (!box->view)
+    // Only the msg metatable (protected by __metatable) leads here, so argument 1 is a MessageBox.
+    auto* box = static_cast<MessageBox*>(lua_touserdata(L, 1));
+    if (!box || !box->view)
         luaL_error(L, "msg used after its callback returned");
     return *box->view;
 }
@@ -64,15 +65,24 @@ MessageView& view_of(lua_State* L) {
 /// Pushes msg.data, decoding the payload on first touch.
 void push_data(lua_State* L, MessageView& view) {
     if (!view.touched) {
-        auto decoded = proto::decode_cbor_fast(view.record.payload);
-        if (!decoded)
-            luaL_error(L, "the payload is not valid CBOR: %s", decoded.error().message.c_str());
-        view.decoded = std::move(*decoded);
-        push_json(L, *view.decoded);
+        push_cbor(L, view.record.payload);
         lua_setiuservalue(L, 1, 1);
         view.touched = true;
     }
     lua_getiuservalue(L, 1, 1);
+}
+
+/// The payload as json, decoded only when a rewrite needs it as the hint (blobs stay blobs).
+const nlohmann::json* hint_of(MessageView& view) {
+    if (!view.touched)
+        return nullptr;
+    if (!view.decoded) {
+        auto decoded = proto::decode_cbor_fast(view.record.payload);
+        if (!decoded)
+            return nullptr;  // push_cbor took it, so this does not happen
+        view.decoded = std::move(*decoded);
+    }
+    return &*view.decoded;
 }
 
 int message_index(lua_State* L) {
@@ -207,6 +217,41 @@ bool Monitor::push_callback(lua_State* L, const char* name) {
     return true;
 }
 
+bool Monitor::push_callback(lua_State* L, int name_ref) {
+    if (!lua_checkstack(L, 4))
+        return false;
+    lua_rawgeti(L, LUA_REGISTRYINDEX, LUA_RIDX_GLOBALS);
+    lua_rawgeti(L, LUA_REGISTRYINDEX, api_name_ref_);
+    if (lua_rawget(L, -2) != LUA_TTABLE) {
+        lua_pop(L, 2);
+        return false;
+    }
+    lua_rawgeti(L, LUA_REGISTRYINDEX, name_ref);
+    if (lua_rawget(L, -2) != LUA_TFUNCTION) {
+        lua_pop(L, 3);
+        return false;
+    }
+    lua_replace(L, -3);
+    lua_pop(L, 1);
+    return true;
+}
+
+std::optional<ScriptError> Monitor::call_accept(lua_State* L, bool& accepted) {
+    const int base = lua_gettop(L);
+    if (!push_callback(L, accept_name_ref_))
+        return std::nullopt;  // the script removed its accept: everything passes
+    lua_rawgeti(L, LUA_REGISTRYINDEX, message_ref_);
+    auto error = sandbox_->call(1, 1);
+    if (error)
+        return error;
+    std::optional<ScriptError> wrong_type;
+    if (!lua_isboolean(L, -1))
+        wrong_type = ScriptError{std::string("accept must return true or false, not ") + luaL_typename(L, -1)};
+    accepted = lua_toboolean(L, -1) != 0;
+    lua_settop(L, base);
+    return wrong_type;
+}
+
 bool Monitor::has_callback(lua_State* L, const char* name) {
     if (!push_callback(L, name))
         return false;
@@ -242,6 +287,10 @@ proto::Result<std::unique_ptr<Monitor>> Monitor::create(MonitorSpec spec, const 
         m.message_box_ = new (lua_newuserdatauv(L, sizeof(MessageBox), 1)) MessageBox{};
         luaL_setmetatable(L, message_type);
         m.message_ref_ = luaL_ref(L, LUA_REGISTRYINDEX);
+        lua_pushstring(L, api_table);
+        m.api_name_ref_ = luaL_ref(L, LUA_REGISTRYINDEX);
+        lua_pushstring(L, "accept");
+        m.accept_name_ref_ = luaL_ref(L, LUA_REGISTRYINDEX);
     });
     if (setup)
         return proto::Error{"script '" + name + "': cannot set up its state: " + setup->message};
@@ -349,45 +398,42 @@ Monitor::Verdict Monitor::process(Message& message) {
     bool accepted = true;
     bool in_accept = has_accept_;
     std::optional<nlohmann::json> replacement;
+    lua_State* L = sandbox_->state();
+    message_box_->view = &view;
+    lua_rawgeti(L, LUA_REGISTRYINDEX, message_ref_);
+    lua_pushnil(L);
+    lua_setiuservalue(L, -2, 1);  // forget the previous message's data
+    lua_pop(L, 1);
 
-    auto error = sandbox_->run([&](lua_State* L) {
-        lua_rawgeti(L, LUA_REGISTRYINDEX, message_ref_);
-        message_box_->view = &view;
-        lua_pushnil(L);
-        lua_setiuservalue(L, -2, 1);  // forget the previous message's data
-        const int msg = lua_gettop(L);
-        if (has_accept_ && push_callback(L, "accept")) {
-            lua_pushvalue(L, msg);
-            lua_call(L, 1, 1);
-            if (!lua_isboolean(L, -1))
-                luaL_error(L, "accept must return true or false, not %s", luaL_typename(L, -1));
-            accepted = lua_toboolean(L, -1) != 0;
-            lua_pop(L, 1);
-            if (!accepted)
-                return;
-        }
+    std::optional<ScriptError> error;
+    if (has_accept_)
+        error = call_accept(L, accepted);
+    if (!error && accepted && (has_update_ || view.assigned)) {
         in_accept = false;
-        const nlohmann::json* hint = view.decoded ? &*view.decoded : nullptr;
-        if (has_update_ && push_callback(L, "update")) {
-            const int top = lua_gettop(L) - 1;
-            lua_pushvalue(L, msg);
-            lua_call(L, 1, LUA_MULTRET);
-            const bool returned_msg = lua_gettop(L) == top || lua_rawequal(L, top + 1, msg);
-            hint = view.decoded ? &*view.decoded : nullptr;
-            if (!returned_msg) {
-                replacement = to_json(L, top + 1, hint);
-            } else if (view.touched) {
-                // msg.data may have been changed in place: compare with what was decoded.
+        error = sandbox_->run([&](lua_State* L) {
+            lua_rawgeti(L, LUA_REGISTRYINDEX, message_ref_);
+            const int msg = lua_gettop(L);
+            if (has_update_ && push_callback(L, "update")) {
+                const int top = lua_gettop(L) - 1;
+                lua_pushvalue(L, msg);
+                lua_call(L, 1, LUA_MULTRET);
+                const bool returned_msg = lua_gettop(L) == top || lua_rawequal(L, top + 1, msg);
+                const nlohmann::json* hint = hint_of(view);
+                if (!returned_msg) {
+                    replacement = to_json(L, top + 1, hint);
+                } else if (view.touched) {
+                    // msg.data may have been changed in place: compare with what was decoded.
+                    lua_getiuservalue(L, msg, 1);
+                    auto now = to_json(L, -1, hint);
+                    if (view.assigned || !hint || now != *hint)
+                        replacement = std::move(now);
+                }
+            } else if (view.assigned) {
                 lua_getiuservalue(L, msg, 1);
-                auto now = to_json(L, -1, hint);
-                if (view.assigned || !view.decoded || now != *view.decoded)
-                    replacement = std::move(now);
+                replacement = to_json(L, -1, hint_of(view));
             }
-        } else if (view.assigned) {
-            lua_getiuservalue(L, msg, 1);
-            replacement = to_json(L, -1, hint);
-        }
-    });
+        });
+    }
     // The userdata outlives the call (the registry holds it): detach it from this stack frame.
     message_box_->view = nullptr;
     if (error) {

@@ -99,6 +99,10 @@ private:
     bool has_callback(lua_State* L, const char* name);
     /// Pushes PortMonitor[name] if it is a function; false (nothing pushed) otherwise.
     bool push_callback(lua_State* L, const char* name);
+    /// The same for a name anchored in the registry: cannot raise, so usable outside a protected call.
+    bool push_callback(lua_State* L, int name_ref);
+    /// accept on the fast path: no protected trampoline, no std::function.
+    std::optional<ScriptError> call_accept(lua_State* L, bool& accepted);
     void succeeded() { consecutive_failures_ = 0; }
     void failed(const char* callback, const ScriptError& error);
     void quarantine();
@@ -116,6 +120,8 @@ private:
     std::unique_ptr<LuaSandbox> sandbox_;
     int message_ref_ = LUA_NOREF;        ///< the one `msg` userdata, reused for every message
     MessageBox* message_box_ = nullptr;  ///< its memory: Lua never moves a userdata
+    int api_name_ref_ = LUA_NOREF;       ///< "PortMonitor", kept alive so pushing it never allocates
+    int accept_name_ref_ = LUA_NOREF;    ///< "accept", likewise
     bool has_accept_ = false;
     bool has_update_ = false;
     MonitorCounters counters_;

@@ -34,7 +34,7 @@ TEST_F(Errors_test, AnUnknownCarrierIsRefusedNamingIt) {
 }
 
 TEST_F(Errors_test, AModifierThisBuildLacksIsRefusedAsUnsupported) {
-    auto result = cli({"connect", "/a", "/b", "tcp+recv.portmonitor+type.lua+file.certainty"});
+    auto result = cli({"connect", "/a", "/b", "tcp+recv.priority+tc.0.5"});
     EXPECT_EQ(result.status, 4);
     EXPECT_NE(result.err.find("not supported by this build"), std::string::npos) << result.err;
 }

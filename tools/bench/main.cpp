@@ -47,6 +47,10 @@ int main(int argc, char** argv) {
         app.add_subcommand("throughput", "one writer streams, one reader reads all (strict queue)");
     add_common(throughput);
     throughput->callback([&] { status = run_throughput(options); });
+    auto* monitor = app.add_subcommand(
+        "monitor", "throughput and daemon CPU without a monitor, with a one-field accept, with a rewriting update");
+    add_common(monitor);
+    monitor->callback([&] { status = run_monitor(options); });
     auto* memory = app.add_subcommand("memory", "plexusd resident memory, idle and with many ports open");
     memory->add_option("--ports", options.ports, "ports to open")->capture_default_str();
     memory->add_flag("--json", options.json, "one JSON object per line");

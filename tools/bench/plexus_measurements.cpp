@@ -28,14 +28,15 @@ std::uint64_t now_ns() {
 }
 
 /// Registration with the name server may lag behind open(): wait until both ends are known.
-void connect_when_registered(Client& client, const std::string& source, const std::string& destination) {
+void connect_when_registered(Client& client, const std::string& source, const std::string& destination,
+                             const std::string& carrier = "") {
     const auto deadline = Clock::now() + stall_timeout;
     while (!client.lookup(source) || !client.lookup(destination)) {
         if (Clock::now() > deadline)
             throw std::runtime_error(source + " or " + destination + " never registered");
         std::this_thread::sleep_for(1ms);  // polling interval
     }
-    client.connect(source, destination);
+    client.connect(source, destination, carrier);
 }
 
 void check_payload(const Received& message, std::size_t size) {
@@ -133,16 +134,17 @@ private:
 
 class PlexusThroughput : public Measurement {
 public:
-    PlexusThroughput(const Topology& topology, const Options& options)
+    PlexusThroughput(const Topology& topology, const Options& options, StreamSpec spec)
         : pids_(topology.pids()),
           size_(options.size),
           count_(throughput_count(options)),
-          payload_(blob(options.size)),
+          payload_(std::move(spec.payload)),
+          check_(std::move(spec.check)),
           writer_(connect_client(topology.near_socket())),
           reader_(connect_client(topology.far_socket())),
-          source_(writer_.open("/bench/source", queue(options))),
-          sink_(reader_.open("/bench/sink", queue(options))) {
-        connect_when_registered(writer_, "/bench/source", "/bench/sink");
+          source_(writer_.open("/bench/" + spec.name + "source", queue(options))),
+          sink_(reader_.open("/bench/" + spec.name + "sink", queue(options))) {
+        connect_when_registered(writer_, source_.name(), sink_.name(), spec.carrier);
         stream(std::max<std::size_t>(count_ / 10, 10));  // warm-up: buffers grown, connections hot
     }
 
@@ -177,7 +179,7 @@ private:
                                                  ", got " + std::to_string(message->envelope.seq));
                     }
                     ++next_seq_;
-                    check_payload(*message, size_);
+                    check_(*message);
                     streamed.latencies_us.push_back(static_cast<double>(arrived - message->envelope.time_ns) /
                                                     1e3);
                 }
@@ -199,6 +201,7 @@ private:
     std::size_t size_;
     std::size_t count_;
     Value payload_;
+    std::function<void(const Received&)> check_;
     Client writer_;
     Client reader_;
     Port source_;
@@ -213,7 +216,13 @@ std::unique_ptr<Measurement> plexus_latency(const Topology& topology, const Opti
 }
 
 std::unique_ptr<Measurement> plexus_throughput(const Topology& topology, const Options& options) {
-    return std::make_unique<PlexusThroughput>(topology, options);
+    const std::size_t size = options.size;
+    StreamSpec spec{"", blob(size), "", [size](const Received& message) { check_payload(message, size); }};
+    return std::make_unique<PlexusThroughput>(topology, options, std::move(spec));
+}
+
+std::unique_ptr<Measurement> plexus_stream(const Topology& topology, const Options& options, StreamSpec spec) {
+    return std::make_unique<PlexusThroughput>(topology, options, std::move(spec));
 }
 
 }  // namespace plexus::bench

@@ -4,7 +4,11 @@
 // Each side of a scenario is its own thread with its own plexus::Client (its own Unix socket to
 // its daemon), in this one process: A on the first daemon, B on the last.
 
+#include <functional>
 #include <memory>
+#include <string>
+
+#include "plexus/client.hpp"
 
 #include "measurement.hpp"
 #include "options.hpp"
@@ -17,5 +21,15 @@ std::unique_ptr<Measurement> plexus_latency(const Topology& topology, const Opti
 
 /// Streaming: A writes /bench/source (batched) -> B's /bench/sink (strict queue); B reads all.
 std::unique_ptr<Measurement> plexus_throughput(const Topology& topology, const Options& options);
+
+/// What one stream carries and how: plexus_throughput is a blob of --size bytes over the default
+/// carrier; the monitor scenario streams maps through carriers with monitors.
+struct StreamSpec {
+    std::string name;  ///< port names are /bench/NAME-source and /bench/NAME-sink
+    Value payload;
+    std::string carrier;                            ///< "" for the daemon's default
+    std::function<void(const Received&)> check;     ///< throws if a delivered message is wrong
+};
+std::unique_ptr<Measurement> plexus_stream(const Topology& topology, const Options& options, StreamSpec spec);
 
 }  // namespace plexus::bench

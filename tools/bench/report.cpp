@@ -15,11 +15,11 @@ double rounded(double value) {
     return std::round(value * 1000) / 1000;
 }
 
-nlohmann::ordered_json as_json(const std::string& system, const ScenarioResult& result,
+nlohmann::ordered_json as_json(const std::string& system, const std::string& scenario, std::size_t size,
                                const RunResult& run) {
     return {{"system", system},
-            {"scenario", result.scenario},
-            {"size", result.size},
+            {"scenario", scenario},
+            {"size", size},
             {"p50_us", rounded(run.p50_us)},
             {"p99_us", rounded(run.p99_us)},
             {"msgs_per_s", rounded(run.msgs_per_s)},
@@ -36,8 +36,8 @@ void row(const char* label, double plexus, double floor) {
 
 void print(const ScenarioResult& result, bool json) {
     if (json) {
-        std::cout << as_json("plexus", result, result.plexus).dump() << '\n'
-                  << as_json("floor", result, result.floor).dump() << '\n';
+        std::cout << as_json("plexus", result.scenario, result.size, result.plexus).dump() << '\n'
+                  << as_json("floor", result.scenario, result.size, result.floor).dump() << '\n';
         return;
     }
     std::printf("%s\n", result.title.c_str());
@@ -52,6 +52,23 @@ void print(const ScenarioResult& result, bool json) {
         std::printf(" %.1f", mb);
     std::printf("\n\n");
     std::fflush(stdout);
+}
+
+void print(const VariantsResult& result, bool json) {
+    if (json) {
+        for (const auto& [system, run] : result.systems)
+            std::cout << as_json(system, result.scenario, result.size, run).dump() << '\n';
+        return;
+    }
+    std::printf("%s\n", result.title.c_str());
+    std::printf("  %-18s %12s %12s %12s %14s %16s\n", "system", "msgs/s", "vs first", "cpu us/msg",
+                "added us/msg", "p50 write->read");
+    const RunResult& base = result.systems.front().second;
+    for (const auto& [system, run] : result.systems) {
+        std::printf("  %-18s %12.0f %11.1f%% %12.3f %14.3f %14.1f us\n", system.c_str(), run.msgs_per_s,
+                    base.msgs_per_s > 0 ? 100 * run.msgs_per_s / base.msgs_per_s : 0, run.cpu_us_per_msg,
+                    run.cpu_us_per_msg - base.cpu_us_per_msg, run.p50_us);
+    }
 }
 
 void print(const MemoryResult& result, bool json) {

@@ -3,6 +3,7 @@
 
 #include <cstddef>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "measurement.hpp"
@@ -27,7 +28,17 @@ struct MemoryResult {
     std::size_t ports = 0;
 };
 
+/// Several variants of one system measured in one run (e.g. with and without a monitor); the
+/// first is the baseline the others are compared with.
+struct VariantsResult {
+    std::string scenario;
+    std::string title;
+    std::size_t size = 0;
+    std::vector<std::pair<std::string, RunResult>> systems;  ///< the JSON `system`, and its medians
+};
+
 void print(const ScenarioResult& result, bool json);
+void print(const VariantsResult& result, bool json);
 void print(const MemoryResult& result, bool json);
 
 }  // namespace plexus::bench

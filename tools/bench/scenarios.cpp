@@ -13,33 +13,12 @@
 #include "plexus_measurements.hpp"
 #include "process_stats.hpp"
 #include "report.hpp"
+#include "run_deadline.hpp"
 #include "topology.hpp"
 
 namespace plexus::bench {
 
 namespace {
-
-// No healthy run comes near this; a wedged one ends the bench (its children get SIGTERM through
-// PR_SET_PDEATHSIG) instead of hanging a CI job.
-constexpr unsigned run_deadline_s = 120;
-
-void on_deadline(int /*signal*/) {
-    static const char message[] = "plexus-bench: a run took longer than 120 s; giving up\n";
-    [[maybe_unused]] auto ignored = ::write(2, message, sizeof message - 1);
-    ::_exit(3);
-}
-
-/// Arms the deadline for the duration of one run.
-class RunDeadline {
-public:
-    RunDeadline() {
-        ::signal(SIGALRM, on_deadline);
-        ::alarm(run_deadline_s);
-    }
-    ~RunDeadline() { ::alarm(0); }
-    RunDeadline(const RunDeadline&) = delete;
-    RunDeadline& operator=(const RunDeadline&) = delete;
-};
 
 using Factory = std::function<std::unique_ptr<Measurement>(const Topology&, const Options&)>;
 

@@ -11,5 +11,7 @@ int run_latency(const Options& options);
 int run_throughput(const Options& options);
 /// Resident memory of one plexusd, idle and with `options.ports` ports open.
 int run_memory(const Options& options);
+/// Throughput and daemon CPU with no monitor, a one-field accept and a rewriting update.
+int run_monitor(const Options& options);
 
 }  // namespace plexus::bench

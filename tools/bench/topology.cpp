@@ -43,7 +43,8 @@ std::string Topology::start(const std::vector<std::string>& argv, const std::str
     return ready;
 }
 
-std::unique_ptr<Topology> Topology::plexus(const TempDir& dir, const std::string& plexusd, int hops) {
+std::unique_ptr<Topology> Topology::plexus(const TempDir& dir, const std::string& plexusd, int hops,
+                                           const std::vector<std::string>& extra) {
     std::unique_ptr<Topology> topology(new Topology);
     std::string names;
     for (int hop = 0; hop < hops; ++hop) {
@@ -57,6 +58,7 @@ std::unique_ptr<Topology> Topology::plexus(const TempDir& dir, const std::string
         } else {
             argv.insert(argv.end(), {"--names", names});
         }
+        argv.insert(argv.end(), extra.begin(), extra.end());
         const auto ready =
             nlohmann::json::parse(topology->start(argv, ready_file, dir.file("plexusd-" + node + ".log")));
         if (hop == 0)

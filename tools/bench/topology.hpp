@@ -15,7 +15,9 @@ namespace plexus::bench {
 class Topology {
 public:
     /// One plexusd with its embedded name server; with hops == 2 a second one that uses it.
-    static std::unique_ptr<Topology> plexus(const TempDir& dir, const std::string& plexusd, int hops);
+    /// `extra` goes to every plexusd (e.g. --scripts DIR).
+    static std::unique_ptr<Topology> plexus(const TempDir& dir, const std::string& plexusd, int hops,
+                                            const std::vector<std::string>& extra = {});
     /// One relay (this program's hidden `relay` command); with hops == 2 two, linked by tcp.
     static std::unique_ptr<Topology> floor(const TempDir& dir, int hops);
 

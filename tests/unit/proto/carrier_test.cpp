@@ -211,12 +211,16 @@ TEST(ValidateCarrier_test, RefusesUnimplementedBase) {
 }
 
 TEST(ValidateCarrier_test, RefusesUnimplementedModifierNamingSide) {
-    EXPECT_EQ(validate_error("tcp+recv.portmonitor+type.lua+file.certainty+threshold.0.8"),
-              "modifier 'recv.portmonitor' is not supported by this build");
-    EXPECT_EQ(validate_error("tcp+send.portmonitor+type.lua+file.codec+recv.portmonitor+type.lua+file.codec"),
-              "modifier 'send.portmonitor' is not supported by this build");
     EXPECT_EQ(validate_error("tcp+recv.priority+tc.0.5+st.1+bs.1+ex./face/out:-1"),
               "modifier 'recv.priority' is not supported by this build");
+    EXPECT_EQ(validate_error("tcp+send.portmonitor+type.lua+file.codec+send.priority"),
+              "modifier 'send.priority' is not supported by this build");
+}
+
+TEST(ValidateCarrier_test, AcceptsPortmonitorOnBothSides) {
+    EXPECT_TRUE(validate_carrier(*parse_carrier(
+                    "tcp+send.portmonitor+type.lua+file.codec+recv.portmonitor+type.lua+file.codec"))
+                    .ok());
 }
 
 TEST(ValidateCarrier_test, RefusesUnknownModifier) {

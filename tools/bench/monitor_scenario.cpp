@@ -1,0 +1,82 @@
+// plexus-bench monitor: what a port monitor costs. One daemon, three streams of maps through it,
+// alternated run by run: no monitor, a recv-side accept that reads one field, and a recv-side
+// update that rewrites the payload. The figures that matter are the differences to `none`.
+#include <fstream>
+#include <stdexcept>
+
+#include "plexus_measurements.hpp"
+#include "process_stats.hpp"
+#include "report.hpp"
+#include "scenarios.hpp"
+#include "run_deadline.hpp"
+#include "topology.hpp"
+
+namespace plexus::bench {
+
+namespace {
+
+constexpr const char* accept_script = R"(-- reads one field of each message
+PortMonitor.accept = function(msg) return msg.data.c > 0.5 end
+)";
+
+constexpr const char* update_script = R"(-- rewrites the payload: one field changed, one added
+PortMonitor.update = function(msg)
+    local d = msg.data
+    d.c = d.c / 2
+    d.seen = msg.seq
+    return msg
+end
+)";
+
+/// A detection-like map of about `size` CBOR bytes: {"c": 0.9, "pad": "xx..."}.
+Value detection(std::size_t size) {
+    constexpr std::size_t overhead = 20;  // map header, two keys, a double, the string's header
+    return Value{{"c", 0.9}, {"pad", std::string(size > overhead ? size - overhead : 0, 'x')}};
+}
+
+void check_detection(const Received& message) {
+    if (!message.data.is_object() || !message.data.contains("c"))
+        throw std::runtime_error("a message arrived without its field c: " + message.data.dump().substr(0, 80));
+}
+
+}  // namespace
+
+int run_monitor(const Options& options) {
+    TempDir dir;
+    std::ofstream(dir.file("accept_one_field.lua")) << accept_script;
+    std::ofstream(dir.file("update_rewrite.lua")) << update_script;
+    const auto topology = Topology::plexus(dir, options.plexusd, 1, {"--scripts", dir.path()});
+
+    const std::vector<std::pair<std::string, std::string>> variants{
+        {"none", "local"},
+        {"accept_one_field", "local+recv.portmonitor+type.lua+file.accept_one_field"},
+        {"update_rewrite", "local+recv.portmonitor+type.lua+file.update_rewrite"},
+    };
+    std::vector<std::unique_ptr<Measurement>> measurements;
+    for (const auto& [name, carrier] : variants) {
+        measurements.push_back(
+            plexus_stream(*topology, options, StreamSpec{name + "-", detection(options.size), carrier, check_detection}));
+    }
+    std::vector<std::vector<RunResult>> runs(variants.size());
+    {
+        RunDeadline deadline;
+        for (int run = 0; run < options.repeat; ++run) {
+            for (std::size_t i = 0; i < variants.size(); ++i) {
+                RunDeadline per_run;
+                runs[i].push_back(measurements[i]->run());
+            }
+        }
+    }
+    VariantsResult result;
+    result.scenario = "monitor_1hop";
+    result.size = options.size;
+    result.title = "port monitors, 1 hop, " + std::to_string(options.size) + " B maps: " +
+                   std::to_string(throughput_count(options)) + " messages per run, median of " +
+                   std::to_string(options.repeat) + " runs";
+    for (std::size_t i = 0; i < variants.size(); ++i)
+        result.systems.emplace_back(variants[i].first, median_of(runs[i]));
+    print(result, options.json);
+    return 0;
+}
+
+}  // namespace plexus::bench
