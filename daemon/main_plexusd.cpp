@@ -34,10 +34,17 @@ void apply_config_file(const std::string& path, plexus::daemon::DaemonConfig& co
     if (!in)
         throw std::runtime_error("cannot open config file " + path);
     auto json = nlohmann::json::parse(in, nullptr, true, true);
-    static const std::set<std::string> known{"max_frame",   "default_capacity", "link_capacity",
-                                             "queue_bytes", "names_grace_ms",   "names_state",
-                                             "scripts",     "log_level",        "monitor_memory_bytes",
-                                             "monitor_budget_ms", "monitor_quarantine_after"};
+    static const std::set<std::string> known{"max_frame",
+                                             "default_capacity",
+                                             "link_capacity",
+                                             "queue_bytes",
+                                             "names_grace_ms",
+                                             "names_state",
+                                             "scripts",
+                                             "log_level",
+                                             "monitor_memory_bytes",
+                                             "monitor_budget_ms",
+                                             "monitor_quarantine_after"};
     for (const auto& [key, value] : json.items()) {
         if (!known.contains(key))
             throw std::runtime_error("config " + path + ": unknown key '" + key + "'");

@@ -40,7 +40,9 @@ proto::Status apply(monitor::MonitorChain* chain, const nlohmann::json& body, nl
 }
 
 proto::Reply answer(const nlohmann::json& results, bool any_setparam, const nlohmann::json& body) {
-    return {0, ReplyCode::ok, {{"monitors", results}, {"any_setparam", any_setparam}, {"action", text(body, "action")}}};
+    return {0,
+            ReplyCode::ok,
+            {{"monitors", results}, {"any_setparam", any_setparam}, {"action", text(body, "action")}}};
 }
 
 }  // namespace
@@ -60,8 +62,8 @@ Task<proto::Reply> Daemon::param(const proto::Request& request) {
             connection = c;
     }
     if (!connection)
-        co_return proto::make_refusal(0, ReplyCode::refused, "ports " + source + " and " + destination +
-                                                                  " are not connected");
+        co_return proto::make_refusal(0, ReplyCode::refused,
+                                      "ports " + source + " and " + destination + " are not connected");
     nlohmann::json results = nlohmann::json::array();
     bool any_setparam = false;
     if (auto applied = apply(connection->send_chain.get(), request.body, results, any_setparam); !applied)
@@ -94,7 +96,8 @@ Task<proto::Reply> Daemon::param_recv(const proto::Request& request) {
     const std::string destination = text(request.body, "destination");
     auto port = router_.find(destination);
     if (!port)
-        co_return proto::make_refusal(0, ReplyCode::refused, "port " + destination + " is not on this daemon");
+        co_return proto::make_refusal(0, ReplyCode::refused,
+                                      "port " + destination + " is not on this daemon");
     nlohmann::json results = nlohmann::json::array();
     bool any_setparam = false;
     for (const auto& weak : port->inbound) {

@@ -4,9 +4,9 @@
 #include "daemon.hpp"
 #include "net/link.hpp"
 #include "net/session.hpp"
-#include "script_host.hpp"
 #include "plexus/proto/carrier.hpp"
 #include "plexus/proto/port_name.hpp"
+#include "script_host.hpp"
 
 namespace plexus::daemon {
 

@@ -56,10 +56,9 @@ ScriptHost::ScriptHost(asio::io_context& io, Daemon& daemon) : io_(io), daemon_(
 
 ScriptHost::~ScriptHost() = default;
 
-proto::Result<std::shared_ptr<monitor::MonitorChain>> ScriptHost::build_chain(const proto::Carrier& carrier,
-                                                                              proto::Side side,
-                                                                              const std::string& source,
-                                                                              const std::string& destination) {
+proto::Result<std::shared_ptr<monitor::MonitorChain>> ScriptHost::build_chain(
+    const proto::Carrier& carrier, proto::Side side, const std::string& source,
+    const std::string& destination) {
     auto chain = std::make_shared<monitor::MonitorChain>();
     for (const auto& clause : carrier.clauses) {
         if (clause.side != side || clause.modifier != "portmonitor")
@@ -85,7 +84,8 @@ double ScriptHost::now() const {
     return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
 
-proto::Status ScriptHost::publish(monitor::Monitor& monitor, const std::string& name, const nlohmann::json& value) {
+proto::Status ScriptHost::publish(monitor::Monitor& monitor, const std::string& name,
+                                  const nlohmann::json& value) {
     if (auto error = proto::port_name_error(name))
         return proto::Error{*error};
     if (publish_depth_ >= max_publish_depth)
@@ -131,7 +131,8 @@ void ScriptHost::set_trig_interval(monitor::Monitor& monitor, double seconds) {
     Trig trig;
     trig.monitor = &monitor;
     trig.timer = std::make_unique<asio::steady_timer>(io_);
-    trig.period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(seconds));
+    trig.period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+        std::chrono::duration<double>(seconds));
     trig.generation = next_generation_++;
     trig.timer->expires_after(trig.period);
     trigs_.emplace(monitor.id(), std::move(trig));
@@ -140,21 +141,22 @@ void ScriptHost::set_trig_interval(monitor::Monitor& monitor, double seconds) {
 
 void ScriptHost::arm(std::uint64_t monitor_id) {
     auto& trig = trigs_.at(monitor_id);
-    trig.timer->async_wait([this, monitor_id, generation = trig.generation](const boost::system::error_code& ec) {
-        if (ec)
-            return;
-        auto it = trigs_.find(monitor_id);
-        if (it == trigs_.end() || it->second.generation != generation)
-            return;
-        // Fixed rate; after a stall, start again from now rather than firing a burst.
-        auto& timer = *it->second.timer;
-        const auto next = timer.expiry() + it->second.period;
-        const auto now = std::chrono::steady_clock::now();
-        timer.expires_at(next > now ? next : now + it->second.period);
-        monitor::Monitor* monitor = it->second.monitor;
-        arm(monitor_id);
-        monitor->trig();  // may change or stop its own timer, or be quarantined: all safe here
-    });
+    trig.timer->async_wait(
+        [this, monitor_id, generation = trig.generation](const boost::system::error_code& ec) {
+            if (ec)
+                return;
+            auto it = trigs_.find(monitor_id);
+            if (it == trigs_.end() || it->second.generation != generation)
+                return;
+            // Fixed rate; after a stall, start again from now rather than firing a burst.
+            auto& timer = *it->second.timer;
+            const auto next = timer.expiry() + it->second.period;
+            const auto now = std::chrono::steady_clock::now();
+            timer.expires_at(next > now ? next : now + it->second.period);
+            monitor::Monitor* monitor = it->second.monitor;
+            arm(monitor_id);
+            monitor->trig();  // may change or stop its own timer, or be quarantined: all safe here
+        });
 }
 
 void ScriptHost::monitor_gone(monitor::Monitor& monitor) {

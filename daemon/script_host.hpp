@@ -30,7 +30,8 @@ public:
                                                                       const std::string& source,
                                                                       const std::string& destination);
 
-    proto::Status publish(monitor::Monitor& monitor, const std::string& port, const nlohmann::json& value) override;
+    proto::Status publish(monitor::Monitor& monitor, const std::string& port,
+                          const nlohmann::json& value) override;
     void set_trig_interval(monitor::Monitor& monitor, double seconds) override;
     double now() const override;
     void monitor_gone(monitor::Monitor& monitor) override;
@@ -49,7 +50,7 @@ private:
 
     asio::io_context& io_;
     Daemon& daemon_;
-    std::map<std::uint64_t, Trig> trigs_;                                  ///< by monitor id
+    std::map<std::uint64_t, Trig> trigs_;                                ///< by monitor id
     std::map<std::uint64_t, std::vector<std::shared_ptr<Port>>> ports_;  ///< published, by monitor id
     std::map<std::string, std::uint64_t> port_seq_;
     std::uint64_t next_generation_ = 1;

@@ -75,7 +75,7 @@ private:
     /// The clock is read at the first hook of a call, not at its start: a short call (fewer
     /// instructions than one hook period) never reads it.
     bool deadline_set_ = false;
-    bool aborting_ = false;  ///< the budget is spent: every instruction raises until the call unwinds
+    bool aborting_ = false;        ///< the budget is spent: every instruction raises until the call unwinds
     bool hook_tightened_ = false;  ///< the hook fires on every instruction since the last abort
     lua_State* L_ = nullptr;
 };

@@ -86,7 +86,8 @@ nlohmann::json convert_table(lua_State* L, int index, const nlohmann::json* hint
         auto array = nlohmann::json::array();
         for (lua_Integer i = 1; i <= length; ++i) {
             lua_rawgeti(L, index, i);
-            array.push_back(convert(L, lua_gettop(L), child_hint(hint, static_cast<std::size_t>(i - 1)), depth + 1));
+            array.push_back(
+                convert(L, lua_gettop(L), child_hint(hint, static_cast<std::size_t>(i - 1)), depth + 1));
             lua_pop(L, 1);
         }
         return array;

@@ -47,7 +47,6 @@ struct MessageView {
     bool assigned = false;                  ///< the script assigned msg.data
 };
 
-
 struct MessageBox {
     MessageView* view = nullptr;  ///< null outside a callback
 };
@@ -142,7 +141,8 @@ Monitor::Monitor(MonitorSpec spec, const MonitorPolicy& policy, MonitorHost& hos
     : id_(next_monitor_id++), spec_(std::move(spec)), policy_(policy), host_(host) {}
 
 std::string Monitor::description() const {
-    return spec_.script.name + " (" + side_name(spec_.side) + " " + spec_.source + " -> " + spec_.destination + ")";
+    return spec_.script.name + " (" + side_name(spec_.side) + " " + spec_.source + " -> " +
+           spec_.destination + ")";
 }
 
 Monitor& Monitor::self(lua_State* L) {
@@ -156,7 +156,8 @@ int Monitor::api_publish(lua_State* L) {
         const auto value = to_json(L, 2);
         Monitor& monitor = self(L);
         if (auto published = monitor.host_.publish(monitor, port, value); !published)
-            return luaL_error(L, "publish to '%s' refused: %s", port.c_str(), published.error().message.c_str());
+            return luaL_error(L, "publish to '%s' refused: %s", port.c_str(),
+                              published.error().message.c_str());
         return 0;
     });
 }
@@ -164,7 +165,8 @@ int Monitor::api_publish(lua_State* L) {
 int Monitor::api_set_trig_interval(lua_State* L) {
     const double seconds = luaL_checknumber(L, 1);
     if (!(seconds == 0 || seconds >= min_trig_interval) || seconds > 86400)
-        return luaL_error(L, "setTrigInterval takes seconds: 0 (off) or between %f and 86400", min_trig_interval);
+        return luaL_error(L, "setTrigInterval takes seconds: 0 (off) or between %f and 86400",
+                          min_trig_interval);
     Monitor& monitor = self(L);
     monitor.host_.set_trig_interval(monitor, seconds);
     return 0;
@@ -246,7 +248,8 @@ std::optional<ScriptError> Monitor::call_accept(lua_State* L, bool& accepted) {
         return error;
     std::optional<ScriptError> wrong_type;
     if (!lua_isboolean(L, -1))
-        wrong_type = ScriptError{std::string("accept must return true or false, not ") + luaL_typename(L, -1)};
+        wrong_type =
+            ScriptError{std::string("accept must return true or false, not ") + luaL_typename(L, -1)};
     accepted = lua_toboolean(L, -1) != 0;
     lua_settop(L, base);
     return wrong_type;
@@ -260,14 +263,13 @@ bool Monitor::has_callback(lua_State* L, const char* name) {
 }
 
 proto::Result<std::unique_ptr<Monitor>> Monitor::create(MonitorSpec spec, const MonitorPolicy& policy,
-                                                         MonitorHost& host) {
+                                                        MonitorHost& host) {
     std::unique_ptr<Monitor> monitor(new Monitor(std::move(spec), policy, host));
     Monitor& m = *monitor;
     const std::string& name = m.spec_.script.name;
     try {
-        m.sandbox_ = std::make_unique<LuaSandbox>(policy.limits, [&m](std::string_view line) {
-            spdlog::info("[{}] {}", m.description(), line);
-        });
+        m.sandbox_ = std::make_unique<LuaSandbox>(
+            policy.limits, [&m](std::string_view line) { spdlog::info("[{}] {}", m.description(), line); });
     } catch (const std::exception& e) {
         return proto::Error{"script '" + name + "': " + e.what()};
     }
@@ -364,8 +366,8 @@ void Monitor::failed(const char* callback, const ScriptError& error) {
         ++counters_.out_of_memory;
     last_error_ = std::string(callback) + ": " + error.message;
     if (counters_.errors <= logged_failures || counters_.errors % 1000 == 0) {
-        spdlog::warn("monitor {}: {} failed ({} errors so far): {}", description(), callback, counters_.errors,
-                     error.message);
+        spdlog::warn("monitor {}: {} failed ({} errors so far): {}", description(), callback,
+                     counters_.errors, error.message);
     }
     if (++consecutive_failures_ >= policy_.quarantine_after)
         quarantine();
@@ -508,16 +510,11 @@ proto::Result<bool> Monitor::setparam(const nlohmann::json& values) {
 }
 
 nlohmann::json Monitor::stats() const {
-    return {{"script", spec_.script.name},
-            {"side", side_name(spec_.side)},
-            {"messages", counters_.messages},
-            {"dropped", counters_.dropped},
-            {"rewritten", counters_.rewritten},
-            {"errors", counters_.errors},
-            {"timeouts", counters_.timeouts},
-            {"out_of_memory", counters_.out_of_memory},
-            {"quarantined", quarantined_},
-            {"memory_bytes", memory_in_use()},
+    return {{"script", spec_.script.name},      {"side", side_name(spec_.side)},
+            {"messages", counters_.messages},   {"dropped", counters_.dropped},
+            {"rewritten", counters_.rewritten}, {"errors", counters_.errors},
+            {"timeouts", counters_.timeouts},   {"out_of_memory", counters_.out_of_memory},
+            {"quarantined", quarantined_},      {"memory_bytes", memory_in_use()},
             {"last_error", last_error_}};
 }
 

@@ -33,8 +33,8 @@ proto::Result<Script> find_script(const std::string& name, const std::vector<std
         }
         const auto size = std::filesystem::file_size(path, ec);
         if (ec || size > max_script_bytes)
-            return proto::Error{"script " + path.string() + " is larger than " + std::to_string(max_script_bytes) +
-                                " bytes or unreadable"};
+            return proto::Error{"script " + path.string() + " is larger than " +
+                                std::to_string(max_script_bytes) + " bytes or unreadable"};
         std::ifstream in(path, std::ios::binary);
         std::ostringstream code;
         code << in.rdbuf();

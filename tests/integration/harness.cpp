@@ -191,7 +191,8 @@ std::unique_ptr<Process> start_cli(const TempDir& dir, const Daemon& daemon,
     return std::make_unique<Process>(argv, daemon.env(), dir.file(name));
 }
 
-CliWriter::CliWriter(const TempDir& dir, const Daemon& daemon, const std::string& port, const std::string& name) {
+CliWriter::CliWriter(const TempDir& dir, const Daemon& daemon, const std::string& port,
+                     const std::string& name) {
     const std::string fifo = dir.file(name + ".fifo");
     if (::mkfifo(fifo.c_str(), 0600) != 0)
         throw std::runtime_error("mkfifo " + fifo + " failed");

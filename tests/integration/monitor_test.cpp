@@ -70,8 +70,10 @@ TEST(Monitor_test, CertaintyFilterOnTheRecvSideWithParamGetAndSet) {
 
     auto got = run_cli(dir, daemon, {"param", "get", "/detector", "/consumer"});
     ASSERT_EQ(got.status, 0) << got.err;
-    EXPECT_EQ(json::parse(got.out), json::parse(R"([{"script":"certainty","side":"recv","param":{"threshold":0.8}}])"));
-    p.writer->send("{\"c\":1,\"certainty\":0.9}\n{\"c\":2,\"certainty\":0.5}\n{\"c\":3,\"certainty\":0.81}\n");
+    EXPECT_EQ(json::parse(got.out),
+              json::parse(R"([{"script":"certainty","side":"recv","param":{"threshold":0.8}}])"));
+    p.writer->send(
+        "{\"c\":1,\"certainty\":0.9}\n{\"c\":2,\"certainty\":0.5}\n{\"c\":3,\"certainty\":0.81}\n");
     // Raise the threshold only once those three have been judged: the stats say so.
     ASSERT_TRUE(eventually([&] {
         auto s = stats_of(dir, daemon, "/consumer");
@@ -104,7 +106,8 @@ TEST(Monitor_test, WorkspaceGuardOnTheSendSideAcrossTwoDaemons) {
     Daemon second(dir, "second", first.names(), with_scripts());
     auto p = make_pipeline(
         dir, first, second, "/arm/target", "/arm/controller",
-        "tcp+send.portmonitor+type.lua+file.workspace+xmin.-0.5+xmax.0.5+ymin.-0.5+ymax.0.5+zmin.0+zmax.1", 2);
+        "tcp+send.portmonitor+type.lua+file.workspace+xmin.-0.5+xmax.0.5+ymin.-0.5+ymax.0.5+zmin.0+zmax.1",
+        2);
     ASSERT_EQ(p.connected.status, 0) << p.connected.err;
     p.writer->send(
         "{\"x\":0.1,\"y\":0.2,\"z\":0.5}\n{\"x\":0.9,\"y\":0.0,\"z\":0.5}\n"
@@ -121,14 +124,14 @@ TEST(Monitor_test, CodecPairEncodesOnSendAndDecodesOnRecvAcrossTwoDaemons) {
     TempDir dir;
     Daemon first(dir, "first", "", with_scripts());
     Daemon second(dir, "second", first.names(), with_scripts());
-    auto p = make_pipeline(dir, first, second, "/laser/scan", "/mapper/scan",
-                           "tcp+send.portmonitor+type.lua+file.codec+recv.portmonitor+type.lua+file.codec", 4);
+    auto p =
+        make_pipeline(dir, first, second, "/laser/scan", "/mapper/scan",
+                      "tcp+send.portmonitor+type.lua+file.codec+recv.portmonitor+type.lua+file.codec", 4);
     ASSERT_EQ(p.connected.status, 0) << p.connected.err;
     // Values exact in 32-bit floats come back exactly; a non-array passes untouched.
     p.writer->send("[1.5,2.25,-3.0,1024.0]\n{\"not\":\"a scan\"}\n[0.5]\n");
-    ASSERT_TRUE(eventually([&] {
-        return stats_of(dir, second, "/mapper/scan")["ports"][0]["inbound"][0]["received"] == 3;
-    }));
+    ASSERT_TRUE(eventually(
+        [&] { return stats_of(dir, second, "/mapper/scan")["ports"][0]["inbound"][0]["received"] == 3; }));
     auto sent = stats_of(dir, first, "/laser/scan")["ports"][0]["outgoing"][0]["monitors"][0];
     EXPECT_EQ(sent["side"], "send");
     EXPECT_EQ(sent["rewritten"], 2);
@@ -168,8 +171,8 @@ TEST(Monitor_test, QualityOfServiceMonitorPublishesWhenItsSourceGoesSilent) {
     ASSERT_EQ(p.connected.status, 0) << p.connected.err;
     ASSERT_TRUE(wait_port(dir, daemon, "/camera/qos"));  // made by the monitor's create
     // The watcher sees the silence that follows (the camera has sent nothing), then the recovery.
-    auto watcher = start_cli(dir, daemon, {"read", "/watch", "/camera/qos", "--count", "2", "--timeout", "60"},
-                             "watcher");
+    auto watcher = start_cli(dir, daemon,
+                             {"read", "/watch", "/camera/qos", "--count", "2", "--timeout", "60"}, "watcher");
     ASSERT_TRUE(eventually([&] {
         auto s = stats_of(dir, daemon, "/camera/qos");
         return !s["ports"][0]["outgoing"].empty() && s["daemon"]["monitor_published"] >= 2;
@@ -200,12 +203,14 @@ TEST(Monitor_test, RateLoggerPublishesCountsAndLogs) {
         lines += std::to_string(i) + "\n";
     p.writer->send(lines);
     // The monitor (and its port) lives as long as the connection: look before the reader leaves.
-    EXPECT_TRUE(eventually([&] { return watcher->out().find("\"total_messages\":100") != std::string::npos; }))
-        << watcher->out();
+    EXPECT_TRUE(eventually([&] {
+        return watcher->out().find("\"total_messages\":100") != std::string::npos;
+    })) << watcher->out();
     p.writer->send("last\n");
     ASSERT_EQ(p.writer->finish(), 0);
     ASSERT_EQ(p.reader->wait(60s), 0);
-    EXPECT_NE((daemon.process().out() + daemon.process().err()).find("100 messages in all"), std::string::npos);
+    EXPECT_NE((daemon.process().out() + daemon.process().err()).find("100 messages in all"),
+              std::string::npos);
 }
 
 void write_script(const TempDir& dir, const std::string& name, const std::string& code) {
@@ -241,7 +246,8 @@ TEST(Monitor_test, ConnectFailsWithTheScriptErrorAndLeavesNothingBehind) {
         {"tcp+recv.portmonitor+type.lua", "without file.NAME"},
         {"tcp+recv.portmonitor+type.lua+file.certainty+onerror.maybe", "onerror.drop or onerror.pass"},
         // The send side loads, the recv side fails: the send side must be undone too.
-        {"tcp+send.portmonitor+type.lua+file.certainty+recv.portmonitor+type.lua+file.broken", "broken.lua:2:"},
+        {"tcp+send.portmonitor+type.lua+file.certainty+recv.portmonitor+type.lua+file.broken",
+         "broken.lua:2:"},
     };
     for (const auto& c : cases) {
         auto result = run_cli(dir, first, {"connect", "/source", "/sink", c.carrier});
@@ -253,19 +259,26 @@ TEST(Monitor_test, ConnectFailsWithTheScriptErrorAndLeavesNothingBehind) {
     EXPECT_TRUE(stats["ports"][0]["outgoing"].empty());
     EXPECT_TRUE(stats_of(dir, second, "/sink")["ports"][0]["inbound"].empty());
     // Still usable afterwards.
-    auto good = run_cli(dir, first, {"connect", "/source", "/sink", "tcp+recv.portmonitor+type.lua+file.certainty"});
+    auto good =
+        run_cli(dir, first, {"connect", "/source", "/sink", "tcp+recv.portmonitor+type.lua+file.certainty"});
     EXPECT_EQ(good.status, 0) << good.err;
 }
 
 TEST(Monitor_test, HostileMonitorsAreQuarantinedWhileOtherConnectionsKeepFlowing) {
     TempDir dir;
     std::filesystem::create_directories(dir.file("scripts"));
-    write_script(dir, "spin", "PortMonitor.accept = function(msg) while true do pcall(function() while true do end end) end end\n");
-    write_script(dir, "hog", "PortMonitor.update = function(msg) hoard = hoard or {} while true do hoard[#hoard+1] = {} end end\n");
+    write_script(
+        dir, "spin",
+        "PortMonitor.accept = function(msg) while true do pcall(function() while true do end end) end end\n");
+    write_script(dir, "hog",
+                 "PortMonitor.update = function(msg) hoard = hoard or {} while true do hoard[#hoard+1] = {} "
+                 "end end\n");
     write_script(dir, "huge", "PortMonitor.accept = function(msg) return #string.rep('x', 2^30) > 0 end\n");
-    write_script(dir, "escape",
-                 "PortMonitor.accept = function(msg) return os.execute('touch " + dir.file("escaped") + "') end\n");
-    write_script(dir, "badport", "PortMonitor.accept = function(msg) PortMonitor.publish('no/slash', 1) return true end\n");
+    write_script(
+        dir, "escape",
+        "PortMonitor.accept = function(msg) return os.execute('touch " + dir.file("escaped") + "') end\n");
+    write_script(dir, "badport",
+                 "PortMonitor.accept = function(msg) PortMonitor.publish('no/slash', 1) return true end\n");
     std::ofstream(dir.file("config.json")) << R"({"monitor_budget_ms": 30, "monitor_memory_bytes": 8388608,
                                                  "monitor_quarantine_after": 3})";
     auto args = with_scripts(dir.file("scripts"));

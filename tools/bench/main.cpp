@@ -48,7 +48,8 @@ int main(int argc, char** argv) {
     add_common(throughput);
     throughput->callback([&] { status = run_throughput(options); });
     auto* monitor = app.add_subcommand(
-        "monitor", "throughput and daemon CPU without a monitor, with a one-field accept, with a rewriting update");
+        "monitor",
+        "throughput and daemon CPU without a monitor, with a one-field accept, with a rewriting update");
     add_common(monitor);
     monitor->callback([&] { status = run_monitor(options); });
     auto* memory = app.add_subcommand("memory", "plexusd resident memory, idle and with many ports open");

@@ -7,8 +7,8 @@
 #include "plexus_measurements.hpp"
 #include "process_stats.hpp"
 #include "report.hpp"
-#include "scenarios.hpp"
 #include "run_deadline.hpp"
+#include "scenarios.hpp"
 #include "topology.hpp"
 
 namespace plexus::bench {
@@ -36,7 +36,8 @@ Value detection(std::size_t size) {
 
 void check_detection(const Received& message) {
     if (!message.data.is_object() || !message.data.contains("c"))
-        throw std::runtime_error("a message arrived without its field c: " + message.data.dump().substr(0, 80));
+        throw std::runtime_error("a message arrived without its field c: " +
+                                 message.data.dump().substr(0, 80));
 }
 
 }  // namespace
@@ -54,8 +55,8 @@ int run_monitor(const Options& options) {
     };
     std::vector<std::unique_ptr<Measurement>> measurements;
     for (const auto& [name, carrier] : variants) {
-        measurements.push_back(
-            plexus_stream(*topology, options, StreamSpec{name + "-", detection(options.size), carrier, check_detection}));
+        measurements.push_back(plexus_stream(
+            *topology, options, StreamSpec{name + "-", detection(options.size), carrier, check_detection}));
     }
     std::vector<std::vector<RunResult>> runs(variants.size());
     {
@@ -70,8 +71,8 @@ int run_monitor(const Options& options) {
     VariantsResult result;
     result.scenario = "monitor_1hop";
     result.size = options.size;
-    result.title = "port monitors, 1 hop, " + std::to_string(options.size) + " B maps: " +
-                   std::to_string(throughput_count(options)) + " messages per run, median of " +
+    result.title = "port monitors, 1 hop, " + std::to_string(options.size) +
+                   " B maps: " + std::to_string(throughput_count(options)) + " messages per run, median of " +
                    std::to_string(options.repeat) + " runs";
     for (std::size_t i = 0; i < variants.size(); ++i)
         result.systems.emplace_back(variants[i].first, median_of(runs[i]));

@@ -221,7 +221,8 @@ std::unique_ptr<Measurement> plexus_throughput(const Topology& topology, const O
     return std::make_unique<PlexusThroughput>(topology, options, std::move(spec));
 }
 
-std::unique_ptr<Measurement> plexus_stream(const Topology& topology, const Options& options, StreamSpec spec) {
+std::unique_ptr<Measurement> plexus_stream(const Topology& topology, const Options& options,
+                                           StreamSpec spec) {
     return std::make_unique<PlexusThroughput>(topology, options, std::move(spec));
 }
 

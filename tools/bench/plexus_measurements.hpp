@@ -27,8 +27,8 @@ std::unique_ptr<Measurement> plexus_throughput(const Topology& topology, const O
 struct StreamSpec {
     std::string name;  ///< port names are /bench/NAME-source and /bench/NAME-sink
     Value payload;
-    std::string carrier;                            ///< "" for the daemon's default
-    std::function<void(const Received&)> check;     ///< throws if a delivered message is wrong
+    std::string carrier;                         ///< "" for the daemon's default
+    std::function<void(const Received&)> check;  ///< throws if a delivered message is wrong
 };
 std::unique_ptr<Measurement> plexus_stream(const Topology& topology, const Options& options, StreamSpec spec);
 

@@ -43,8 +43,8 @@ void print_monitors(const Value& connection) {
         std::cout << "         monitor " << m.value("script", "") << " (" << m.value("side", "")
                   << "): " << m.value("messages", 0) << " messages, " << m.value("dropped", 0) << " dropped, "
                   << m.value("rewritten", 0) << " rewritten, " << m.value("errors", 0) << " errors ("
-                  << m.value("timeouts", 0) << " timeouts, " << m.value("out_of_memory", 0) << " out of memory), "
-                  << m.value("memory_bytes", 0) << " bytes";
+                  << m.value("timeouts", 0) << " timeouts, " << m.value("out_of_memory", 0)
+                  << " out of memory), " << m.value("memory_bytes", 0) << " bytes";
         if (m.value("quarantined", false))
             std::cout << "  QUARANTINED: " << m.value("last_error", "");
         std::cout << '\n';

@@ -102,7 +102,8 @@ int main(int argc, char** argv) {
     param_get->add_option("SRC", source, "source port")->required();
     param_get->add_option("DST", destination, "destination port")->required();
     param_get->callback([&] { status = param(common, "get", source, destination, {}); });
-    auto* param_set = param_cmd->add_subcommand("set", "call setparam({KEY=VALUE...}), then print as get does");
+    auto* param_set =
+        param_cmd->add_subcommand("set", "call setparam({KEY=VALUE...}), then print as get does");
     param_set->add_option("SRC", source, "source port")->required();
     param_set->add_option("DST", destination, "destination port")->required();
     param_set->add_option("KEY=VALUE", assignments, "VALUE is JSON if it parses, else a string")->required();

@@ -153,7 +153,8 @@ TEST_F(Monitor_test, UpdateRewritesInPlaceByAssignmentOrByReturningAValue) {
     ASSERT_EQ(assigned->process(message), Monitor::Verdict::pass);
     EXPECT_EQ(payload_of(message), json::array({1, 2, "three"}));
 
-    auto returned = make("PortMonitor.update = function(msg) return { seen = msg.seq, nested = { a = { true, false } } } end");
+    auto returned = make(
+        "PortMonitor.update = function(msg) return { seen = msg.seq, nested = { a = { true, false } } } end");
     message = make_message("anything", 9);
     ASSERT_EQ(returned->process(message), Monitor::Verdict::pass);
     EXPECT_EQ(payload_of(message), json({{"seen", 9}, {"nested", {{"a", {true, false}}}}}));
@@ -164,9 +165,9 @@ TEST_F(Monitor_test, UpdateRewritesInPlaceByAssignmentOrByReturningAValue) {
 
 TEST_F(Monitor_test, JsonValuesRoundTripThroughLua) {
     auto monitor = make("PortMonitor.update = function(msg) return msg.data end");
-    const json payload = {{"null", nullptr}, {"t", true},        {"f", false},
-                          {"i", -12},        {"d", 0.25},        {"s", "h\xc3\xa9llo"},
-                          {"a", {1, 2.5, "x"}}, {"m", {{"k", {{"deep", 1}}}}}};
+    const json payload = {
+        {"null", nullptr}, {"t", true},           {"f", false},         {"i", -12},
+        {"d", 0.25},       {"s", "h\xc3\xa9llo"}, {"a", {1, 2.5, "x"}}, {"m", {{"k", {{"deep", 1}}}}}};
     auto message = make_message(payload);
     ASSERT_EQ(monitor->process(message), Monitor::Verdict::pass);
     auto back = payload_of(message);
@@ -262,11 +263,13 @@ TEST_F(Monitor_test, SandboxHasNoWayOut) {
             }
         end)");
     auto seen = *monitor->getparam();
-    for (const char* name : {"io", "os", "package", "require", "debug", "dofile", "loadfile", "dump", "collectgarbage"})
+    for (const char* name :
+         {"io", "os", "package", "require", "debug", "dofile", "loadfile", "dump", "collectgarbage"})
         EXPECT_EQ(seen[name], "nil") << name;
     for (const char* attempt : {"execute", "loadlib", "bytecode", "bytecode_mode", "string_meta"})
         EXPECT_NE(seen[attempt], "open") << attempt << ": " << seen[attempt];
-    EXPECT_NE(seen["bytecode"].get<std::string>().find("binary chunk"), std::string::npos) << seen["bytecode"];
+    EXPECT_NE(seen["bytecode"].get<std::string>().find("binary chunk"), std::string::npos)
+        << seen["bytecode"];
     EXPECT_EQ(seen["text"], "open");  // load of text stays available
 }
 
@@ -293,8 +296,10 @@ INSTANTIATE_TEST_SUITE_P(
         "PortMonitor.update = function(msg) while true do end end",
         "PortMonitor.trig = function() while true do end end",
         "PortMonitor.accept = function(msg) while true do pcall(function() while true do end end) end end",
-        "PortMonitor.update = function(msg) while true do pcall(pcall, function() while true do end end) end end",
-        "PortMonitor.trig = function() while true do xpcall(function() while true do end end, function(e) return e end) end end",
+        "PortMonitor.update = function(msg) while true do pcall(pcall, function() while true do end end) end "
+        "end",
+        "PortMonitor.trig = function() while true do xpcall(function() while true do end end, function(e) "
+        "return e end) end end",
         "PortMonitor.accept = function(msg) local co = coroutine.create(function() while true do end end)\n"
         "  while true do coroutine.resume(co) end end",
         "PortMonitor.accept = function(msg) while true do pcall(string.rep, 'x', 10) end end"));
@@ -343,7 +348,8 @@ TEST_F(Monitor_test, HostFunctionsPublishTimersAndClock) {
     EXPECT_EQ(host.published[0].second, json({{"at", 1000.0}, {"list", {1, 2}}}));
     auto message = make_message(1);
     EXPECT_EQ(monitor->process(message), Monitor::Verdict::drop);
-    EXPECT_NE(monitor->last_error().find("publish to 'bad name' refused"), std::string::npos) << monitor->last_error();
+    EXPECT_NE(monitor->last_error().find("publish to 'bad name' refused"), std::string::npos)
+        << monitor->last_error();
     auto bad_interval = refusal("PortMonitor.create = function() PortMonitor.setTrigInterval(-1) end");
     EXPECT_NE(bad_interval.find("setTrigInterval"), std::string::npos);
 }

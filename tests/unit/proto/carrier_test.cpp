@@ -218,9 +218,10 @@ TEST(ValidateCarrier_test, RefusesUnimplementedModifierNamingSide) {
 }
 
 TEST(ValidateCarrier_test, AcceptsPortmonitorOnBothSides) {
-    EXPECT_TRUE(validate_carrier(*parse_carrier(
-                    "tcp+send.portmonitor+type.lua+file.codec+recv.portmonitor+type.lua+file.codec"))
-                    .ok());
+    EXPECT_TRUE(
+        validate_carrier(
+            *parse_carrier("tcp+send.portmonitor+type.lua+file.codec+recv.portmonitor+type.lua+file.codec"))
+            .ok());
 }
 
 TEST(ValidateCarrier_test, RefusesUnknownModifier) {
