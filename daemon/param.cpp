@@ -5,17 +5,13 @@
 #include "core/inlet.hpp"
 #include "daemon.hpp"
 #include "monitor/chain.hpp"
+#include "request_fields.hpp"
 
 namespace plexus::daemon {
 
 namespace {
 
 using proto::ReplyCode;
-
-std::string text(const nlohmann::json& body, const char* key) {
-    auto it = body.find(key);
-    return it != body.end() && it->is_string() ? it->get<std::string>() : std::string{};
-}
 
 /// Runs get or set on every monitor of a chain and appends {script, side, param} per monitor.
 proto::Status apply(monitor::MonitorChain* chain, const nlohmann::json& body, nlohmann::json& results,

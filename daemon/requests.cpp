@@ -2,6 +2,7 @@
 #include <spdlog/spdlog.h>
 
 #include "daemon.hpp"
+#include "request_fields.hpp"
 #include "net/link.hpp"
 #include "net/session.hpp"
 #include "plexus/proto/carrier.hpp"
@@ -20,12 +21,6 @@ proto::Reply ok(nlohmann::json body = nlohmann::json::object()) {
 }
 proto::Reply refuse(std::string why, ReplyCode code = ReplyCode::refused) {
     return proto::make_refusal(0, code, std::move(why));
-}
-std::string text(const nlohmann::json& body, const char* key) {
-    auto it = body.find(key);
-    if (it == body.end() || !it->is_string())
-        return {};
-    return it->get<std::string>();
 }
 proto::Reply relay(const proto::Result<proto::Reply>& reply) {
     if (!reply)
