@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "arbitration/clock.hpp"
 #include "core/router.hpp"
 #include "monitor/monitor.hpp"
 #include "names/name_client.hpp"
@@ -93,6 +94,17 @@ private:
     /// The recv half of `plexus param`: the monitors of the inlet source -> destination here.
     Task<proto::Reply> param_recv(const proto::Request& request);
     Task<proto::Reply> ping(const proto::Request& request);
+    // Arbitration (arbitration_requests.cpp).
+    /// A new connection's place in the arbitration of `port`, configured from the carrier.
+    proto::Result<std::shared_ptr<arbitration::Member>> new_member(const std::shared_ptr<Port>& port,
+                                                                   const std::string& source,
+                                                                   const proto::Carrier& carrier);
+    /// Checks a member before it joins: weights that make the system singular are an error;
+    /// constraints that overlap another connection's are warnings (errors with `strict`).
+    proto::Result<nlohmann::json> check_member(const Port& port, const arbitration::Member& member, bool strict);
+    /// `plexus events PORT`: the port's event container and arbitration state.
+    Task<proto::Reply> events(const proto::Request& request);
+    nlohmann::json events_json(const Port& port, bool check) const;
     Task<proto::Reply> ask_names(const proto::Request& request, nlohmann::json body);
     /// Sends the request to the daemon that hosts `port` and relays its reply.
     Task<proto::Reply> forward(const proto::Request& request, const std::string& port);
@@ -109,6 +121,7 @@ private:
     asio::io_context& io_;
     DaemonConfig config_;
     std::unique_ptr<ScriptHost> scripts_;  ///< before router_: monitors in connections die first
+    arbitration::SteadyClock clock_;  ///< event lifetimes and stimulation decay
     Router router_;
     Signal space_;
     DaemonCounters counters_;

@@ -2,6 +2,7 @@
 #include <spdlog/spdlog.h>
 
 #include "daemon.hpp"
+#include "inlet_counters.hpp"
 #include "request_fields.hpp"
 #include "net/link.hpp"
 #include "net/session.hpp"
@@ -16,17 +17,6 @@ namespace {
 using proto::ReplyCode;
 constexpr auto peer_timeout = std::chrono::seconds(5);
 
-proto::Reply ok(nlohmann::json body = nlohmann::json::object()) {
-    return {0, ReplyCode::ok, std::move(body)};
-}
-proto::Reply refuse(std::string why, ReplyCode code = ReplyCode::refused) {
-    return proto::make_refusal(0, code, std::move(why));
-}
-proto::Reply relay(const proto::Result<proto::Reply>& reply) {
-    if (!reply)
-        return refuse(reply.error().message);
-    return *reply;
-}
 
 }  // namespace
 
@@ -51,6 +41,8 @@ Task<proto::Reply> Daemon::handle(std::shared_ptr<Session> session, proto::Reque
         co_return co_await param_recv(request);
     if (op == "ping")
         co_return co_await ping(request);
+    if (op == "events")
+        co_return co_await events(request);
     if (op == "node")
         co_return ok({{"node", config_.node}, {"address", address()}, {"names", config_.names.text()}});
     if (op == "lookup" || op == "list") {
@@ -142,20 +134,27 @@ Task<proto::Reply> Daemon::connect(const proto::Request& request) {
     const bool wants_tcp = !automatic && carrier_text.rfind("tcp", 0) == 0;
     const bool wants_local = !automatic && carrier_text.rfind("local", 0) == 0;
     if (local_destination && !wants_tcp) {
-        auto recv_chain = scripts_->build_chain(carrier, proto::Side::recv, source, destination);
+        auto member = new_member(local_destination, source, carrier);
+        if (!member)
+            co_return refuse(member.error().message);
+        auto recv_chain = scripts_->build_chain(carrier, proto::Side::recv, source, destination, *member);
         if (!recv_chain)
             co_return refuse(recv_chain.error().message);
+        auto warnings = check_member(*local_destination, **member, request.body.value("strict", false));
+        if (!warnings)
+            co_return refuse(warnings.error().message);
         auto connection = std::make_shared<Connection>();
         connection->source = source;
         connection->destination = destination;
         connection->carrier = automatic ? "local" : carrier_text;
-        auto inlet = std::make_shared<Inlet>(local_destination, source, connection->carrier);
+        auto inlet = std::make_shared<Inlet>(local_destination, source, connection->carrier, *member);
         inlet->chain = std::move(*recv_chain);
         connection->sink = inlet;
         connection->send_chain = std::move(*send_chain);
         if (auto added = router_.add(port, connection); !added)
             co_return refuse(added.error().message);
         local_destination->inbound.push_back(inlet);
+        local_destination->arbiter->join(**member);
         nlohmann::json body2 = {{"op", "add_connection"},
                                 {"source", source},
                                 {"destination", destination},
@@ -163,7 +162,7 @@ Task<proto::Reply> Daemon::connect(const proto::Request& request) {
                                 {"persistent", request.body.value("persist", false)}};
         co_await names_->request(body2);
         spdlog::info("connected {} -> {} ({})", source, destination, connection->carrier);
-        co_return ok({{"carrier", connection->carrier}});
+        co_return ok({{"carrier", connection->carrier}, {"warnings", *warnings}});
     }
     if (wants_local) {
         co_return refuse("carrier 'local' needs both ports on one daemon, and " + destination +
@@ -206,8 +205,11 @@ Task<proto::Reply> Daemon::connect_remote(const proto::Request& request, std::sh
         co_return refuse("cannot reach the daemon of " + destination + ": " + peer.error().message);
     auto link_peer = *peer;
     link_peer->set_description("link " + source + " -> " + destination);
-    nlohmann::json body4 = {
-        {"op", "attach"}, {"source", source}, {"destination", destination}, {"carrier", carrier}};
+    nlohmann::json body4 = {{"op", "attach"},
+                            {"source", source},
+                            {"destination", destination},
+                            {"carrier", carrier},
+                            {"strict", request.body.value("strict", false)}};
     auto attached = co_await link_peer->request(body4, peer_timeout);
     if (!attached || attached->code != ReplyCode::ok) {
         link_peer->close("attach refused");
@@ -260,7 +262,7 @@ Task<proto::Reply> Daemon::connect_remote(const proto::Request& request, std::sh
                             {"persistent", request.body.value("persist", false)}};
     co_await names_->request(body6);
     spdlog::info("connected {} -> {} ({} to {})", source, destination, carrier, address);
-    co_return ok({{"carrier", carrier}});
+    co_return ok({{"carrier", carrier}, {"warnings", attached->body.value("warnings", nlohmann::json::array())}});
 }
 
 Task<proto::Reply> Daemon::attach(std::shared_ptr<Session> session, const proto::Request& request) {
@@ -278,12 +280,19 @@ Task<proto::Reply> Daemon::attach(std::shared_ptr<Session> session, const proto:
         co_return refuse("bad carrier: " + carrier.error().message);
     if (auto valid = proto::validate_carrier(*carrier); !valid)
         co_return refuse(valid.error().message);
-    auto recv_chain = scripts_->build_chain(*carrier, proto::Side::recv, source, destination);
+    auto member = new_member(port, source, *carrier);
+    if (!member)
+        co_return refuse(member.error().message);
+    auto recv_chain = scripts_->build_chain(*carrier, proto::Side::recv, source, destination, *member);
     if (!recv_chain)
         co_return refuse(recv_chain.error().message);
-    auto link = std::make_shared<Inlet>(port, source, carrier->text());
+    auto warnings = check_member(*port, **member, request.body.value("strict", false));
+    if (!warnings)
+        co_return refuse(warnings.error().message);
+    auto link = std::make_shared<Inlet>(port, source, carrier->text(), *member);
     link->chain = std::move(*recv_chain);
     port->inbound.push_back(link);
+    port->arbiter->join(**member);
     session->become_link(link);
     std::weak_ptr<Session> weak = session;
     port->on_close.push_back([weak] {
@@ -291,7 +300,7 @@ Task<proto::Reply> Daemon::attach(std::shared_ptr<Session> session, const proto:
             s->close("destination port closed");
     });
     session->set_description("link " + source + " -> " + destination);
-    co_return ok();
+    co_return ok({{"warnings", *warnings}});
 }
 
 Task<proto::Reply> Daemon::disconnect(const proto::Request& request) {
@@ -393,11 +402,9 @@ nlohmann::json Daemon::stats_json(const std::string& only_port) const {
             auto inlet = weak.lock();
             if (!inlet)
                 continue;
-            nlohmann::json entry{{"source", inlet->source()},
-                                 {"carrier", inlet->carrier()},
-                                 {"received", inlet->received},
-                                 {"dropped_by_monitor", inlet->dropped_by_monitor},
-                                 {"delivered", inlet->delivered}};
+            nlohmann::json entry = inlet_counters(*inlet);
+            entry["source"] = inlet->source();
+            entry["carrier"] = inlet->carrier();
             if (inlet->chain)
                 entry["monitors"] = inlet->chain->stats();
             inbound.push_back(entry);

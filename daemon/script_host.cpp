@@ -4,6 +4,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "arbitration/carrier_rules.hpp"
 #include "daemon.hpp"
 #include "plexus/proto/message.hpp"
 #include "plexus/proto/port_name.hpp"
@@ -39,7 +40,7 @@ proto::Result<monitor::MonitorSpec> spec_of(const proto::Clause& clause, const p
             else
                 return proto::Error{"onerror." + value + ": expected onerror.drop or onerror.pass"};
         } else if (param.key == "constraint" || param.key == "aux") {
-            return proto::Error{"portmonitor key '" + param.key + "' is not supported by this build"};
+            continue;  // the port's arbitration reads these (arbitration/carrier_rules)
         } else {
             spec.options[param.key] = value;
         }
@@ -58,10 +59,10 @@ ScriptHost::~ScriptHost() = default;
 
 proto::Result<std::shared_ptr<monitor::MonitorChain>> ScriptHost::build_chain(
     const proto::Carrier& carrier, proto::Side side, const std::string& source,
-    const std::string& destination) {
+    const std::string& destination, const std::shared_ptr<arbitration::Member>& member) {
     auto chain = std::make_shared<monitor::MonitorChain>();
     for (const auto& clause : carrier.clauses) {
-        if (clause.side != side || clause.modifier != "portmonitor")
+        if (clause.side != side || clause.modifier != "portmonitor" || arbitration::arbitration_only(clause))
             continue;
         auto spec = spec_of(clause, carrier, source, destination);
         if (!spec)
@@ -70,6 +71,8 @@ proto::Result<std::shared_ptr<monitor::MonitorChain>> ScriptHost::build_chain(
         if (!script)
             return script.error();
         spec->script = std::move(*script);
+        if (side == proto::Side::recv)
+            spec->member = member;
         auto created = monitor::Monitor::create(std::move(*spec), daemon_.config().monitors, *this);
         if (!created)
             return created.error();

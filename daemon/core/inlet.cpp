@@ -1,23 +1,38 @@
 #include "inlet.hpp"
 
+#include <optional>
+
 #include "../monitor/chain.hpp"
 
 namespace plexus::daemon {
 
 void Inlet::deliver(const Message& message) {
     ++received;
-    if (!chain) {
-        ++delivered;
-        port_->deliver(message);
-        return;
+    std::optional<Message> rewritten;  // only with monitors: without, no copy of the message
+    if (chain) {
+        rewritten = message;
+        if (!chain->process(*rewritten)) {
+            ++dropped_by_accept;
+            return;
+        }
     }
-    Message passed = message;
-    if (!chain->process(passed)) {
-        ++dropped_by_monitor;
-        return;
-    }
+    const Message& passed = rewritten ? *rewritten : message;
+    ++accepted;
+    if (!member_->trivial() && member_->arbiter().admit(*member_) != arbitration::Arbiter::Verdict::deliver)
+        return;  // counted by the arbiter (constraint, priority) or an auxiliary connection
+    const auto dropped_before = port_->queue().dropped();
     ++delivered;
     port_->deliver(passed);
+    dropped_by_queue += port_->queue().dropped() - dropped_before;
+}
+
+std::uint64_t Inlet::script_errors() const {
+    std::uint64_t errors = 0;
+    if (chain) {
+        for (const auto& monitor : chain->monitors)
+            errors += monitor->counters().errors;
+    }
+    return errors;
 }
 
 }  // namespace plexus::daemon

@@ -5,6 +5,7 @@
 #include <memory>
 #include <string>
 
+#include "../arbitration/arbiter.hpp"
 #include "connection.hpp"
 #include "port.hpp"
 
@@ -15,31 +16,42 @@ struct MonitorChain;
 }
 
 /// A connection as its destination port sees it, whether it comes from a port of this daemon or
-/// from another daemon: where the recv-side monitors run, with the counters `plexus stats` shows.
-/// Owned by the connection (local) or by the link session (remote); the port only watches it.
+/// from another daemon: where the recv-side monitors and the port's arbitration run, with the
+/// counters `plexus stats` and `plexus events` show. Owned by the connection (local) or by the
+/// link session (remote); the port only watches it.
 class Inlet : public MessageSink {
 public:
-    Inlet(std::shared_ptr<Port> port, std::string source, std::string carrier)
-        : port_(std::move(port)), source_(std::move(source)), carrier_(std::move(carrier)) {}
+    Inlet(std::shared_ptr<Port> port, std::string source, std::string carrier,
+          std::shared_ptr<arbitration::Member> member)
+        : port_(std::move(port)), source_(std::move(source)), carrier_(std::move(carrier)), member_(std::move(member)) {}
+    /// The monitors go first: they take their events out of the port's container as they go.
+    ~Inlet() override { chain.reset(); }
 
     bool full() const override { return port_->full(); }
-    /// Runs the recv chain, then hands what passes to the port's reader queue.
+    /// Runs the recv chain (accept, update), then the arbitration (constraint, stimulation), then
+    /// hands what passes to the port's reader queue.
     void deliver(const Message& message) override;
 
     const std::shared_ptr<Port>& port() const { return port_; }
     const std::string& source() const { return source_; }
     const std::string& carrier() const { return carrier_; }
+    const arbitration::Member& member() const { return *member_; }
+    /// Failed calls of the recv-side monitors' callbacks.
+    std::uint64_t script_errors() const;
 
     std::shared_ptr<monitor::MonitorChain> chain;  ///< recv-side monitors; null when there are none
 
-    std::uint64_t received = 0;            ///< messages that arrived on this connection
-    std::uint64_t dropped_by_monitor = 0;  ///< dropped by a recv-side monitor
-    std::uint64_t delivered = 0;           ///< handed to the port's reader queue
+    std::uint64_t received = 0;           ///< messages that arrived on this connection
+    std::uint64_t dropped_by_accept = 0;  ///< dropped by a recv-side monitor
+    std::uint64_t accepted = 0;           ///< passed the monitors, on to the arbitration
+    std::uint64_t dropped_by_queue = 0;   ///< older messages a `latest` queue dropped to make room for these
+    std::uint64_t delivered = 0;          ///< handed to the port's reader queue
 
 private:
     std::shared_ptr<Port> port_;
     std::string source_;
     std::string carrier_;
+    std::shared_ptr<arbitration::Member> member_;
 };
 
 }  // namespace plexus::daemon

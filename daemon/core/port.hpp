@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "../arbitration/arbiter.hpp"
 #include "connection.hpp"
 #include "reader_queue.hpp"
 
@@ -39,6 +40,9 @@ public:
     std::vector<std::shared_ptr<Connection>> outgoing;
     /// The connections into this port (owned by their connections or link sessions).
     std::vector<std::weak_ptr<Inlet>> inbound;
+    /// The arbitration of what comes in: event container, constraints, stimulation. Made with the
+    /// first connection into the port.
+    std::shared_ptr<arbitration::Arbiter> arbiter;
 
     std::uint64_t written = 0;    ///< messages its client wrote into it
     std::uint64_t received = 0;   ///< messages that arrived through connections

@@ -6,6 +6,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "lua_guard.hpp"
 #include "lua_value.hpp"
 #include "plexus/proto/cbor.hpp"
 #include "plexus/proto/message.hpp"
@@ -22,20 +23,6 @@ constexpr std::uint64_t logged_failures = 10;
 constexpr double min_trig_interval = 0.001;
 
 std::uint64_t next_monitor_id = 1;
-
-/// Turns a C++ exception inside a Lua-called function into a Lua error. Lua errors are C++
-/// exceptions of another type in this build of Lua and pass through untouched.
-template <typename F>
-int guard(lua_State* L, F&& body) {
-    std::string failure;
-    try {
-        return body();
-    } catch (const std::exception& e) {
-        failure = e.what();
-    }
-    lua_pushlstring(L, failure.data(), failure.size());
-    return lua_error(L);
-}
 
 }  // namespace
 
@@ -182,6 +169,11 @@ void Monitor::install_api(lua_State* L) {
         {"publish", &Monitor::api_publish},
         {"setTrigInterval", &Monitor::api_set_trig_interval},
         {"now", &Monitor::api_now},
+        {"setEvent", &Monitor::api_set_event},
+        {"unsetEvent", &Monitor::api_unset_event},
+        {"hasEvent", &Monitor::api_has_event},
+        {"setConstraint", &Monitor::api_set_constraint},
+        {"getConstraint", &Monitor::api_get_constraint},
     };
     // Into the current PortMonitor table: a script that replaced it with its own keeps the API.
     if (lua_getglobal(L, api_table) != LUA_TTABLE) {
@@ -343,6 +335,7 @@ Monitor::~Monitor() {
         if (error)
             spdlog::warn("monitor {}: destroy failed: {}", description(), error->message);
     }
+    release_events();
     host_.monitor_gone(*this);
 }
 
@@ -379,6 +372,7 @@ void Monitor::quarantine() {
     quarantined_ = true;
     spdlog::error("monitor {} quarantined after {} failures in a row; last: {}", description(),
                   consecutive_failures_, last_error_);
+    release_events();
     host_.monitor_gone(*this);
     sandbox_.reset();  // closes the state
     ::malloc_trim(0);  // and its memory goes back to the system now, not at the next trim

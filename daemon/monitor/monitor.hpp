@@ -12,6 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "../arbitration/arbiter.hpp"
 #include "../core/message.hpp"
 #include "lua_sandbox.hpp"
 #include "plexus/proto/carrier.hpp"
@@ -48,6 +49,9 @@ struct MonitorSpec {
     std::string carrier;
     std::map<std::string, std::string> options;  ///< the clause's keys that are not the monitor's own
     OnError on_error = OnError::by_callback;
+    /// The connection's place in its input port's arbitration: setEvent, setConstraint... act on
+    /// it. Recv side only; null on the send side, where those functions raise an error.
+    std::shared_ptr<arbitration::Member> member;
 };
 
 struct MonitorPolicy {
@@ -111,6 +115,16 @@ private:
     static int api_publish(lua_State* L);
     static int api_set_trig_interval(lua_State* L);
     static int api_now(lua_State* L);
+    // The event and constraint functions, in arbitration_api.cpp.
+    static int api_set_event(lua_State* L);
+    static int api_unset_event(lua_State* L);
+    static int api_has_event(lua_State* L);
+    static int api_set_constraint(lua_State* L);
+    static int api_get_constraint(lua_State* L);
+    /// The member, or a Lua error naming `function` on a send-side monitor.
+    static arbitration::Member& member_of(lua_State* L, const char* function);
+    /// Its events leave the container: the monitor is going away or was quarantined.
+    void release_events();
     static Monitor& self(lua_State* L);
 
     std::uint64_t id_;

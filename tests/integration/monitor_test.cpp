@@ -88,7 +88,7 @@ TEST(Monitor_test, CertaintyFilterOnTheRecvSideWithParamGetAndSet) {
         return s["ports"][0]["inbound"][0]["received"] == 4;
     }));
     auto inbound = stats_of(dir, daemon, "/consumer")["ports"][0]["inbound"][0];
-    EXPECT_EQ(inbound["dropped_by_monitor"], 2);
+    EXPECT_EQ(inbound["dropped_by_accept"], 2);
     EXPECT_EQ(inbound["monitors"][0]["dropped"], 2);
     p.writer->send("{\"c\":5,\"certainty\":0.99}\n");
     ASSERT_EQ(p.writer->finish(), 0);

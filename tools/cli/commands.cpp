@@ -79,12 +79,19 @@ int list(const Common& common, bool json) {
 }
 
 int connect(const Common& common, const std::string& source, const std::string& destination,
-            const std::string& carrier, bool persist, bool /*strict: arbitration checks come later*/) {
+            const std::string& carrier, bool persist, bool strict) {
     require_port_name(source);
     require_port_name(destination);
     auto client = make_client(common);
-    const std::string used = client.connect(source, destination, carrier, persist);
-    std::cerr << "connected " << source << " -> " << destination << " (" << used << ")\n";
+    const Value reply = client.request({{"op", "connect"},
+                                        {"source", source},
+                                        {"destination", destination},
+                                        {"carrier", carrier},
+                                        {"persist", persist},
+                                        {"strict", strict}});
+    for (const auto& warning : reply.value("warnings", Value::array()))
+        std::cerr << "warning: " << warning.get<std::string>() << '\n';
+    std::cerr << "connected " << source << " -> " << destination << " (" << reply.value("carrier", carrier) << ")\n";
     return 0;
 }
 
@@ -246,8 +253,11 @@ int stats(const Common& common, const std::string& port, bool json) {
         }
         for (const auto& c : p.value("inbound", Value::array())) {
             std::cout << "    <- " << pad(c.value("source", ""), 24) << pad(c.value("carrier", ""), 10)
-                      << "received " << c.value("received", 0) << ", dropped by monitors "
-                      << c.value("dropped_by_monitor", 0) << '\n';
+                      << "received " << c.value("received", 0) << ", delivered " << c.value("delivered", 0)
+                      << ", dropped by accept " << c.value("dropped_by_accept", 0) << " / constraint "
+                      << c.value("dropped_by_constraint", 0) << " / priority " << c.value("dropped_by_priority", 0)
+                      << " / queue " << c.value("dropped_by_queue", 0) << ", script errors "
+                      << c.value("script_errors", 0) << '\n';
             print_monitors(c);
         }
     }

@@ -24,6 +24,15 @@ struct ReadOptions {
     std::size_t capacity = 0;
 };
 
+struct EventsOptions {
+    std::string port;
+    bool check = false;
+    bool watch = false;
+    bool json = false;
+    double interval = 0.5;     ///< seconds between redraws with --watch
+    std::optional<long> count;  ///< with --watch: stop after this many redraws
+};
+
 int list(const Common& common, bool json);
 int connect(const Common& common, const std::string& source, const std::string& destination,
             const std::string& carrier, bool persist, bool strict);
@@ -34,6 +43,9 @@ int exists(const Common& common, const std::string& port, const std::string& des
 int wait(const Common& common, const std::string& port, double timeout);
 int ping(const Common& common, const std::string& port, int count);
 int stats(const Common& common, const std::string& port, bool json);
+/// The event container, constraints, stimulation and counters of an input port; exit 1 when
+/// --check finds two connections that can deliver at once.
+int events(const Common& common, const EventsOptions& options);
 /// Prints, as a JSON array, {script, side, param} for each monitor on SRC -> DST; `set` calls
 /// setparam with the KEY=VALUE pairs first.
 int param(const Common& common, const std::string& action, const std::string& source,

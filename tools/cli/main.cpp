@@ -95,6 +95,21 @@ int main(int argc, char** argv) {
     stats_cmd->add_flag("--json", json, "print JSON");
     stats_cmd->callback([&] { status = stats(common, port, json); });
 
+    EventsOptions events_options;
+    auto* events_cmd = app.add_subcommand(
+        "events", "the arbitration of an input port: event container, constraints, stimulation, counters");
+    events_cmd->add_option("PORT", events_options.port, "input port")->required();
+    events_cmd->add_flag("--check", events_options.check,
+                         "report pairs of connections whose constraints can both be true (exit 1 if any)");
+    events_cmd->add_flag("--watch", events_options.watch, "redraw live until Ctrl-C, like top");
+    events_cmd->add_flag("--json", events_options.json, "print JSON (one object per line with --watch)");
+    events_cmd->add_option("--interval", events_options.interval, "seconds between redraws with --watch")
+        ->check(CLI::Range(0.05, 3600.0))
+        ->capture_default_str();
+    events_cmd->add_option("--count", events_options.count, "with --watch: stop after N redraws")
+        ->check(CLI::PositiveNumber);
+    events_cmd->callback([&] { status = events(common, events_options); });
+
     std::vector<std::string> assignments;
     auto* param_cmd = app.add_subcommand("param", "get or set the parameters of the monitors on SRC -> DST");
     param_cmd->require_subcommand(1);

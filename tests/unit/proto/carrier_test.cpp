@@ -210,10 +210,15 @@ TEST(ValidateCarrier_test, RefusesUnimplementedBase) {
     EXPECT_EQ(validate_error("mcast"), "carrier 'mcast' is not supported by this build");
 }
 
+TEST(ValidateCarrier_test, AcceptsPriority) {
+    EXPECT_TRUE(validate_carrier(parse("tcp+recv.priority+tc.0.5+st.1+bs.1+ex./face/out:-1")));
+}
+
 TEST(ValidateCarrier_test, RefusesUnimplementedModifierNamingSide) {
-    EXPECT_EQ(validate_error("tcp+recv.priority+tc.0.5+st.1+bs.1+ex./face/out:-1"),
-              "modifier 'recv.priority' is not supported by this build");
-    EXPECT_EQ(validate_error("tcp+send.portmonitor+type.lua+file.codec+send.priority"),
+    CarrierSupport support;
+    support.unimplemented_modifiers = {"priority"};
+    support.modifiers = {"portmonitor"};
+    EXPECT_EQ(validate_error("tcp+send.portmonitor+type.lua+file.codec+send.priority", support),
               "modifier 'send.priority' is not supported by this build");
 }
 

@@ -48,9 +48,9 @@ struct CarrierSupport {
     /// Known base carriers that this build does not implement (refused as "not supported by this build").
     std::vector<std::string> unimplemented_bases{"udp", "mcast"};
     /// Known modifiers this build does not implement.
-    std::vector<std::string> unimplemented_modifiers{"priority"};
+    std::vector<std::string> unimplemented_modifiers{};
     /// Modifiers this build implements; a later issue moves a name here from the list above.
-    std::vector<std::string> modifiers{"portmonitor"};
+    std::vector<std::string> modifiers{"portmonitor", "priority"};
 };
 
 /// Checks a parsed carrier against what the build supports. Errors name the part:

@@ -1,0 +1,59 @@
+#include "carrier_rules.hpp"
+
+namespace plexus::daemon::arbitration {
+
+namespace {
+const char* side_name(proto::Side side) {
+    return side == proto::Side::send ? "send" : "recv";
+}
+}  // namespace
+
+bool arbitration_only(const proto::Clause& clause) {
+    return clause.modifier == "portmonitor" && !clause.find("file") &&
+           (clause.find("constraint") || clause.find("aux"));
+}
+
+proto::Status configure_member(Member& member, const proto::Carrier& carrier) {
+    bool has_priority = false;
+    for (const auto& clause : carrier.clauses) {
+        if (clause.modifier == "priority") {
+            if (clause.side != proto::Side::recv)
+                return proto::Error{"send.priority: stimulation arbitrates an input port, so it is a recv. "
+                                    "clause (recv.priority)"};
+            if (has_priority)
+                return proto::Error{"two recv.priority clauses on one connection"};
+            has_priority = true;
+            auto params = PriorityParams::from_clause(clause);
+            if (!params)
+                return params.error();
+            member.set_priority(*params);
+            continue;
+        }
+        if (clause.modifier != "portmonitor")
+            continue;
+        for (const auto& param : clause.params) {
+            if (param.key != "constraint" && param.key != "aux")
+                continue;
+            if (clause.side != proto::Side::recv)
+                return proto::Error{"'" + param.key + "' in a " + side_name(clause.side) +
+                                    ".portmonitor clause: arbitration happens in the input port, so it "
+                                    "belongs to a recv. clause"};
+            if (param.key == "aux") {
+                if (param.value)
+                    return proto::Error{"portmonitor key 'aux' is a flag and takes no value"};
+                member.aux = true;
+                continue;
+            }
+            if (member.constraint)
+                return proto::Error{"two constraints on one connection ('" + member.constraint->text() + "' and '" +
+                                    param.value.value_or("") + "'): combine them with and/or"};
+            auto parsed = Constraint::parse(param.value.value_or(""));
+            if (!parsed)
+                return parsed.error();
+            member.constraint = std::move(*parsed);
+        }
+    }
+    return proto::Ok{};
+}
+
+}  // namespace plexus::daemon::arbitration

@@ -1,0 +1,18 @@
+#pragma once
+// What a carrier string says about arbitration: the `constraint.` and `aux` keys of a
+// `recv.portmonitor` clause, and the `recv.priority` clause.
+
+#include "arbiter.hpp"
+#include "plexus/proto/carrier.hpp"
+
+namespace plexus::daemon::arbitration {
+
+/// Sets the member's constraint, aux flag and stimulation from the carrier. Errors name the bad
+/// part: a constraint that does not parse (with its position), arbitration keys on the send
+/// side, two constraints or two priority clauses, an unknown or malformed priority key.
+proto::Status configure_member(Member& member, const proto::Carrier& carrier);
+
+/// True for a portmonitor clause with no script, only arbitration keys (`constraint.`, `aux`).
+bool arbitration_only(const proto::Clause& clause);
+
+}  // namespace plexus::daemon::arbitration
