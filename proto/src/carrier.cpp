@@ -86,10 +86,11 @@ Result<Carrier> parse_carrier(std::string_view text) {
     if (text.empty()) {
         return Error{"empty carrier"};
     }
-    // Spaces and control characters are almost always a quoting mistake on the command line.
+    // Control characters are a mistake. Spaces are allowed only inside values, where a
+    // constraint needs them ("constraint.e_a and not e_b"); in names they are refused below.
     for (std::size_t i = 0; i < text.size(); ++i) {
         const auto byte = static_cast<unsigned char>(text[i]);
-        if (byte <= 0x20 || byte >= 0x7f) {
+        if (byte < 0x20 || byte >= 0x7f) {
             return Error{"character '" + show_char(text[i]) + "'" + at(i) + " is not allowed in a carrier"};
         }
     }

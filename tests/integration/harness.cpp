@@ -230,4 +230,22 @@ bool wait_port(const TempDir& dir, const Daemon& daemon, const std::string& port
     return run_cli(dir, daemon, {"wait", port, "--timeout", "20"}).status == 0;
 }
 
+std::vector<nlohmann::json> json_lines(const std::string& text) {
+    std::vector<nlohmann::json> lines;
+    // Only complete lines: a reader that is still running may be half-way through one.
+    std::size_t start = 0;
+    for (std::size_t end = text.find('\n'); end != std::string::npos; end = text.find('\n', start)) {
+        if (end > start) {
+            const std::string line = text.substr(start, end - start);
+            try {
+                lines.push_back(nlohmann::json::parse(line));
+            } catch (const std::exception& e) {
+                throw std::runtime_error("not a JSON line: '" + line + "' (" + std::to_string(line.size()) + " bytes): " + e.what());
+            }
+        }
+        start = end + 1;
+    }
+    return lines;
+}
+
 }  // namespace plexus::test

@@ -124,6 +124,9 @@ private:
 /// Polls until `plexus exists PORT` succeeds on that daemon's name server.
 bool wait_port(const TempDir& dir, const Daemon& daemon, const std::string& port);
 
+/// One JSON value per complete, non-empty line (the output of `plexus read`).
+std::vector<nlohmann::json> json_lines(const std::string& text);
+
 /// Reads a whole file.
 std::string read_file(const std::string& path);
 

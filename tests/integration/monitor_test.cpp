@@ -24,17 +24,6 @@ std::vector<std::string> with_scripts(const std::string& extra_dir = "") {
     return args;
 }
 
-std::vector<json> json_lines(const std::string& text) {
-    std::vector<json> lines;
-    std::istringstream in(text);
-    std::string line;
-    while (std::getline(in, line)) {
-        if (!line.empty())
-            lines.push_back(json::parse(line));
-    }
-    return lines;
-}
-
 json stats_of(const TempDir& dir, const Daemon& daemon, const std::string& port) {
     auto result = run_cli(dir, daemon, {"stats", port, "--json"});
     EXPECT_EQ(result.status, 0) << result.err;

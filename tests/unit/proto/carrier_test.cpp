@@ -158,6 +158,12 @@ TEST(Carrier_test, RefusesEmptyKeyAndEmptyValue) {
               "missing value after 'file.' at position 21 (write 'file' alone for a flag)");
 }
 
+TEST(Carrier_test, ValuesMayHoldSpacesForConstraints) {
+    const Carrier carrier = parse("tcp+recv.portmonitor+constraint.e_a and not (e_b or e_c)");
+    EXPECT_EQ(carrier.clauses[0].find("constraint")->value, "e_a and not (e_b or e_c)");
+    EXPECT_EQ(carrier.text(), "tcp+recv.portmonitor+constraint.e_a and not (e_b or e_c)");
+}
+
 TEST(Carrier_test, RefusesDuplicateKeyInClause) {
     EXPECT_EQ(parse_error("tcp+recv.priority+tc.1+tc.2"),
               "duplicate key 'tc' at position 23 in clause 'recv.priority'");
@@ -166,7 +172,9 @@ TEST(Carrier_test, RefusesDuplicateKeyInClause) {
 }
 
 TEST(Carrier_test, RefusesBadCharactersNamingPosition) {
-    EXPECT_EQ(parse_error("tcp + recv.x"), "character '\\x20' at position 3 is not allowed in a carrier");
+    EXPECT_EQ(parse_error("tcp + recv.x"),
+              "character '\\x20' at position 3 is not allowed in base carrier 'tcp ' (use A-Z a-z 0-9 _ -)");
+    EXPECT_EQ(parse_error("tcp+recv.x\ty"), "character '\\x09' at position 10 is not allowed in a carrier");
     EXPECT_EQ(parse_error("tc/p"),
               "character '/' at position 2 is not allowed in base carrier 'tc/p' (use A-Z a-z 0-9 _ -)");
     EXPECT_EQ(
