@@ -52,6 +52,12 @@ int main(int argc, char** argv) {
         "throughput and daemon CPU without a monitor, with a one-field accept, with a rewriting update");
     add_common(monitor);
     monitor->callback([&] { status = run_monitor(options); });
+
+    auto* arbitration = app.add_subcommand(
+        "arbitration",
+        "added CPU per message with 2, 4, 8 competing connections (constraints, priority) and the switch time");
+    add_common(arbitration);
+    arbitration->callback([&] { status = run_arbitration(options); });
     auto* memory = app.add_subcommand("memory", "plexusd resident memory, idle and with many ports open");
     memory->add_option("--ports", options.ports, "ports to open")->capture_default_str();
     memory->add_flag("--json", options.json, "one JSON object per line");

@@ -27,9 +27,10 @@ std::uint64_t now_ns() {
                                           .count());
 }
 
-/// Registration with the name server may lag behind open(): wait until both ends are known.
+}  // namespace
+
 void connect_when_registered(Client& client, const std::string& source, const std::string& destination,
-                             const std::string& carrier = "") {
+                             const std::string& carrier) {
     const auto deadline = Clock::now() + stall_timeout;
     while (!client.lookup(source) || !client.lookup(destination)) {
         if (Clock::now() > deadline)
@@ -39,6 +40,8 @@ void connect_when_registered(Client& client, const std::string& source, const st
     client.connect(source, destination, carrier);
 }
 
+namespace {
+
 void check_payload(const Received& message, std::size_t size) {
     if (!message.data.is_binary() || message.data.get_binary().size() != size) {
         throw std::runtime_error("plexus delivered a payload that is not the " + std::to_string(size) +
@@ -46,9 +49,13 @@ void check_payload(const Received& message, std::size_t size) {
     }
 }
 
+}  // namespace
+
 Client connect_client(const std::string& socket) {
     return Client(Client::Options{socket, 10000ms});
 }
+
+namespace {
 
 PortOptions queue(const Options& options) {
     return {QueuePolicy::strict, options.capacity};
@@ -145,6 +152,8 @@ public:
           source_(writer_.open("/bench/" + spec.name + "source", queue(options))),
           sink_(reader_.open("/bench/" + spec.name + "sink", queue(options))) {
         connect_when_registered(writer_, source_.name(), sink_.name(), spec.carrier);
+        if (spec.prepare)
+            extra_ports_ = spec.prepare(writer_, sink_.name());
         stream(std::max<std::size_t>(count_ / 10, 10));  // warm-up: buffers grown, connections hot
     }
 
@@ -206,6 +215,7 @@ private:
     Client reader_;
     Port source_;
     Port sink_;
+    std::vector<Port> extra_ports_;  ///< opened by spec.prepare; open for as long as the stream
     std::uint64_t next_seq_ = 1;
 };
 

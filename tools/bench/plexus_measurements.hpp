@@ -16,6 +16,12 @@
 
 namespace plexus::bench {
 
+/// A client of the daemon at `socket`.
+Client connect_client(const std::string& socket);
+/// Registration with the name server may lag behind open(): waits until both ends are known.
+void connect_when_registered(Client& client, const std::string& source, const std::string& destination,
+                             const std::string& carrier = "");
+
 /// Ping-pong: A writes /bench/ping -> B's /bench/pong-in; B echoes on /bench/pong -> A's /bench/ping-in.
 std::unique_ptr<Measurement> plexus_latency(const Topology& topology, const Options& options);
 
@@ -29,6 +35,9 @@ struct StreamSpec {
     Value payload;
     std::string carrier;                         ///< "" for the daemon's default
     std::function<void(const Received&)> check;  ///< throws if a delivered message is wrong
+    /// Called once the stream is connected, before the warm-up, with the writing client and the
+    /// sink's name: opens and connects other ports (competitors); they stay open with the stream.
+    std::function<std::vector<Port>(Client&, const std::string& sink)> prepare;
 };
 std::unique_ptr<Measurement> plexus_stream(const Topology& topology, const Options& options, StreamSpec spec);
 

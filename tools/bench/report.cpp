@@ -55,19 +55,29 @@ void print(const ScenarioResult& result, bool json) {
 }
 
 void print(const VariantsResult& result, bool json) {
+    auto switch_ms = [&](std::size_t i) { return i < result.switch_ms.size() ? result.switch_ms[i] : -1.0; };
     if (json) {
-        for (const auto& [system, run] : result.systems)
-            std::cout << as_json(system, result.scenario, result.size, run).dump() << '\n';
+        for (std::size_t i = 0; i < result.systems.size(); ++i) {
+            const auto& [system, run] = result.systems[i];
+            auto line = as_json(system, result.scenario, result.size, run);
+            if (switch_ms(i) >= 0)
+                line["switch_ms"] = rounded(switch_ms(i));
+            std::cout << line.dump() << '\n';
+        }
         return;
     }
     std::printf("%s\n", result.title.c_str());
-    std::printf("  %-18s %12s %12s %12s %14s %16s\n", "system", "msgs/s", "vs first", "cpu us/msg",
-                "added us/msg", "p50 write->read");
+    std::printf("  %-18s %12s %12s %12s %14s %16s%s\n", "system", "msgs/s", "vs first", "cpu us/msg",
+                "added us/msg", "p50 write->read", result.switch_ms.empty() ? "" : "   switch ms");
     const RunResult& base = result.systems.front().second;
-    for (const auto& [system, run] : result.systems) {
-        std::printf("  %-18s %12.0f %11.1f%% %12.3f %14.3f %14.1f us\n", system.c_str(), run.msgs_per_s,
+    for (std::size_t i = 0; i < result.systems.size(); ++i) {
+        const auto& [system, run] = result.systems[i];
+        std::printf("  %-18s %12.0f %11.1f%% %12.3f %14.3f %14.1f us", system.c_str(), run.msgs_per_s,
                     base.msgs_per_s > 0 ? 100 * run.msgs_per_s / base.msgs_per_s : 0, run.cpu_us_per_msg,
                     run.cpu_us_per_msg - base.cpu_us_per_msg, run.p50_us);
+        if (switch_ms(i) >= 0)
+            std::printf(" %12.3f", switch_ms(i));
+        std::printf("\n");
     }
 }
 

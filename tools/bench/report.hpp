@@ -35,6 +35,8 @@ struct VariantsResult {
     std::string title;
     std::size_t size = 0;
     std::vector<std::pair<std::string, RunResult>> systems;  ///< the JSON `system`, and its medians
+    /// Optional, one per system: a switch time in ms (the JSON `switch_ms`); negative = none.
+    std::vector<double> switch_ms;
 };
 
 void print(const ScenarioResult& result, bool json);

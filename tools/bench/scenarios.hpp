@@ -13,5 +13,8 @@ int run_throughput(const Options& options);
 int run_memory(const Options& options);
 /// Throughput and daemon CPU with no monitor, a one-field accept and a rewriting update.
 int run_monitor(const Options& options);
+/// Added CPU per message with 2, 4 and 8 competing connections (constraints, priority), and the
+/// switch time back to a stream once a competitor's hold ends.
+int run_arbitration(const Options& options);
 
 }  // namespace plexus::bench
