@@ -38,8 +38,8 @@ nlohmann::json witness_json(const std::optional<std::map<std::string, bool>>& wi
 }  // namespace
 
 proto::Result<std::shared_ptr<arbitration::Member>> Daemon::new_member(const std::shared_ptr<Port>& port,
-                                                                        const std::string& source,
-                                                                        const proto::Carrier& carrier) {
+                                                                       const std::string& source,
+                                                                       const proto::Carrier& carrier) {
     if (!port->arbiter)
         port->arbiter = std::make_shared<arbitration::Arbiter>(clock_);
     auto member = std::make_shared<arbitration::Member>(port->arbiter, source);
@@ -48,11 +48,12 @@ proto::Result<std::shared_ptr<arbitration::Member>> Daemon::new_member(const std
     return member;
 }
 
-proto::Result<nlohmann::json> Daemon::check_member(const Port& port, const arbitration::Member& member, bool strict) {
+proto::Result<nlohmann::json> Daemon::check_member(const Port& port, const arbitration::Member& member,
+                                                   bool strict) {
     auto& arbiter = *port.arbiter;
     if (auto weights = arbiter.check_weights(member); !weights)
-        return proto::Error{"connection from " + member.source() + " into " + port.name() + " refused: " +
-                            weights.error().message};
+        return proto::Error{"connection from " + member.source() + " into " + port.name() +
+                            " refused: " + weights.error().message};
     nlohmann::json warnings = nlohmann::json::array();
     // Plain fan-in (no constraints anywhere) is not arbitration: nothing to warn about.
     if (!arbiter.uses_constraints(&member))

@@ -101,7 +101,8 @@ private:
                                                                    const proto::Carrier& carrier);
     /// Checks a member before it joins: weights that make the system singular are an error;
     /// constraints that overlap another connection's are warnings (errors with `strict`).
-    proto::Result<nlohmann::json> check_member(const Port& port, const arbitration::Member& member, bool strict);
+    proto::Result<nlohmann::json> check_member(const Port& port, const arbitration::Member& member,
+                                               bool strict);
     /// `plexus events PORT`: the port's event container and arbitration state.
     Task<proto::Reply> events(const proto::Request& request);
     nlohmann::json events_json(const Port& port, bool check) const;
@@ -121,7 +122,7 @@ private:
     asio::io_context& io_;
     DaemonConfig config_;
     std::unique_ptr<ScriptHost> scripts_;  ///< before router_: monitors in connections die first
-    arbitration::SteadyClock clock_;  ///< event lifetimes and stimulation decay
+    arbitration::SteadyClock clock_;       ///< event lifetimes and stimulation decay
     Router router_;
     Signal space_;
     DaemonCounters counters_;

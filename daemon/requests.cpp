@@ -3,11 +3,11 @@
 
 #include "daemon.hpp"
 #include "inlet_counters.hpp"
-#include "request_fields.hpp"
 #include "net/link.hpp"
 #include "net/session.hpp"
 #include "plexus/proto/carrier.hpp"
 #include "plexus/proto/port_name.hpp"
+#include "request_fields.hpp"
 #include "script_host.hpp"
 
 namespace plexus::daemon {
@@ -16,7 +16,6 @@ namespace {
 
 using proto::ReplyCode;
 constexpr auto peer_timeout = std::chrono::seconds(5);
-
 
 }  // namespace
 
@@ -262,7 +261,8 @@ Task<proto::Reply> Daemon::connect_remote(const proto::Request& request, std::sh
                             {"persistent", request.body.value("persist", false)}};
     co_await names_->request(body6);
     spdlog::info("connected {} -> {} ({} to {})", source, destination, carrier, address);
-    co_return ok({{"carrier", carrier}, {"warnings", attached->body.value("warnings", nlohmann::json::array())}});
+    co_return ok(
+        {{"carrier", carrier}, {"warnings", attached->body.value("warnings", nlohmann::json::array())}});
 }
 
 Task<proto::Reply> Daemon::attach(std::shared_ptr<Session> session, const proto::Request& request) {

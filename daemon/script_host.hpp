@@ -27,8 +27,8 @@ public:
     /// nothing) when a script is missing, does not load, or refuses; null when the side has none.
     /// Recv-side monitors take part in the arbitration through `member`.
     proto::Result<std::shared_ptr<monitor::MonitorChain>> build_chain(
-        const proto::Carrier& carrier, proto::Side side, const std::string& source, const std::string& destination,
-        const std::shared_ptr<arbitration::Member>& member = nullptr);
+        const proto::Carrier& carrier, proto::Side side, const std::string& source,
+        const std::string& destination, const std::shared_ptr<arbitration::Member>& member = nullptr);
 
     proto::Status publish(monitor::Monitor& monitor, const std::string& port,
                           const nlohmann::json& value) override;

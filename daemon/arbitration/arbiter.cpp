@@ -119,7 +119,8 @@ proto::Status Arbiter::check_weights(const Member& candidate) const {
 bool Arbiter::uses_constraints(const Member* candidate) const {
     if (candidate && candidate->constraint)
         return true;
-    return std::any_of(members_.begin(), members_.end(), [](const Member* m) { return m->constraint.has_value(); });
+    return std::any_of(members_.begin(), members_.end(),
+                       [](const Member* m) { return m->constraint.has_value(); });
 }
 
 std::vector<Arbiter::Pair> Arbiter::overlaps(const Member* candidate) const {
@@ -141,7 +142,8 @@ std::vector<Arbiter::Pair> Arbiter::overlaps(const Member* candidate) const {
                          member->priority.has_value()});
     std::vector<Pair> pairs;
     for (auto& overlap : find_overlaps(rules, only))
-        pairs.push_back({rules[overlap.first].label, rules[overlap.second].label, std::move(overlap.witness)});
+        pairs.push_back(
+            {rules[overlap.first].label, rules[overlap.second].label, std::move(overlap.witness)});
     return pairs;
 }
 

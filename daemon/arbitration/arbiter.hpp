@@ -25,7 +25,8 @@ class Arbiter;
 /// (they set events and constraints through it); joins the arbiter once the connection is made.
 class Member {
 public:
-    Member(std::shared_ptr<Arbiter> arbiter, std::string source) : arbiter_(std::move(arbiter)), source_(std::move(source)) {}
+    Member(std::shared_ptr<Arbiter> arbiter, std::string source)
+        : arbiter_(std::move(arbiter)), source_(std::move(source)) {}
     ~Member();
     Member(const Member&) = delete;
     Member& operator=(const Member&) = delete;
@@ -64,7 +65,7 @@ struct PriorityState {
     std::vector<bool> active;            ///< x
     std::vector<double> output;          ///< y (zeros when inconsistent)
     std::optional<std::size_t> winner;
-    std::optional<std::string> error;    ///< "inconsistent weights: ..."
+    std::optional<std::string> error;  ///< "inconsistent weights: ..."
 };
 
 class Arbiter {

@@ -18,8 +18,9 @@ proto::Status configure_member(Member& member, const proto::Carrier& carrier) {
     for (const auto& clause : carrier.clauses) {
         if (clause.modifier == "priority") {
             if (clause.side != proto::Side::recv)
-                return proto::Error{"send.priority: stimulation arbitrates an input port, so it is a recv. "
-                                    "clause (recv.priority)"};
+                return proto::Error{
+                    "send.priority: stimulation arbitrates an input port, so it is a recv. "
+                    "clause (recv.priority)"};
             if (has_priority)
                 return proto::Error{"two recv.priority clauses on one connection"};
             has_priority = true;
@@ -45,8 +46,8 @@ proto::Status configure_member(Member& member, const proto::Carrier& carrier) {
                 continue;
             }
             if (member.constraint)
-                return proto::Error{"two constraints on one connection ('" + member.constraint->text() + "' and '" +
-                                    param.value.value_or("") + "'): combine them with and/or"};
+                return proto::Error{"two constraints on one connection ('" + member.constraint->text() +
+                                    "' and '" + param.value.value_or("") + "'): combine them with and/or"};
             auto parsed = Constraint::parse(param.value.value_or(""));
             if (!parsed)
                 return parsed.error();

@@ -1,15 +1,12 @@
 #include "consistency.hpp"
 
 #include <algorithm>
-#include <set>
+#include <functional>
+#include <unordered_map>
 
 namespace plexus::daemon::arbitration {
 
 namespace {
-
-bool holds(const Rule& rule, const std::set<std::string>& present) {
-    return !rule.constraint || rule.constraint->evaluate(present);
-}
 
 std::optional<Overlap> overlap_of(const std::vector<Rule>& rules, std::size_t a, std::size_t b) {
     std::vector<std::string> events;
@@ -21,17 +18,22 @@ std::optional<Overlap> overlap_of(const std::vector<Rule>& rules, std::size_t a,
     events.erase(std::unique(events.begin(), events.end()), events.end());
     if (events.size() > max_checked_events)
         return Overlap{a, b, std::nullopt};
+    // Assignment `bits`: event k is present when bit k is set. Evaluated straight from the bits,
+    // since this runs on the daemon's one thread up to 2 x 2^16 times.
+    std::unordered_map<std::string, std::size_t> index;
+    for (std::size_t k = 0; k < events.size(); ++k)
+        index.emplace(events[k], k);
+    std::uint64_t bits = 0;
+    const std::function<bool(const std::string&)> present = [&](const std::string& name) {
+        return (bits >> index.at(name)) & 1u;
+    };
+    auto holds = [&](const Rule& rule) { return !rule.constraint || rule.constraint->evaluate(present); };
     const std::uint64_t assignments = std::uint64_t{1} << events.size();
-    for (std::uint64_t bits = 0; bits < assignments; ++bits) {
-        std::set<std::string> present;
-        for (std::size_t k = 0; k < events.size(); ++k) {
-            if (bits & (std::uint64_t{1} << k))
-                present.insert(events[k]);
-        }
-        if (holds(rules[a], present) && holds(rules[b], present)) {
+    for (bits = 0; bits < assignments; ++bits) {
+        if (holds(rules[a]) && holds(rules[b])) {
             std::map<std::string, bool> witness;
-            for (const auto& event : events)
-                witness[event] = present.count(event) > 0;
+            for (std::size_t k = 0; k < events.size(); ++k)
+                witness[events[k]] = ((bits >> k) & 1u) != 0;
             return Overlap{a, b, witness};
         }
     }

@@ -13,7 +13,7 @@ namespace plexus::daemon::arbitration {
 
 /// What the check needs to know of one connection.
 struct Rule {
-    std::string label;                     ///< the connection's source port
+    std::string label;                       ///< the connection's source port
     const Constraint* constraint = nullptr;  ///< none: always true
     /// Connections under stimulation arbitration: the selection delivers one of them at a time,
     /// so two of them never overlap each other.
@@ -28,11 +28,12 @@ struct Overlap {
     std::optional<std::map<std::string, bool>> witness;
 };
 
-/// Tries assignments of up to this many events per pair; past it, the pair is reported without a
-/// witness (as a possible overlap).
-constexpr std::size_t max_checked_events = 20;
+/// Tries assignments of up to this many events per pair (2^16, a few ms on the daemon's thread);
+/// past it, the pair is reported without a witness (as a possible overlap).
+constexpr std::size_t max_checked_events = 16;
 
 /// Every overlapping pair; with `only`, just the pairs that include rules[*only].
-std::vector<Overlap> find_overlaps(const std::vector<Rule>& rules, std::optional<std::size_t> only = std::nullopt);
+std::vector<Overlap> find_overlaps(const std::vector<Rule>& rules,
+                                   std::optional<std::size_t> only = std::nullopt);
 
 }  // namespace plexus::daemon::arbitration

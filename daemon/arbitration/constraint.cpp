@@ -19,6 +19,13 @@ namespace {
 using Node = Constraint::Node;
 using NodePtr = std::shared_ptr<const Node>;
 
+// The parser, the evaluation and the tree's destructor all recurse, and a constraint comes from a
+// carrier string or a script: 100 000 nested '(' (or "not not ...", or a 1 000 000-term "and"
+// chain) overflowed the daemon's stack and took it down. These limits bound the recursion
+// depth; real constraints are a few names and a level or two of parentheses.
+constexpr std::size_t max_length = 4096;  ///< bounds the length of and/or chains
+constexpr std::size_t max_nesting = 64;   ///< levels of '(' and 'not'
+
 struct Token {
     enum class Kind { name, open, close, end };
     Kind kind = Kind::end;
@@ -27,8 +34,8 @@ struct Token {
 };
 
 bool is_name_char(char c) {
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '.' ||
-           c == ':' || c == '/' || c == '-';
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
+           c == '.' || c == ':' || c == '/' || c == '-';
 }
 
 class Parser {
@@ -36,6 +43,9 @@ public:
     explicit Parser(std::string_view text) : text_(text) {}
 
     proto::Result<NodePtr> parse() {
+        if (text_.size() > max_length)
+            return proto::Error{"constraint of " + std::to_string(text_.size()) +
+                                " characters: longer than the limit of " + std::to_string(max_length)};
         if (auto error = tokenize())
             return proto::Error{*error};
         auto root = expression();
@@ -75,6 +85,10 @@ private:
     proto::Error fail(const Token& token, const std::string& expected) const {
         const std::string found = token.kind == Token::Kind::end ? "the end" : "'" + token.text + "'";
         return proto::Error{where(token.position) + ": " + expected + ", found " + found};
+    }
+
+    static std::string too_deep() {
+        return "expected at most " + std::to_string(max_nesting) + " nested '(' and 'not'";
     }
 
     const Token& peek() const { return tokens_[next_]; }
@@ -122,37 +136,44 @@ private:
         const Token& token = peek();
         auto node = std::make_shared<Node>();
         switch (token.kind) {
-        case Token::Kind::open: {
-            ++next_;
-            auto inner = expression();
-            if (!inner)
+            case Token::Kind::open: {
+                if (++depth_ > max_nesting)
+                    return fail(token, too_deep());
+                ++next_;
+                auto inner = expression();
+                if (!inner)
+                    return inner;
+                if (peek().kind != Token::Kind::close)
+                    return fail(peek(), "expected ')' to close the '(' at position " +
+                                            std::to_string(token.position));
+                ++next_;
+                --depth_;
                 return inner;
-            if (peek().kind != Token::Kind::close)
-                return fail(peek(), "expected ')' to close the '(' at position " + std::to_string(token.position));
-            ++next_;
-            return inner;
-        }
-        case Token::Kind::name:
-            if (token.text == "and" || token.text == "or")
-                return fail(token, "expected an event name, 'not', 'true', 'false' or '('");
-            ++next_;
-            if (token.text == "not") {
-                auto operand = factor();
-                if (!operand)
-                    return operand;
-                node->kind = Node::Kind::negation;
-                node->left = std::move(*operand);
-            } else if (token.text == "true" || token.text == "false") {
-                node->kind = Node::Kind::constant;
-                node->value = token.text == "true";
-            } else {
-                node->kind = Node::Kind::event;
-                node->event = token.text;
             }
-            return NodePtr(std::move(node));
-        case Token::Kind::close:
-        case Token::Kind::end:
-            break;
+            case Token::Kind::name:
+                if (token.text == "and" || token.text == "or")
+                    return fail(token, "expected an event name, 'not', 'true', 'false' or '('");
+                if (token.text == "not" && ++depth_ > max_nesting)
+                    return fail(token, too_deep());
+                ++next_;
+                if (token.text == "not") {
+                    auto operand = factor();
+                    if (!operand)
+                        return operand;
+                    --depth_;
+                    node->kind = Node::Kind::negation;
+                    node->left = std::move(*operand);
+                } else if (token.text == "true" || token.text == "false") {
+                    node->kind = Node::Kind::constant;
+                    node->value = token.text == "true";
+                } else {
+                    node->kind = Node::Kind::event;
+                    node->event = token.text;
+                }
+                return NodePtr(std::move(node));
+            case Token::Kind::close:
+            case Token::Kind::end:
+                break;
         }
         return fail(token, "expected an event name, 'not', 'true', 'false' or '('");
     }
@@ -160,21 +181,22 @@ private:
     std::string_view text_;
     std::vector<Token> tokens_;
     std::size_t next_ = 0;
+    std::size_t depth_ = 0;  ///< '(' and 'not' being parsed around the current token
 };
 
 template <typename HasEvent>
 bool evaluate_node(const Node& node, const HasEvent& has_event) {
     switch (node.kind) {
-    case Node::Kind::constant:
-        return node.value;
-    case Node::Kind::event:
-        return has_event(node.event);
-    case Node::Kind::negation:
-        return !evaluate_node(*node.left, has_event);
-    case Node::Kind::conjunction:
-        return evaluate_node(*node.left, has_event) && evaluate_node(*node.right, has_event);
-    case Node::Kind::disjunction:
-        return evaluate_node(*node.left, has_event) || evaluate_node(*node.right, has_event);
+        case Node::Kind::constant:
+            return node.value;
+        case Node::Kind::event:
+            return has_event(node.event);
+        case Node::Kind::negation:
+            return !evaluate_node(*node.left, has_event);
+        case Node::Kind::conjunction:
+            return evaluate_node(*node.left, has_event) && evaluate_node(*node.right, has_event);
+        case Node::Kind::disjunction:
+            return evaluate_node(*node.left, has_event) || evaluate_node(*node.right, has_event);
     }
     return false;
 }

@@ -16,8 +16,8 @@ class EventContainer {
 public:
     struct Entry {
         std::string name;
-        std::uint64_t owner = 0;     ///< the monitor's id
-        std::string owner_label;     ///< for people: "/face/out (certainty)"
+        std::uint64_t owner = 0;        ///< the monitor's id
+        std::string owner_label;        ///< for people: "/face/out (certainty)"
         std::optional<double> expires;  ///< absolute time; none = until unset
     };
 

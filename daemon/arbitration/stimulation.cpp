@@ -78,7 +78,8 @@ proto::Result<PriorityParams> PriorityParams::from_clause(const proto::Clause& c
                          : param.key == "bs" ? &params.bs
                                              : nullptr;
         if (!target)
-            return proto::Error{"unknown key '" + param.key + "' of recv.priority (keys: tc tr st bs ex aux)"};
+            return proto::Error{"unknown key '" + param.key +
+                                "' of recv.priority (keys: tc tr st bs ex aux)"};
         auto value = number_key(param);
         if (!value)
             return value.error();
@@ -167,7 +168,8 @@ proto::Result<std::vector<double>> solve_outputs(const std::vector<std::vector<d
     return y;
 }
 
-std::optional<std::size_t> select_winner(const std::vector<double>& outputs, const std::vector<bool>& auxiliary) {
+std::optional<std::size_t> select_winner(const std::vector<double>& outputs,
+                                         const std::vector<bool>& auxiliary) {
     std::optional<std::size_t> winner;
     for (std::size_t i = 0; i < outputs.size(); ++i) {
         if (auxiliary[i] || !(outputs[i] > 1e-12))

@@ -62,6 +62,7 @@ proto::Result<std::vector<double>> solve_outputs(const std::vector<std::vector<d
 
 /// The index of the winner: the largest y_i > 0 among the connections that are not auxiliary;
 /// ties go to the lowest index (the earliest connection). None when no output is positive.
-std::optional<std::size_t> select_winner(const std::vector<double>& outputs, const std::vector<bool>& auxiliary);
+std::optional<std::size_t> select_winner(const std::vector<double>& outputs,
+                                         const std::vector<bool>& auxiliary);
 
 }  // namespace plexus::daemon::arbitration

@@ -23,7 +23,10 @@ class Inlet : public MessageSink {
 public:
     Inlet(std::shared_ptr<Port> port, std::string source, std::string carrier,
           std::shared_ptr<arbitration::Member> member)
-        : port_(std::move(port)), source_(std::move(source)), carrier_(std::move(carrier)), member_(std::move(member)) {}
+        : port_(std::move(port)),
+          source_(std::move(source)),
+          carrier_(std::move(carrier)),
+          member_(std::move(member)) {}
     /// The monitors go first: they take their events out of the port's container as they go.
     ~Inlet() override { chain.reset(); }
 

@@ -15,8 +15,10 @@ constexpr double max_lifetime = 86400;
 arbitration::Member& Monitor::member_of(lua_State* L, const char* function) {
     Monitor& monitor = self(L);
     if (!monitor.spec_.member)
-        luaL_error(L, "%s: only recv-side monitors take part in arbitration (the event container "
-                   "belongs to the input port)", function);
+        luaL_error(L,
+                   "%s: only recv-side monitors take part in arbitration (the event container "
+                   "belongs to the input port)",
+                   function);
     return *monitor.spec_.member;
 }
 
@@ -40,8 +42,8 @@ int Monitor::api_set_event(lua_State* L) {
     return guard(L, [&] {
         Monitor& monitor = self(L);
         auto& arbiter = member.arbiter();
-        arbiter.events().set(name, monitor.id_, member.source() + " (" + monitor.spec_.script.name + ")", lifetime,
-                             arbiter.now());
+        arbiter.events().set(name, monitor.id_, member.source() + " (" + monitor.spec_.script.name + ")",
+                             lifetime, arbiter.now());
         return 0;
     });
 }
@@ -78,8 +80,9 @@ int Monitor::api_set_constraint(lua_State* L) {
         member.constraint = std::move(*parsed);
         for (const auto& pair : member.arbiter().overlaps(&member)) {
             if (pair.first == member.source() || pair.second == member.source())
-                spdlog::warn("monitor {}: constraint '{}' overlaps with the connection from {}", self(L).description(),
-                             text, pair.first == member.source() ? pair.second : pair.first);
+                spdlog::warn("monitor {}: constraint '{}' overlaps with the connection from {}",
+                             self(L).description(), text,
+                             pair.first == member.source() ? pair.second : pair.first);
         }
         return 0;
     });

@@ -21,5 +21,4 @@ int guard(lua_State* L, F&& body) {
     return lua_error(L);
 }
 
-
 }  // namespace plexus::daemon::monitor

@@ -27,7 +27,8 @@ json events_of(const TempDir& dir, const Daemon& daemon, const std::string& port
         args.push_back("--check");
     auto result = run_cli(dir, daemon, args);
     EXPECT_TRUE(result.status == 0 || (check && result.status == 1)) << result.err;
-    if (result.out.empty()) ADD_FAILURE() << "events gave nothing: status " << result.status << " " << result.err;
+    if (result.out.empty())
+        ADD_FAILURE() << "events gave nothing: status " << result.status << " " << result.err;
     return json::parse(result.out);
 }
 
@@ -40,14 +41,14 @@ json connection_of(const json& events, const std::string& source) {
     return nullptr;
 }
 
-std::uint64_t counter(const TempDir& dir, const Daemon& daemon, const std::string& port, const std::string& source,
-                      const char* name) {
+std::uint64_t counter(const TempDir& dir, const Daemon& daemon, const std::string& port,
+                      const std::string& source, const char* name) {
     auto c = connection_of(events_of(dir, daemon, port), source);
     return c.is_null() ? 0 : c["counters"][name].get<std::uint64_t>();
 }
 
-void connect_ok(const TempDir& dir, const Daemon& daemon, const std::string& source, const std::string& destination,
-                const std::string& carrier) {
+void connect_ok(const TempDir& dir, const Daemon& daemon, const std::string& source,
+                const std::string& destination, const std::string& carrier) {
     auto result = run_cli(dir, daemon, {"connect", source, destination, carrier});
     ASSERT_EQ(result.status, 0) << result.err;
 }
@@ -95,7 +96,8 @@ void send_and_wait(const TempDir& dir, const Daemon& daemon, CliWriter& writer, 
 TEST(Arbitration_test, GazeObjectInhibitsFaceWhileBothStreamAndFaceReturnsAfterTheObjectStops) {
     TempDir dir;
     Daemon daemon(dir, "robot", "", with_scripts());
-    auto reader = start_cli(dir, daemon, {"read", "/gaze/in", "--policy", "latest", "--queue", "100000"}, "gaze");
+    auto reader =
+        start_cli(dir, daemon, {"read", "/gaze/in", "--policy", "latest", "--queue", "100000"}, "gaze");
     ASSERT_TRUE(wait_port(dir, daemon, "/gaze/in"));
     CliWriter face(dir, daemon, "/face/out", "face");
     CliWriter object(dir, daemon, "/obj/out", "object");
@@ -113,7 +115,8 @@ TEST(Arbitration_test, GazeObjectInhibitsFaceWhileBothStreamAndFaceReturnsAfterT
     ASSERT_TRUE(eventually([&] { return counter(dir, daemon, "/gaze/in", "/obj/out", "delivered") >= 10; }));
     const auto face_delivered = counter(dir, daemon, "/gaze/in", "/face/out", "delivered");
     const auto face_received = counter(dir, daemon, "/gaze/in", "/face/out", "received");
-    ASSERT_TRUE(eventually([&] { return counter(dir, daemon, "/gaze/in", "/face/out", "received") >= face_received + 25; }));
+    ASSERT_TRUE(eventually(
+        [&] { return counter(dir, daemon, "/gaze/in", "/face/out", "received") >= face_received + 25; }));
     auto state = events_of(dir, daemon, "/gaze/in");
     EXPECT_EQ(connection_of(state, "/face/out")["counters"]["delivered"], face_delivered)
         << "face data got through while the object streamed: " << state.dump();
@@ -126,7 +129,8 @@ TEST(Arbitration_test, GazeObjectInhibitsFaceWhileBothStreamAndFaceReturnsAfterT
     // The object stops; after its stimulation decays (tc), face data flows again.
     objects.stop();
     const auto stopped = std::chrono::steady_clock::now();
-    ASSERT_TRUE(eventually([&] { return counter(dir, daemon, "/gaze/in", "/face/out", "delivered") > face_delivered; }));
+    ASSERT_TRUE(eventually(
+        [&] { return counter(dir, daemon, "/gaze/in", "/face/out", "delivered") > face_delivered; }));
     const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - stopped).count();
     EXPECT_LT(took, tc + 1.5) << "face data came back only after " << took << " s (tc is " << tc << " s)";
     EXPECT_EQ(events_of(dir, daemon, "/gaze/in")["winner"], "/face/out");
@@ -136,7 +140,8 @@ TEST(Arbitration_test, GazeObjectInhibitsFaceWhileBothStreamAndFaceReturnsAfterT
 TEST(Arbitration_test, AnAuxiliaryFaceConnectionExcitesTheObjectConnection) {
     TempDir dir;
     Daemon daemon(dir, "robot", "", with_scripts());
-    auto reader = start_cli(dir, daemon, {"read", "/gaze/in", "--policy", "latest", "--queue", "100000"}, "gaze");
+    auto reader =
+        start_cli(dir, daemon, {"read", "/gaze/in", "--policy", "latest", "--queue", "100000"}, "gaze");
     ASSERT_TRUE(wait_port(dir, daemon, "/gaze/in"));
     CliWriter face(dir, daemon, "/face/out", "face");
     CliWriter object(dir, daemon, "/obj/out", "object");
@@ -164,7 +169,8 @@ TEST(Arbitration_test, AnAuxiliaryFaceConnectionExcitesTheObjectConnection) {
     }));
     const auto delivered = counter(dir, daemon, "/gaze/in", "/obj/out", "delivered");
     const auto received = counter(dir, daemon, "/gaze/in", "/obj/out", "received");
-    ASSERT_TRUE(eventually([&] { return counter(dir, daemon, "/gaze/in", "/obj/out", "received") >= received + 20; }));
+    ASSERT_TRUE(eventually(
+        [&] { return counter(dir, daemon, "/gaze/in", "/obj/out", "received") >= received + 20; }));
     objects.stop();
     auto state = events_of(dir, daemon, "/gaze/in");
     EXPECT_EQ(connection_of(state, "/obj/out")["counters"]["delivered"], delivered);
@@ -177,7 +183,8 @@ TEST(Arbitration_test, TwoTrackersTheMoreTrustedWinsAndCheckFindsOverlapsWithAWi
     TempDir dir;
     Daemon first(dir, "head", "", with_scripts());
     Daemon second(dir, "vision", first.names(), with_scripts());
-    auto reader = start_cli(dir, first, {"read", "/head/in"}, "head-reader");  // stays: /head/in lives with it
+    auto reader =
+        start_cli(dir, first, {"read", "/head/in"}, "head-reader");  // stays: /head/in lives with it
     ASSERT_TRUE(wait_port(dir, first, "/head/in"));
     CliWriter templ(dir, first, "/tmpl/out", "template");
     CliWriter particle(dir, second, "/pf/out", "particle");  // on another daemon: the tcp link path
@@ -194,14 +201,15 @@ TEST(Arbitration_test, TwoTrackersTheMoreTrustedWinsAndCheckFindsOverlapsWithAWi
     auto send = [&](CliWriter& writer, const std::string& source, const std::string& line) {
         send_and_wait(dir, first, writer, "/head/in", source, line);
     };
-    send(templ, "/tmpl/out", R"({"t":1,"certainty":0.9})");      // template ok, particle not: delivered
-    send(particle, "/pf/out", R"({"p":1,"certainty":0.3})");     // particle not ok: dropped
-    send(particle, "/pf/out", R"({"p":2,"certainty":0.8})");     // particle ok: delivered
-    send(templ, "/tmpl/out", R"({"t":2,"certainty":0.95})");     // particle trusted more: dropped
-    send(particle, "/pf/out", R"({"p":3,"certainty":0.2})");     // particle lost: dropped
-    send(templ, "/tmpl/out", R"({"t":3,"certainty":0.9})");      // template again: delivered
+    send(templ, "/tmpl/out", R"({"t":1,"certainty":0.9})");   // template ok, particle not: delivered
+    send(particle, "/pf/out", R"({"p":1,"certainty":0.3})");  // particle not ok: dropped
+    send(particle, "/pf/out", R"({"p":2,"certainty":0.8})");  // particle ok: delivered
+    send(templ, "/tmpl/out", R"({"t":2,"certainty":0.95})");  // particle trusted more: dropped
+    send(particle, "/pf/out", R"({"p":3,"certainty":0.2})");  // particle lost: dropped
+    send(templ, "/tmpl/out", R"({"t":3,"certainty":0.9})");   // template again: delivered
     std::vector<json> lines;
-    ASSERT_TRUE(eventually([&] { return (lines = json_lines(reader->out())).size() >= 3u; })) << reader->out();
+    ASSERT_TRUE(eventually([&] { return (lines = json_lines(reader->out())).size() >= 3u; }))
+        << reader->out();
     ASSERT_EQ(lines.size(), 3u);
     EXPECT_EQ(lines[0]["t"], 1);
     EXPECT_EQ(lines[1]["p"], 2);
@@ -222,22 +230,27 @@ TEST(Arbitration_test, TwoTrackersTheMoreTrustedWinsAndCheckFindsOverlapsWithAWi
     // A looser first constraint overlaps the second: connect warns, --check reports a witness.
     auto disconnected = run_cli(dir, first, {"disconnect", "/tmpl/out", "/head/in"});
     ASSERT_EQ(disconnected.status, 0) << disconnected.err;
-    auto strict = run_cli(dir, first, {"connect", "/tmpl/out", "/head/in",
-                                       monitor + "+event.e_template_ok+constraint.e_template_ok", "--strict"});
+    auto strict = run_cli(dir, first,
+                          {"connect", "/tmpl/out", "/head/in",
+                           monitor + "+event.e_template_ok+constraint.e_template_ok", "--strict"});
     EXPECT_EQ(strict.status, 4);
     EXPECT_NE(strict.err.find("can both deliver"), std::string::npos) << strict.err;
-    EXPECT_EQ(run_cli(dir, first, {"exists", "/tmpl/out", "/head/in"}).status, 1) << "--strict left it connected";
-    auto loose = run_cli(dir, first,
-                         {"connect", "/tmpl/out", "/head/in", monitor + "+event.e_template_ok+constraint.e_template_ok"});
+    EXPECT_EQ(run_cli(dir, first, {"exists", "/tmpl/out", "/head/in"}).status, 1)
+        << "--strict left it connected";
+    auto loose = run_cli(
+        dir, first,
+        {"connect", "/tmpl/out", "/head/in", monitor + "+event.e_template_ok+constraint.e_template_ok"});
     ASSERT_EQ(loose.status, 0) << loose.err;
-    EXPECT_NE(loose.err.find("warning: connections from /pf/out and /tmpl/out into /head/in can both deliver"),
-              std::string::npos)
+    EXPECT_NE(
+        loose.err.find("warning: connections from /pf/out and /tmpl/out into /head/in can both deliver"),
+        std::string::npos)
         << loose.err;
     auto overlap = run_cli(dir, first, {"events", "/head/in", "--check", "--json"});
     EXPECT_EQ(overlap.status, 1) << overlap.err;
     auto report = json::parse(overlap.out);
     ASSERT_EQ(report["overlaps"].size(), 1u) << report.dump();
-    EXPECT_EQ(report["overlaps"][0]["witness"], json::parse(R"({"e_particle_ok":true,"e_template_ok":true})"));
+    EXPECT_EQ(report["overlaps"][0]["witness"],
+              json::parse(R"({"e_particle_ok":true,"e_template_ok":true})"));
     auto text = run_cli(dir, first, {"events", "/head/in", "--check"});
     EXPECT_EQ(text.status, 1);
     EXPECT_NE(text.out.find("e_particle_ok present, e_template_ok present"), std::string::npos) << text.out;
@@ -274,7 +287,8 @@ TEST(Arbitration_test, AnEventWithALifetimeThatIsNotRefreshedReleasesTheOtherSou
     // here it is delivered instead; the counters below tell which.)
     send_and_wait(dir, daemon, backup, "/track/in", "/backup/out", R"({"n":2})");
     ASSERT_TRUE(eventually([&] { return events_of(dir, daemon, "/track/in")["events"].empty(); }));
-    const double expired_after = std::chrono::duration<double>(std::chrono::steady_clock::now() - set_at).count();
+    const double expired_after =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - set_at).count();
     EXPECT_GE(expired_after, 0.5) << "the event expired before its lifetime";
     const bool held_back = counter(dir, daemon, "/track/in", "/backup/out", "dropped_by_constraint") == 1;
     send_and_wait(dir, daemon, backup, "/track/in", "/backup/out", R"({"n":3})");
@@ -343,7 +357,8 @@ TEST(Arbitration_test, ConnectRefusesBadConstraintsAndInconsistentWeightsLeaving
     ASSERT_TRUE(wait_port(dir, daemon, "/a/out"));
     ASSERT_TRUE(wait_port(dir, daemon, "/b/out"));
 
-    auto bad = run_cli(dir, daemon, {"connect", "/a/out", "/in", "tcp+recv.portmonitor+constraint.e_x and (e_y or"});
+    auto bad =
+        run_cli(dir, daemon, {"connect", "/a/out", "/in", "tcp+recv.portmonitor+constraint.e_x and (e_y or"});
     EXPECT_EQ(bad.status, 4);
     EXPECT_NE(bad.err.find("at position 15"), std::string::npos) << bad.err;
     auto sent = run_cli(dir, daemon, {"connect", "/a/out", "/in", "tcp+send.priority+tc.1"});
@@ -364,7 +379,8 @@ TEST(Arbitration_test, ConnectRefusesBadConstraintsAndInconsistentWeightsLeaving
 
     auto missing = run_cli(dir, daemon, {"events", "/nowhere"});
     EXPECT_EQ(missing.status, 4);
-    auto watched = run_cli(dir, daemon, {"events", "/in", "--watch", "--json", "--count", "2", "--interval", "0.05"});
+    auto watched =
+        run_cli(dir, daemon, {"events", "/in", "--watch", "--json", "--count", "2", "--interval", "0.05"});
     ASSERT_EQ(watched.status, 0) << watched.err;
     auto frames = json_lines(watched.out);
     ASSERT_EQ(frames.size(), 2u);

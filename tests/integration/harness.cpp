@@ -240,7 +240,8 @@ std::vector<nlohmann::json> json_lines(const std::string& text) {
             try {
                 lines.push_back(nlohmann::json::parse(line));
             } catch (const std::exception& e) {
-                throw std::runtime_error("not a JSON line: '" + line + "' (" + std::to_string(line.size()) + " bytes): " + e.what());
+                throw std::runtime_error("not a JSON line: '" + line + "' (" + std::to_string(line.size()) +
+                                         " bytes): " + e.what());
             }
         }
         start = end + 1;

@@ -73,8 +73,8 @@ Layout layout(Kind kind, int n, const std::string& stream, const std::string& pr
             constraint += (k == 1 ? "not " : " and not ") + event;
             std::string carrier = "local+recv.portmonitor+constraint." + event;
             if (k == 1) {
-                carrier = "local+recv.portmonitor+type.lua+file.raise+event." + event +
-                          "+lifetime." + std::to_string(switch_hold_s) + "+constraint." + event;
+                carrier = "local+recv.portmonitor+type.lua+file.raise+event." + event + "+lifetime." +
+                          std::to_string(switch_hold_s) + "+constraint." + event;
             }
             result.competitors.push_back({prefix + std::to_string(k), carrier});
         }
@@ -170,7 +170,8 @@ double measure_switch(const Topology& topology, Kind kind, int n, int repeat, co
         auto back = std::find_if(stream_arrivals.begin(), stream_arrivals.end(),
                                  [&](SteadyClock::time_point t) { return t > last_sent; });
         if (back == stream_arrivals.end())
-            throw std::runtime_error("arbitration switch: the stream never came back after the switcher stopped");
+            throw std::runtime_error(
+                "arbitration switch: the stream never came back after the switcher stopped");
         switches.push_back(std::chrono::duration<double, std::milli>(*back - hold_ends).count());
     }
     running = false;
@@ -184,7 +185,8 @@ double measure_switch(const Topology& topology, Kind kind, int n, int repeat, co
 
 void check_detection(const Received& message) {
     if (!message.data.is_object() || !message.data.contains("c"))
-        throw std::runtime_error("a message arrived without its field c: " + message.data.dump().substr(0, 80));
+        throw std::runtime_error("a message arrived without its field c: " +
+                                 message.data.dump().substr(0, 80));
 }
 
 }  // namespace
@@ -202,7 +204,8 @@ int run_arbitration(const Options& options) {
     std::vector<Variant> variants{{"none", Kind::constraints, 1}};
     for (const Kind kind : {Kind::constraints, Kind::priority}) {
         for (const int n : {2, 4, 8})
-            variants.push_back({(kind == Kind::constraints ? "constraints_" : "priority_") + std::to_string(n), kind, n});
+            variants.push_back(
+                {(kind == Kind::constraints ? "constraints_" : "priority_") + std::to_string(n), kind, n});
     }
     std::vector<std::unique_ptr<Measurement>> measurements;
     std::vector<double> switch_ms{-1};
@@ -232,10 +235,10 @@ int run_arbitration(const Options& options) {
     VariantsResult result;
     result.scenario = "arbitration_1hop";
     result.size = options.size;
-    result.title = "arbitration, 1 hop, " + std::to_string(options.size) + " B maps, N connections into one port: " +
-                   std::to_string(throughput_count(options)) + " messages per run, median of " +
-                   std::to_string(options.repeat) + " runs; switch_ms: median of " + std::to_string(options.repeat) +
-                   " switches at 1 kHz";
+    result.title = "arbitration, 1 hop, " + std::to_string(options.size) +
+                   " B maps, N connections into one port: " + std::to_string(throughput_count(options)) +
+                   " messages per run, median of " + std::to_string(options.repeat) +
+                   " runs; switch_ms: median of " + std::to_string(options.repeat) + " switches at 1 kHz";
     for (std::size_t i = 0; i < variants.size(); ++i)
         result.systems.emplace_back(variants[i].system, median_of(runs[i]));
     result.switch_ms = switch_ms;

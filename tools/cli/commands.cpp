@@ -91,7 +91,8 @@ int connect(const Common& common, const std::string& source, const std::string& 
                                         {"strict", strict}});
     for (const auto& warning : reply.value("warnings", Value::array()))
         std::cerr << "warning: " << warning.get<std::string>() << '\n';
-    std::cerr << "connected " << source << " -> " << destination << " (" << reply.value("carrier", carrier) << ")\n";
+    std::cerr << "connected " << source << " -> " << destination << " (" << reply.value("carrier", carrier)
+              << ")\n";
     return 0;
 }
 
@@ -255,9 +256,9 @@ int stats(const Common& common, const std::string& port, bool json) {
             std::cout << "    <- " << pad(c.value("source", ""), 24) << pad(c.value("carrier", ""), 10)
                       << "received " << c.value("received", 0) << ", delivered " << c.value("delivered", 0)
                       << ", dropped by accept " << c.value("dropped_by_accept", 0) << " / constraint "
-                      << c.value("dropped_by_constraint", 0) << " / priority " << c.value("dropped_by_priority", 0)
-                      << " / queue " << c.value("dropped_by_queue", 0) << ", script errors "
-                      << c.value("script_errors", 0) << '\n';
+                      << c.value("dropped_by_constraint", 0) << " / priority "
+                      << c.value("dropped_by_priority", 0) << " / queue " << c.value("dropped_by_queue", 0)
+                      << ", script errors " << c.value("script_errors", 0) << '\n';
             print_monitors(c);
         }
     }

@@ -29,7 +29,7 @@ struct EventsOptions {
     bool check = false;
     bool watch = false;
     bool json = false;
-    double interval = 0.5;     ///< seconds between redraws with --watch
+    double interval = 0.5;      ///< seconds between redraws with --watch
     std::optional<long> count;  ///< with --watch: stop after this many redraws
 };
 

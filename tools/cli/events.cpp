@@ -25,9 +25,10 @@ std::string fixed(double value, int digits) {
 std::string counters_line(const Value& c) {
     std::ostringstream out;
     out << "received " << c.value("received", 0) << "  accepted " << c.value("accepted", 0) << "  delivered "
-        << c.value("delivered", 0) << "  dropped: accept " << c.value("dropped_by_accept", 0) << ", constraint "
-        << c.value("dropped_by_constraint", 0) << ", priority " << c.value("dropped_by_priority", 0)
-        << ", queue " << c.value("dropped_by_queue", 0) << "  script errors " << c.value("script_errors", 0);
+        << c.value("delivered", 0) << "  dropped: accept " << c.value("dropped_by_accept", 0)
+        << ", constraint " << c.value("dropped_by_constraint", 0) << ", priority "
+        << c.value("dropped_by_priority", 0) << ", queue " << c.value("dropped_by_queue", 0)
+        << "  script errors " << c.value("script_errors", 0);
     return out.str();
 }
 
@@ -57,8 +58,8 @@ void print_text(const Value& answer, bool check) {
     for (const auto& event : events) {
         const auto& left = event["time_left"];
         std::cout << "  " << std::left << std::setw(24) << event.value("name", "") << std::setw(36)
-                  << event.value("owner", "") << (left.is_null() ? "until unset" : fixed(left.get<double>(), 2) + " s left")
-                  << '\n';
+                  << event.value("owner", "")
+                  << (left.is_null() ? "until unset" : fixed(left.get<double>(), 2) + " s left") << '\n';
     }
     std::cout << "\nconnections:\n";
     const auto connections = answer.value("connections", Value::array());

@@ -27,11 +27,11 @@ void request_stop(int) {
 struct Options {
     std::string port;
     std::string kind = "object";
-    double rate = 20;     ///< detections per second while seen
-    double seen = 6;      ///< seconds the target is in view
-    double gone = 4;      ///< seconds it is out of view
-    double offset = 0;    ///< seconds into the cycle to start at
-    double low = 0.3;     ///< certainty range while seen
+    double rate = 20;   ///< detections per second while seen
+    double seen = 6;    ///< seconds the target is in view
+    double gone = 4;    ///< seconds it is out of view
+    double offset = 0;  ///< seconds into the cycle to start at
+    double low = 0.3;   ///< certainty range while seen
     double high = 0.95;
     unsigned seed = 1;
 };
@@ -40,22 +40,30 @@ struct Options {
 
 int main(int argc, char** argv) {
     Options options;
-    CLI::App app{"plexus-detector: streams simulated detections (position + certainty) on a port, "
-                 "in a cycle of seen / gone, for the arbitration demo."};
+    CLI::App app{
+        "plexus-detector: streams simulated detections (position + certainty) on a port, "
+        "in a cycle of seen / gone, for the arbitration demo."};
     app.add_option("PORT", options.port, "port to open and write on")->required();
-    app.add_option("--kind", options.kind, "what it detects (goes into every detection)")->capture_default_str();
+    app.add_option("--kind", options.kind, "what it detects (goes into every detection)")
+        ->capture_default_str();
     app.add_option("--rate", options.rate, "detections per second while seen")
         ->check(CLI::Range(0.1, 10000.0))
         ->capture_default_str();
-    app.add_option("--seen", options.seen, "seconds in view per cycle")->check(CLI::PositiveNumber)->capture_default_str();
+    app.add_option("--seen", options.seen, "seconds in view per cycle")
+        ->check(CLI::PositiveNumber)
+        ->capture_default_str();
     app.add_option("--gone", options.gone, "seconds out of view per cycle (0: always seen)")
         ->check(CLI::NonNegativeNumber)
         ->capture_default_str();
     app.add_option("--offset", options.offset, "seconds into the cycle to start at")
         ->check(CLI::NonNegativeNumber)
         ->capture_default_str();
-    app.add_option("--low", options.low, "lowest certainty while seen")->check(CLI::Range(0.0, 1.0))->capture_default_str();
-    app.add_option("--high", options.high, "highest certainty while seen")->check(CLI::Range(0.0, 1.0))->capture_default_str();
+    app.add_option("--low", options.low, "lowest certainty while seen")
+        ->check(CLI::Range(0.0, 1.0))
+        ->capture_default_str();
+    app.add_option("--high", options.high, "highest certainty while seen")
+        ->check(CLI::Range(0.0, 1.0))
+        ->capture_default_str();
     app.add_option("--seed", options.seed, "random seed")->capture_default_str();
     CLI11_PARSE(app, argc, argv);
 
@@ -75,7 +83,8 @@ int main(int argc, char** argv) {
         std::uint64_t n = 0;
         auto next = start;
         while (!stop_requested) {
-            const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() + options.offset;
+            const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() +
+                             options.offset;
             const bool seen = options.gone == 0 || std::fmod(t, cycle) < options.seen;
             if (seen) {
                 // The target wanders slowly; the detector adds a little noise.

@@ -35,8 +35,9 @@ bool contains(const std::string& text, const std::string& part) {
 }
 
 TEST(Constraint_test, EmptyTextFailsAtPositionZero) {
-    EXPECT_EQ(parse_error(""),
-              "constraint '' at position 0: expected an event name, 'not', 'true', 'false' or '(', found the end");
+    EXPECT_EQ(
+        parse_error(""),
+        "constraint '' at position 0: expected an event name, 'not', 'true', 'false' or '(', found the end");
 }
 
 TEST(Constraint_test, BlankTextFailsAtTheEnd) {
@@ -46,56 +47,68 @@ TEST(Constraint_test, BlankTextFailsAtTheEnd) {
 
 TEST(Constraint_test, MissingOperandAfterAndFailsAtTheEnd) {
     // "a and" is 5 characters: the operand is missing at position 5.
-    EXPECT_EQ(parse_error("a and"),
-              "constraint 'a and' at position 5: expected an event name, 'not', 'true', 'false' or '(', found "
-              "the end");
+    EXPECT_EQ(
+        parse_error("a and"),
+        "constraint 'a and' at position 5: expected an event name, 'not', 'true', 'false' or '(', found "
+        "the end");
 }
 
 TEST(Constraint_test, MissingOperandAfterOrFailsAtTheEnd) {
-    EXPECT_TRUE(contains(parse_error("a or"), "at position 4: expected an event name")) << parse_error("a or");
+    EXPECT_TRUE(contains(parse_error("a or"), "at position 4: expected an event name"))
+        << parse_error("a or");
 }
 
 TEST(Constraint_test, UnclosedParenthesisFailsAtTheEndAndNamesWhereItOpened) {
-    EXPECT_EQ(parse_error("(a or b"),
-              "constraint '(a or b' at position 7: expected ')' to close the '(' at position 0, found the end");
+    EXPECT_EQ(
+        parse_error("(a or b"),
+        "constraint '(a or b' at position 7: expected ')' to close the '(' at position 0, found the end");
     // The innermost unclosed '(' is the one reported: here the outer one at 0 is left open
     // after the inner pair at 1..3 closed.
-    EXPECT_TRUE(contains(parse_error("((a) and b"), "at position 10: expected ')' to close the '(' at position 0"))
+    EXPECT_TRUE(
+        contains(parse_error("((a) and b"), "at position 10: expected ')' to close the '(' at position 0"))
         << parse_error("((a) and b");
-    EXPECT_TRUE(contains(parse_error("a and (b or (c"), "at position 14: expected ')' to close the '(' at position 12"))
+    EXPECT_TRUE(contains(parse_error("a and (b or (c"),
+                         "at position 14: expected ')' to close the '(' at position 12"))
         << parse_error("a and (b or (c");
 }
 
 TEST(Constraint_test, TwoNamesInARowFailAtTheSecond) {
-    EXPECT_EQ(parse_error("a b"), "constraint 'a b' at position 2: expected 'and', 'or' or the end, found 'b'");
+    EXPECT_EQ(parse_error("a b"),
+              "constraint 'a b' at position 2: expected 'and', 'or' or the end, found 'b'");
 }
 
 TEST(Constraint_test, UnknownCharacterFailsWhereItIs) {
     EXPECT_EQ(parse_error("a & b"), "constraint 'a & b' at position 2: unexpected character '&'");
-    EXPECT_TRUE(contains(parse_error("a || b"), "at position 2: unexpected character '|'")) << parse_error("a || b");
+    EXPECT_TRUE(contains(parse_error("a || b"), "at position 2: unexpected character '|'"))
+        << parse_error("a || b");
     // '!' is not a spelling of `not`.
     EXPECT_TRUE(contains(parse_error("!a"), "at position 0: unexpected character '!'")) << parse_error("!a");
 }
 
 TEST(Constraint_test, LeadingOperatorFailsAtPositionZero) {
-    EXPECT_EQ(parse_error("and a"),
-              "constraint 'and a' at position 0: expected an event name, 'not', 'true', 'false' or '(', found "
-              "'and'");
-    EXPECT_TRUE(contains(parse_error("or a"), "at position 0: expected an event name")) << parse_error("or a");
+    EXPECT_EQ(
+        parse_error("and a"),
+        "constraint 'and a' at position 0: expected an event name, 'not', 'true', 'false' or '(', found "
+        "'and'");
+    EXPECT_TRUE(contains(parse_error("or a"), "at position 0: expected an event name"))
+        << parse_error("or a");
 }
 
 TEST(Constraint_test, NotWithoutOperandFailsAtTheEnd) {
-    EXPECT_EQ(parse_error("not"),
-              "constraint 'not' at position 3: expected an event name, 'not', 'true', 'false' or '(', found the "
-              "end");
+    EXPECT_EQ(
+        parse_error("not"),
+        "constraint 'not' at position 3: expected an event name, 'not', 'true', 'false' or '(', found the "
+        "end");
     EXPECT_TRUE(contains(parse_error("a and not"), "at position 9:")) << parse_error("a and not");
 }
 
 TEST(Constraint_test, LoneClosingParenthesisFailsAtPositionZero) {
-    EXPECT_EQ(parse_error(")"),
-              "constraint ')' at position 0: expected an event name, 'not', 'true', 'false' or '(', found ')'");
+    EXPECT_EQ(
+        parse_error(")"),
+        "constraint ')' at position 0: expected an event name, 'not', 'true', 'false' or '(', found ')'");
     // A ')' too many after a complete expression: the expression ended, so the ')' is unexpected.
-    EXPECT_EQ(parse_error("(a))"), "constraint '(a))' at position 3: expected 'and', 'or' or the end, found ')'");
+    EXPECT_EQ(parse_error("(a))"),
+              "constraint '(a))' at position 3: expected 'and', 'or' or the end, found ')'");
 }
 
 TEST(Constraint_test, EmptyParenthesesFailAtTheClosingOne) {
@@ -103,7 +116,8 @@ TEST(Constraint_test, EmptyParenthesesFailAtTheClosingOne) {
 }
 
 TEST(Constraint_test, DoubledOperatorFailsAtTheSecond) {
-    EXPECT_TRUE(contains(parse_error("a and or b"), "at position 6: expected an event name")) << parse_error("a and or b");
+    EXPECT_TRUE(contains(parse_error("a and or b"), "at position 6: expected an event name"))
+        << parse_error("a and or b");
 }
 
 TEST(Constraint_test, TrueAndFalseAreConstants) {
@@ -160,7 +174,7 @@ TEST(Constraint_test, NotNestsAndCancels) {
 }
 
 TEST(Constraint_test, SpacesAreOptionalAroundParenthesesAndTabsCount) {
-    // Carrier strings cannot hold spaces, so "(a)and(not(b))" is how a carrier may write it.
+    // "(a)and(not(b))" needs no spaces: parentheses end names as spaces do.
     EXPECT_TRUE(value("(a)and(not(b))", {"a"}));
     EXPECT_FALSE(value("(a)and(not(b))", {"a", "b"}));
     EXPECT_TRUE(value("a\tand\tb", {"a", "b"}));
@@ -168,7 +182,8 @@ TEST(Constraint_test, SpacesAreOptionalAroundParenthesesAndTabsCount) {
 
 TEST(Constraint_test, KeywordsAreWholeWordsSoNamesMayStartWithThem) {
     // "nota", "android" and "order" are event names, not `not a`, `and ...`, `or ...`.
-    EXPECT_EQ(parse("nota and android or order").events(), (std::vector<std::string>{"android", "nota", "order"}));
+    EXPECT_EQ(parse("nota and android or order").events(),
+              (std::vector<std::string>{"android", "nota", "order"}));
     EXPECT_TRUE(value("nota", {"nota"}));
     EXPECT_FALSE(value("nota", {"a"}));
 }
@@ -196,6 +211,49 @@ TEST(Constraint_test, EventsAreSortedAndListedOnce) {
     const auto constraint = parse("zeta or (alpha and not zeta) or mid and alpha or true");
     EXPECT_EQ(constraint.events(), (std::vector<std::string>{"alpha", "mid", "zeta"}));
     EXPECT_EQ(constraint.text(), "zeta or (alpha and not zeta) or mid and alpha or true");
+}
+
+std::string repeat(const std::string& part, std::size_t times) {
+    std::string text;
+    for (std::size_t i = 0; i < times; ++i)
+        text += part;
+    return text;
+}
+
+TEST(Constraint_test, SixtyFourNestedLevelsAreFine) {
+    EXPECT_TRUE(value(repeat("(", 64) + "a" + repeat(")", 64), {"a"}));
+    EXPECT_TRUE(value(repeat("not ", 64) + "a", {"a"}));  // an even number of nots
+    EXPECT_TRUE(value(repeat("not (", 32) + "a" + repeat(")", 32), {"a"}));
+}
+
+TEST(Constraint_test, DeeperNestingIsRefusedWhereItGoesTooDeep) {
+    // The parser recurses for each '(' and 'not': the 65th level is refused, at its position.
+    EXPECT_TRUE(contains(parse_error(repeat("(", 65) + "a" + repeat(")", 65)),
+                         "at position 64: expected at most 64 nested '(' and 'not', found '('"));
+    // "not " is 4 characters: the 65th starts at 256.
+    EXPECT_TRUE(contains(parse_error(repeat("not ", 65) + "a"),
+                         "at position 256: expected at most 64 nested '(' and 'not', found 'not'"));
+}
+
+TEST(Constraint_test, ParenthesesSideBySideDoNotAddUp) {
+    // 100 groups one after the other are one level deep each.
+    EXPECT_TRUE(value("(a)" + repeat(" and (not (b))", 100), {"a"}));
+}
+
+TEST(Constraint_test, AHugeConstraintIsAnErrorNotAStackOverflow) {
+    // 100 000 nested '(' overflowed the daemon's stack before the limits; a carrier or a script
+    // can send that.
+    EXPECT_TRUE(contains(parse_error(repeat("(", 100000) + "a" + repeat(")", 100000)),
+                         "constraint of 200001 characters: longer than the limit of 4096"));
+    EXPECT_TRUE(contains(parse_error("a" + repeat(" and a", 1000000)), "longer than the limit of 4096"));
+}
+
+TEST(Constraint_test, TheLengthLimitIsInclusive) {
+    // A chain as long as allowed still parses and evaluates: "a" + 819 times " or b" = 4096.
+    const std::string longest = "a" + repeat(" or b", 819);
+    ASSERT_EQ(longest.size(), 4096u);
+    EXPECT_TRUE(value(longest, {"b"}));
+    EXPECT_TRUE(contains(parse_error(longest + "c"), "constraint of 4097 characters"));
 }
 
 TEST(Constraint_test, EvaluateAsksTheCallbackForEachNameItNeeds) {

@@ -109,14 +109,14 @@ TEST(Stimulus_test, WeakStimulationsTooFarApartNeverAdd) {
 TEST(Stimulus_test, OnceActiveItStaysActiveWhileTheLevelIsAboveZero) {
     Stimulus s(params(1, 1));
     s.stimulate(t0);
-    // Messages every 0.9 s keep it at the cap: S(0.9) + 1 >= 1.
-    s.stimulate(t0 + 0.9);
-    s.stimulate(t0 + 1.8);
-    EXPECT_TRUE(s.active(t0 + 1.8));
-    EXPECT_NEAR(s.level(t0 + 1.8), 1.0, tolerance);
+    // Messages every 0.75 s keep it at the cap: S(0.75) + 1 >= 1.
+    s.stimulate(t0 + 0.75);
+    s.stimulate(t0 + 1.5);
+    EXPECT_TRUE(s.active(t0 + 1.5));
+    EXPECT_NEAR(s.level(t0 + 1.5), 1.0, tolerance);
     // And decays a full tc after the last one.
-    EXPECT_TRUE(s.active(t0 + 2.8));
-    EXPECT_FALSE(s.active(t0 + 2.8001));
+    EXPECT_TRUE(s.active(t0 + 2.5));
+    EXPECT_FALSE(s.active(t0 + 2.5001));
 }
 
 TEST(Stimulus_test, AfterDecayingItMustReachOneAgainToBeActive) {
