@@ -22,11 +22,19 @@ Arbiter::Verdict Arbiter::admit(Member& member) {
         return Verdict::constraint;
     }
     if (member.stimulus) {
-        member.stimulus->stimulate(clock_.now());
-        const auto state = priority_state();
+        const double now = clock_.now();
+        member.stimulus->stimulate(now);
         if (member.aux)
-            return Verdict::auxiliary;
-        if (!state.winner || state.members[*state.winner] != &member) {
+            return Verdict::auxiliary;  // it stimulated; the others' selections will see it
+        // The selection of priority_state(), without building the state for people.
+        const std::size_t n = stimulated_.size();
+        active_.resize(n);
+        for (std::size_t i = 0; i < n; ++i)
+            active_[i] = stimulated_[i]->stimulus->active(now);
+        std::optional<std::size_t> winner;
+        if (solve_outputs_into(weights_, active_, bias_, matrix_, outputs_))
+            winner = select_winner(outputs_, auxiliary_);
+        if (!winner || stimulated_[*winner] != &member) {
             ++member.dropped_by_priority;
             return Verdict::priority;
         }
@@ -40,23 +48,19 @@ PriorityState Arbiter::priority_state() const {
     state.members = stimulated_;
     const double now = clock_.now();
     const std::size_t n = stimulated_.size();
-    std::vector<double> bias(n);
-    std::vector<bool> auxiliary(n);
     for (std::size_t i = 0; i < n; ++i) {
         const Member& member = *stimulated_[i];
         state.level.push_back(member.stimulus->level(now));
         state.active.push_back(member.stimulus->active(now));
-        bias[i] = member.priority->bs;
-        auxiliary[i] = member.aux;
     }
-    auto outputs = solve_outputs(weights_, state.active, bias);
+    auto outputs = solve_outputs(weights_, state.active, bias_);
     if (!outputs) {
         state.error = outputs.error().message;
         state.output.assign(n, 0.0);
         return state;
     }
     state.output = std::move(*outputs);
-    state.winner = select_winner(state.output, auxiliary);
+    state.winner = select_winner(state.output, auxiliary_);
     return state;
 }
 
@@ -164,6 +168,12 @@ void Arbiter::leave(Member& member) {
 void Arbiter::refresh_weights() {
     stimulated_ = stimulated(nullptr);
     weights_ = weight_matrix(stimulated_);
+    bias_.clear();
+    auxiliary_.clear();
+    for (const Member* member : stimulated_) {
+        bias_.push_back(member->priority->bs);
+        auxiliary_.push_back(member->aux);
+    }
 }
 
 }  // namespace plexus::daemon::arbitration

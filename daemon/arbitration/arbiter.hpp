@@ -113,6 +113,12 @@ private:
     // Cached for the per-message selection; rebuilt when members join or leave.
     std::vector<const Member*> stimulated_;
     std::vector<std::vector<double>> weights_;
+    std::vector<double> bias_;
+    std::vector<bool> auxiliary_;
+    // Working space of the per-message selection, kept to avoid allocating on every message.
+    std::vector<bool> active_;
+    std::vector<double> matrix_;
+    std::vector<double> outputs_;
 };
 
 }  // namespace plexus::daemon::arbitration

@@ -126,11 +126,20 @@ void Stimulus::stimulate(double t) {
 proto::Result<std::vector<double>> solve_outputs(const std::vector<std::vector<double>>& weights,
                                                  const std::vector<bool>& active,
                                                  const std::vector<double>& bias) {
+    std::vector<double> matrix;
+    std::vector<double> outputs;
+    if (!solve_outputs_into(weights, active, bias, matrix, outputs))
+        return proto::Error{"inconsistent weights: the system (I - X*A^T) y = X*beta is singular"};
+    return outputs;
+}
+
+bool solve_outputs_into(const std::vector<std::vector<double>>& weights, const std::vector<bool>& active,
+                        const std::vector<double>& bias, std::vector<double>& matrix, std::vector<double>& outputs) {
     const std::size_t n = bias.size();
     // Row i: y_i - x_i * sum_j alpha_ji * y_j = x_i * beta_i, as an augmented n x (n+1) matrix.
     const std::size_t w = n + 1;
-    std::vector<double> m(n * w, 0.0);
-    auto at = [&](std::size_t row, std::size_t col) -> double& { return m[row * w + col]; };
+    matrix.assign(n * w, 0.0);
+    auto at = [&](std::size_t row, std::size_t col) -> double& { return matrix[row * w + col]; };
     for (std::size_t i = 0; i < n; ++i) {
         const double x = active[i] ? 1.0 : 0.0;
         for (std::size_t j = 0; j < n; ++j)
@@ -145,7 +154,7 @@ proto::Result<std::vector<double>> solve_outputs(const std::vector<std::vector<d
                 pivot = row;
         }
         if (std::fabs(at(pivot, col)) < 1e-9)
-            return proto::Error{"inconsistent weights: the system (I - X*A^T) y = X*beta is singular"};
+            return false;
         if (pivot != col) {
             for (std::size_t k = 0; k <= n; ++k)
                 std::swap(at(pivot, k), at(col, k));
@@ -158,14 +167,14 @@ proto::Result<std::vector<double>> solve_outputs(const std::vector<std::vector<d
                 at(row, k) -= factor * at(col, k);
         }
     }
-    std::vector<double> y(n, 0.0);
+    outputs.assign(n, 0.0);
     for (std::size_t i = n; i-- > 0;) {
         double sum = at(i, n);
         for (std::size_t k = i + 1; k < n; ++k)
-            sum -= at(i, k) * y[k];
-        y[i] = sum / at(i, i);
+            sum -= at(i, k) * outputs[k];
+        outputs[i] = sum / at(i, i);
     }
-    return y;
+    return true;
 }
 
 std::optional<std::size_t> select_winner(const std::vector<double>& outputs,

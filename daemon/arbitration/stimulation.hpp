@@ -35,7 +35,10 @@ public:
     /// S(t): Sa * (1 - e^(5(dt - tc)/tc) + e^-5) for dt = t - Ta <= tc, else 0.
     double level(double t) const;
     /// x(t): 1 while S > 0 after S reached 1, else 0.
-    bool active(double t) const { return reached_ && level(t) > 0; }
+    bool active(double t) const {
+        // S > 0 exactly while dt <= tc once Sa > 0 (and Sa >= 1 once reached): no exp needed.
+        return reached_ && ta_ && t - *ta_ <= tc_;
+    }
     bool resting(double t) const { return t < rest_until_; }
     /// A message at `t`: Sa <- min(1, S(t) + st), Ta <- t; ignored while resting.
     void stimulate(double t);
@@ -59,6 +62,10 @@ private:
 proto::Result<std::vector<double>> solve_outputs(const std::vector<std::vector<double>>& weights,
                                                  const std::vector<bool>& active,
                                                  const std::vector<double>& bias);
+/// The same into `outputs`, with `matrix` as working space: no allocation once both have grown,
+/// for the selection on every message. False when the system is singular.
+bool solve_outputs_into(const std::vector<std::vector<double>>& weights, const std::vector<bool>& active,
+                        const std::vector<double>& bias, std::vector<double>& matrix, std::vector<double>& outputs);
 
 /// The index of the winner: the largest y_i > 0 among the connections that are not auxiliary;
 /// ties go to the lowest index (the earliest connection). None when no output is positive.
