@@ -5,9 +5,13 @@
 #include <CLI/CLI.hpp>
 
 #include "options.hpp"
+#include "peers/peers_command.hpp"
 #include "plexus/client.hpp"
 #include "relay.hpp"
 #include "scenarios.hpp"
+#ifdef PLEXUS_BENCH_PEERS
+#include "peers/peer_systems.hpp"
+#endif
 
 int main(int argc, char** argv) {
     using namespace plexus::bench;
@@ -63,6 +67,37 @@ int main(int argc, char** argv) {
     memory->add_flag("--json", options.json, "one JSON object per line");
     memory->add_option("--plexusd", options.plexusd, "the plexusd binary")->capture_default_str();
     memory->callback([&] { status = run_memory(options); });
+
+    peers::PeersOptions peers_options;
+    peers_options.plexusd = PLEXUSD_PATH;
+    auto* peers = app.add_subcommand(
+        "peers", "Plexus, Mosquitto, NATS, ZeroMQ (proxy) and Redis doing the same jobs, in the same run");
+    peers->add_flag("--quick", peers_options.quick, "a tenth of the messages and one run per system");
+    peers->add_flag("--json", peers_options.json, "one JSON object per row");
+    peers->add_option("--repeat", peers_options.repeat, "runs per system and row; medians are reported")
+        ->check(CLI::PositiveNumber)
+        ->capture_default_str();
+    peers->add_option("--sizes", peers_options.sizes, "payload sizes in bytes (at least 24)")
+        ->check(CLI::Range(std::size_t{24}, std::size_t{32} << 20))
+        ->delimiter(',')
+        ->capture_default_str();
+    peers->add_option("--systems", peers_options.systems, "systems to run (default: all built in)")
+        ->delimiter(',');
+    peers->add_option("--scenarios", peers_options.scenarios,
+                      "pingpong, rate_1khz, throughput, fanout_8 (default: all)")
+        ->delimiter(',');
+    peers->add_option("--count", peers_options.count, "messages or round trips per run (default: by scenario)")
+        ->check(CLI::PositiveNumber);
+    peers->add_option("--plexusd", peers_options.plexusd, "the plexusd binary")->capture_default_str();
+    peers->callback([&] { status = peers::run_peers(peers_options); });
+
+#ifdef PLEXUS_BENCH_PEERS
+    // Not for people: the ZeroMQ proxy of the peers bench, a process of its own like every broker.
+    std::string proxy_ready_file;
+    auto* zmq_proxy = app.add_subcommand("zmq-proxy", "")->group("");
+    zmq_proxy->add_option("--ready-file", proxy_ready_file)->required();
+    zmq_proxy->callback([&] { status = peers::run_zmq_proxy(proxy_ready_file); });
+#endif
 
     // Not for people: the bench starts itself with this to get a relay process for the floor.
     RelayOptions relay_options;

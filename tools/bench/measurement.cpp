@@ -8,9 +8,6 @@
 
 namespace plexus::bench {
 
-namespace {
-
-/// Nearest-rank percentile of sorted samples.
 double percentile(const std::vector<double>& sorted, double fraction) {
     if (sorted.empty())
         return 0;
@@ -25,8 +22,6 @@ double median(std::vector<double> values) {
     const std::size_t middle = values.size() / 2;
     return values.size() % 2 == 1 ? values[middle] : (values[middle - 1] + values[middle]) / 2;
 }
-
-}  // namespace
 
 RunResult summarize(std::vector<double>& latencies_us, std::size_t messages, std::size_t payload_size,
                     std::chrono::steady_clock::duration elapsed, double cpu_seconds) {

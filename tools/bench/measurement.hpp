@@ -37,6 +37,11 @@ RunResult summarize(std::vector<double>& latencies_us, std::size_t messages, std
 RunResult time_round_trips(std::size_t count, std::size_t payload_size, const std::vector<pid_t>& broker_pids,
                            const std::function<double()>& round_trip);
 
+/// Nearest-rank percentile (`fraction` in 0..1) of sorted samples; 0 if there are none.
+double percentile(const std::vector<double>& sorted, double fraction);
+/// The median of some values; 0 if there are none.
+double median(std::vector<double> values);
+
 /// The median of each figure over several runs (each figure on its own).
 RunResult median_of(const std::vector<RunResult>& runs);
 

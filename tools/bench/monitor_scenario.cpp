@@ -56,7 +56,7 @@ int run_monitor(const Options& options) {
     std::vector<std::unique_ptr<Measurement>> measurements;
     for (const auto& [name, carrier] : variants) {
         measurements.push_back(plexus_stream(
-            *topology, options, StreamSpec{name + "-", detection(options.size), carrier, check_detection}));
+            *topology, options, StreamSpec{name + "-", detection(options.size), carrier, check_detection, {}}));
     }
     std::vector<std::vector<RunResult>> runs(variants.size());
     {

@@ -1,0 +1,331 @@
+#include "peer_scenarios.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <exception>
+#include <functional>
+#include <stdexcept>
+#include <thread>
+
+#include "../measurement.hpp"
+#include "../process_stats.hpp"
+#include "stamp.hpp"
+
+namespace plexus::bench::peers {
+
+namespace {
+
+using namespace std::chrono_literals;
+using Clock = std::chrono::steady_clock;
+
+constexpr auto receive_slice = 100ms;        ///< how often a waiting subscriber looks at the clock
+constexpr auto straggler_wait = 1s;          ///< quiet time after the publisher is done: the rest is lost
+constexpr auto warm_up_deadline = 15s;       ///< until a first message must have got through
+constexpr auto ping_pong_answer_wait = 5s;   ///< an answer later than this is a lost message
+constexpr std::size_t fanout_subscribers = 8;
+constexpr auto rate_period = 1ms;            ///< 1 kHz
+
+/// Runs a function on a thread of its own and keeps what it throws, to rethrow on join().
+class Worker {
+public:
+    explicit Worker(std::function<void()> body)
+        : thread_([this, body = std::move(body)] {
+              try {
+                  body();
+              } catch (...) {
+                  error_ = std::current_exception();
+              }
+          }) {}
+    ~Worker() {
+        if (thread_.joinable())
+            thread_.join();
+    }
+    Worker(const Worker&) = delete;
+    Worker& operator=(const Worker&) = delete;
+    void join() {
+        thread_.join();
+        if (error_)
+            std::rethrow_exception(error_);
+    }
+
+private:
+    std::exception_ptr error_;
+    std::thread thread_;  // last: starts after error_ exists
+};
+
+/// Sets a flag when the scope ends, also by an exception, so that workers waiting for it end.
+class SetOnExit {
+public:
+    explicit SetOnExit(std::atomic<bool>& flag) : flag_(flag) {}
+    ~SetOnExit() { flag_ = true; }
+    SetOnExit(const SetOnExit&) = delete;
+    SetOnExit& operator=(const SetOnExit&) = delete;
+
+private:
+    std::atomic<bool>& flag_;
+};
+
+double microseconds(Clock::duration duration) {
+    return std::chrono::duration<double, std::micro>(duration).count();
+}
+
+double peak_rss_mb(const std::vector<pid_t>& pids) {
+    double total = 0;
+    for (const pid_t pid : pids)
+        total += static_cast<double>(std::max(0L, peak_rss_kib(pid))) / 1024.0;
+    return total;
+}
+
+/// Publishes warm-up messages until every subscriber has received one: subscriptions take
+/// effect asynchronously on some systems (ZeroMQ's, Redis's), and first messages pay for
+/// connection set-up everywhere. Warm-up messages arriving later are ignored by their kind.
+void warm_up(Publisher& publisher, const std::vector<Subscriber*>& subscribers, std::size_t size) {
+    std::string message(size, 'w');
+    put_stamp(message, {Kind::warm_up, 0, 0, 0});
+    std::vector<bool> seen(subscribers.size(), false);
+    std::string received;
+    const auto deadline = Clock::now() + warm_up_deadline;
+    while (std::find(seen.begin(), seen.end(), false) != seen.end()) {
+        if (Clock::now() > deadline)
+            throw std::runtime_error("no message reached every subscriber within 15 s of warm-up");
+        publisher.publish(message);
+        publisher.sync();
+        for (std::size_t i = 0; i < subscribers.size(); ++i) {
+            if (!seen[i] && subscribers[i]->receive(received, 20ms))
+                seen[i] = true;
+        }
+    }
+}
+
+/// What one subscriber saw of the data messages of a stream.
+struct Reception {
+    std::vector<double> latencies_us;  ///< send to receive, per message
+    std::size_t received = 0;
+    Clock::time_point last{};  ///< when the last data message arrived
+    std::string lost_connection;  ///< why, if the connection was lost (the rest counts as lost)
+};
+
+/// Receives data messages until `expected` have arrived, or until the publisher is done and
+/// nothing has come for straggler_wait (a system that drops messages).
+void receive_stream(Subscriber& subscriber, std::size_t expected, const std::atomic<bool>& publisher_done,
+                    Reception& reception) {
+    reception.latencies_us.reserve(expected);
+    std::string message;
+    auto quiet_since = Clock::now();
+    bool saw_done = false;
+    while (reception.received < expected) {
+        bool got = false;
+        try {
+            got = subscriber.receive(message, receive_slice);
+        } catch (const std::exception& e) {
+            reception.lost_connection = e.what();
+            return;
+        }
+        const auto now = Clock::now();
+        if (!got) {
+            if (publisher_done.load() && !saw_done) {
+                saw_done = true;
+                quiet_since = std::max(quiet_since, now - receive_slice);
+            }
+            if (saw_done && now - quiet_since > straggler_wait)
+                return;
+            continue;
+        }
+        const Stamp stamp = get_stamp(message);
+        if (stamp.kind != Kind::data)
+            continue;
+        reception.latencies_us.push_back(static_cast<double>(steady_ns() - stamp.send_ns) / 1e3);
+        ++reception.received;
+        reception.last = now;
+        quiet_since = now;
+    }
+}
+
+/// One publisher streams `count` messages (every `period`, or as fast as it can when zero) to
+/// `subscriber_count` subscribers, each receiving on its own thread.
+PeerResult stream(Broker& broker, const Workload& workload, std::size_t subscriber_count,
+                  Clock::duration period) {
+    std::vector<std::unique_ptr<Subscriber>> subscribers;
+    std::vector<Subscriber*> subscriber_pointers;
+    for (std::size_t i = 0; i < subscriber_count; ++i) {
+        subscribers.push_back(broker.subscriber("stream"));
+        subscriber_pointers.push_back(subscribers.back().get());
+    }
+    auto publisher = broker.publisher("stream");
+    warm_up(*publisher, subscriber_pointers, workload.size);
+
+    std::atomic<bool> publisher_done{false};
+    std::vector<Reception> receptions(subscriber_count);
+    const double cpu_before = cpu_seconds(broker.pids());
+    std::vector<std::unique_ptr<Worker>> workers;
+    for (std::size_t i = 0; i < subscriber_count; ++i) {
+        workers.push_back(std::make_unique<Worker>(
+            [&, i] { receive_stream(*subscribers[i], workload.count, publisher_done, receptions[i]); }));
+    }
+    const SetOnExit done_on_exit(publisher_done);  // declared after the workers: ends them first
+    std::string message(workload.size, 'p');
+    const auto start = Clock::now();
+    auto next = start;
+    for (std::uint64_t seq = 0; seq < workload.count; ++seq) {
+        if (period > Clock::duration::zero()) {
+            std::this_thread::sleep_until(next);  // pacing the stream, not waiting for an outcome
+            next += period;
+        }
+        put_stamp(message, {Kind::data, 0, seq, steady_ns()});
+        publisher->publish(message);
+    }
+    publisher->sync();
+    publisher_done = true;
+    for (auto& worker : workers)
+        worker->join();
+    const double cpu = cpu_seconds(broker.pids()) - cpu_before;
+
+    PeerResult result;
+    std::size_t delivered = 0;
+    const Reception* last_to_finish = &receptions.front();
+    for (const auto& reception : receptions) {
+        delivered += reception.received;
+        if (reception.last > last_to_finish->last)
+            last_to_finish = &reception;
+        if (!reception.lost_connection.empty() && result.warning.empty())
+            result.warning = "a subscriber lost its connection: " + reception.lost_connection;
+    }
+    if (delivered == 0)
+        throw std::runtime_error("no data message was received");
+    std::vector<double> latencies = last_to_finish->latencies_us;
+    std::sort(latencies.begin(), latencies.end());
+    const double seconds = std::chrono::duration<double>(last_to_finish->last - start).count();
+    result.p50_us = percentile(latencies, 0.50);
+    result.p99_us = percentile(latencies, 0.99);
+    result.p999_us = percentile(latencies, 0.999);
+    result.msgs_per_s = static_cast<double>(delivered) / seconds;
+    result.mb_per_s = result.msgs_per_s * static_cast<double>(workload.size) / 1e6;
+    result.lost = static_cast<double>(workload.count * subscriber_count - delivered);
+    result.cpu_us_per_msg = cpu * 1e6 / static_cast<double>(delivered);
+    result.rss_mb = peak_rss_mb(broker.pids());
+    return result;
+}
+
+/// Request on "ping", answer on "pong", one at a time; the echo runs on its own thread.
+PeerResult pingpong(Broker& broker, const Workload& workload) {
+    auto echo_in = broker.subscriber("ping");
+    auto answer_in = broker.subscriber("pong");
+    auto ping_out = broker.publisher("ping");
+    auto pong_out = broker.publisher("pong");
+    warm_up(*ping_out, {echo_in.get()}, workload.size);
+    warm_up(*pong_out, {answer_in.get()}, workload.size);
+
+    std::atomic<bool> stop{false};
+    Worker echo([&] {
+        std::string request;
+        while (!stop.load()) {
+            if (echo_in->receive(request, receive_slice) && get_stamp(request).kind == Kind::data)
+                pong_out->publish(request);
+        }
+    });
+    const SetOnExit stop_on_exit(stop);  // declared after the echo: ends it before it is joined
+    std::string message(workload.size, 'q');
+    std::string answer;
+    auto half_round_trip = [&](std::uint64_t seq) {
+        put_stamp(message, {Kind::data, 0, seq, 0});
+        const auto sent = Clock::now();
+        ping_out->publish(message);
+        for (;;) {
+            if (!answer_in->receive(answer, ping_pong_answer_wait))
+                throw std::runtime_error("a ping-pong message was lost (no answer within 5 s)");
+            const Stamp stamp = get_stamp(answer);
+            if (stamp.kind == Kind::data && stamp.seq == seq)
+                break;
+        }
+        const double half = microseconds(Clock::now() - sent) / 2;
+        ping_out->sync();  // outside the timed part: e.g. reads Redis's answer to PUBLISH
+        return half;
+    };
+    std::uint64_t seq = 0;
+    const std::size_t warm_rounds = std::min<std::size_t>(workload.count / 10 + 1, 1000);
+    for (std::size_t i = 0; i < warm_rounds; ++i)
+        half_round_trip(seq++);
+    std::vector<double> samples;
+    samples.reserve(workload.count);
+    const double cpu_before = cpu_seconds(broker.pids());
+    for (std::size_t i = 0; i < workload.count; ++i)
+        samples.push_back(half_round_trip(seq++));
+    const double cpu = cpu_seconds(broker.pids()) - cpu_before;
+    stop = true;
+    echo.join();
+
+    PeerResult result;
+    double total_us = 0;
+    for (const double sample : samples)
+        total_us += 2 * sample;
+    std::sort(samples.begin(), samples.end());
+    const double messages = 2.0 * static_cast<double>(workload.count);
+    result.p50_us = percentile(samples, 0.50);
+    result.p99_us = percentile(samples, 0.99);
+    result.p999_us = percentile(samples, 0.999);
+    result.msgs_per_s = messages / (total_us / 1e6);
+    result.mb_per_s = result.msgs_per_s * static_cast<double>(workload.size) / 1e6;
+    result.cpu_us_per_msg = cpu * 1e6 / messages;
+    result.rss_mb = peak_rss_mb(broker.pids());
+    return result;
+}
+
+}  // namespace
+
+const std::vector<Scenario>& all_scenarios() {
+    static const std::vector<Scenario> scenarios{Scenario::pingpong, Scenario::rate_1khz, Scenario::throughput,
+                                                 Scenario::fanout_8};
+    return scenarios;
+}
+
+std::string name_of(Scenario scenario) {
+    switch (scenario) {
+    case Scenario::pingpong:
+        return "pingpong";
+    case Scenario::rate_1khz:
+        return "rate_1khz";
+    case Scenario::throughput:
+        return "throughput";
+    case Scenario::fanout_8:
+        return "fanout_8";
+    }
+    return "?";
+}
+
+PeerResult run_scenario(Scenario scenario, Broker& broker, const Workload& workload) {
+    if (workload.size < min_message_size)
+        throw std::invalid_argument("messages must be at least " + std::to_string(min_message_size) + " bytes");
+    switch (scenario) {
+    case Scenario::pingpong:
+        return pingpong(broker, workload);
+    case Scenario::rate_1khz:
+        return stream(broker, workload, 1, rate_period);
+    case Scenario::throughput:
+        return stream(broker, workload, 1, Clock::duration::zero());
+    case Scenario::fanout_8:
+        return stream(broker, workload, fanout_subscribers, Clock::duration::zero());
+    }
+    throw std::logic_error("unknown scenario");
+}
+
+std::size_t default_count(Scenario scenario, std::size_t size, bool quick) {
+    const std::size_t bytes = std::max<std::size_t>(size, 1);
+    std::size_t count = 0;
+    switch (scenario) {
+    case Scenario::pingpong:
+        count = std::clamp<std::size_t>((32u << 20) / bytes, 100, 10000);
+        break;
+    case Scenario::rate_1khz:
+        count = size >= (1u << 20) ? 1000 : 2000;  // seconds at 1 kHz
+        break;
+    case Scenario::throughput:
+        count = std::clamp<std::size_t>((256u << 20) / bytes, 200, 200000);
+        break;
+    case Scenario::fanout_8:
+        count = std::clamp<std::size_t>((64u << 20) / bytes, 100, 50000);
+        break;
+    }
+    return quick ? std::max<std::size_t>(count / 10, 30) : count;
+}
+
+}  // namespace plexus::bench::peers

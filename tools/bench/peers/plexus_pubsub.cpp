@@ -1,0 +1,99 @@
+// Plexus as one of the systems of `plexus-bench peers`: one plexusd with its embedded name server,
+// reached by every client over its Unix socket, as a component on the same machine would. A topic
+// is a set of ports: each publisher opens /peers/TOPIC/pubN, each subscriber /peers/TOPIC/subN
+// (strict queue, the daemon's default length), and the broker connects every publisher of a
+// topic to every subscriber of it, as the other systems do by subscription.
+#include <map>
+
+#include "../plexus_measurements.hpp"
+#include "../topology.hpp"
+#include "plexus/client.hpp"
+#include "pubsub.hpp"
+
+namespace plexus::bench::peers {
+
+namespace {
+
+class PlexusPublisher : public Publisher {
+public:
+    PlexusPublisher(const std::string& socket, const std::string& port)
+        : client_(connect_client(socket)), port_(client_.open(port)) {}
+
+    void publish(std::string_view payload) override {
+        port_.write(Value::binary(std::vector<std::uint8_t>(payload.begin(), payload.end())));
+    }
+
+private:
+    Client client_;
+    Port port_;
+};
+
+class PlexusSubscriber : public Subscriber {
+public:
+    PlexusSubscriber(const std::string& socket, const std::string& port)
+        : client_(connect_client(socket)), port_(client_.open(port)) {}
+
+    bool receive(std::string& payload, std::chrono::milliseconds timeout) override {
+        const auto message = port_.read(timeout);
+        if (!message)
+            return false;
+        const auto& bytes = message->data.get_binary();
+        payload.assign(bytes.begin(), bytes.end());
+        return true;
+    }
+
+private:
+    Client client_;
+    Port port_;
+};
+
+class PlexusBroker : public Broker {
+public:
+    explicit PlexusBroker(const BrokerSetup& setup)
+        : topology_(Topology::plexus(setup.dir, setup.plexusd, 1)), control_(connect_client(topology_->near_socket())) {}
+
+    std::vector<pid_t> pids() const override { return topology_->pids(); }
+
+    std::unique_ptr<Publisher> publisher(const std::string& topic) override {
+        const std::string name = port_name(topic, "pub");
+        auto publisher = std::make_unique<PlexusPublisher>(topology_->near_socket(), name);
+        auto& ports = topics_[topic];
+        for (const auto& subscriber : ports.subscribers)
+            connect_when_registered(control_, name, subscriber);
+        ports.publishers.push_back(name);
+        return publisher;
+    }
+
+    std::unique_ptr<Subscriber> subscriber(const std::string& topic) override {
+        const std::string name = port_name(topic, "sub");
+        auto subscriber = std::make_unique<PlexusSubscriber>(topology_->near_socket(), name);
+        auto& ports = topics_[topic];
+        for (const auto& publisher : ports.publishers)
+            connect_when_registered(control_, publisher, name);
+        ports.subscribers.push_back(name);
+        return subscriber;
+    }
+
+private:
+    struct TopicPorts {
+        std::vector<std::string> publishers;
+        std::vector<std::string> subscribers;
+    };
+
+    std::string port_name(const std::string& topic, const std::string& role) {
+        return "/peers/" + topic + "/" + role + std::to_string(++opened_);
+    }
+
+    std::unique_ptr<Topology> topology_;
+    Client control_;  ///< makes the connections
+    std::map<std::string, TopicPorts> topics_;
+    int opened_ = 0;
+};
+
+}  // namespace
+
+System plexus_system() {
+    return {"plexus", [](const BrokerSetup& setup) { return std::make_unique<PlexusBroker>(setup); }};
+}
+
+}  // namespace plexus::bench::peers
