@@ -1,5 +1,6 @@
 // plexus-bench: latency, throughput and memory of Plexus, each measured against a minimal relay
 // (the "floor") in the same run. Parses the command line and hands over to one scenario.
+#include <csignal>
 #include <iostream>
 
 #include <CLI/CLI.hpp>
@@ -57,9 +58,9 @@ int main(int argc, char** argv) {
     add_common(monitor);
     monitor->callback([&] { status = run_monitor(options); });
 
-    auto* arbitration = app.add_subcommand(
-        "arbitration",
-        "added CPU per message with 2, 4, 8 competing connections (constraints, priority) and the switch time");
+    auto* arbitration = app.add_subcommand("arbitration",
+                                           "added CPU per message with 2, 4, 8 competing connections "
+                                           "(constraints, priority) and the switch time");
     add_common(arbitration);
     arbitration->callback([&] { status = run_arbitration(options); });
     auto* memory = app.add_subcommand("memory", "plexusd resident memory, idle and with many ports open");
@@ -83,13 +84,20 @@ int main(int argc, char** argv) {
         ->capture_default_str();
     peers->add_option("--systems", peers_options.systems, "systems to run (default: all built in)")
         ->delimiter(',');
-    peers->add_option("--scenarios", peers_options.scenarios,
-                      "pingpong, rate_1khz, throughput, fanout_8 (default: all)")
+    peers
+        ->add_option("--scenarios", peers_options.scenarios,
+                     "pingpong, rate_1khz, throughput, fanout_8 (default: all)")
         ->delimiter(',');
-    peers->add_option("--count", peers_options.count, "messages or round trips per run (default: by scenario)")
+    peers
+        ->add_option("--count", peers_options.count, "messages or round trips per run (default: by scenario)")
         ->check(CLI::PositiveNumber);
     peers->add_option("--plexusd", peers_options.plexusd, "the plexusd binary")->capture_default_str();
-    peers->callback([&] { status = peers::run_peers(peers_options); });
+    peers->callback([&] {
+        // A peer's client library may write to a server that just went away (hiredis uses plain
+        // write()); that must be an error of the run, not the end of the bench.
+        ::signal(SIGPIPE, SIG_IGN);
+        status = peers::run_peers(peers_options);
+    });
 
 #ifdef PLEXUS_BENCH_PEERS
     // Not for people: the ZeroMQ proxy of the peers bench, a process of its own like every broker.

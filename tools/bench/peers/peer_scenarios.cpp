@@ -18,12 +18,12 @@ namespace {
 using namespace std::chrono_literals;
 using Clock = std::chrono::steady_clock;
 
-constexpr auto receive_slice = 100ms;        ///< how often a waiting subscriber looks at the clock
-constexpr auto straggler_wait = 1s;          ///< quiet time after the publisher is done: the rest is lost
-constexpr auto warm_up_deadline = 15s;       ///< until a first message must have got through
-constexpr auto ping_pong_answer_wait = 5s;   ///< an answer later than this is a lost message
+constexpr auto receive_slice = 100ms;       ///< how often a waiting subscriber looks at the clock
+constexpr auto straggler_wait = 1s;         ///< quiet time after the publisher is done: the rest is lost
+constexpr auto warm_up_deadline = 15s;      ///< until a first message must have got through
+constexpr auto ping_pong_answer_wait = 5s;  ///< an answer later than this is a lost message
 constexpr std::size_t fanout_subscribers = 8;
-constexpr auto rate_period = 1ms;            ///< 1 kHz
+constexpr auto rate_period = 1ms;  ///< 1 kHz
 
 /// Runs a function on a thread of its own and keeps what it throws, to rethrow on join().
 class Worker {
@@ -101,7 +101,7 @@ void warm_up(Publisher& publisher, const std::vector<Subscriber*>& subscribers, 
 struct Reception {
     std::vector<double> latencies_us;  ///< send to receive, per message
     std::size_t received = 0;
-    Clock::time_point last{};  ///< when the last data message arrived
+    Clock::time_point last{};     ///< when the last data message arrived
     std::string lost_connection;  ///< why, if the connection was lost (the rest counts as lost)
 };
 
@@ -151,7 +151,8 @@ PeerResult stream(Broker& broker, const Workload& workload, std::size_t subscrib
         subscribers.push_back(broker.subscriber("stream"));
         subscriber_pointers.push_back(subscribers.back().get());
     }
-    auto publisher = broker.publisher("stream");
+    auto publisher =
+        broker.publisher("stream", period > Clock::duration::zero() ? Traffic::latency : Traffic::bulk);
     warm_up(*publisher, subscriber_pointers, workload.size);
 
     std::atomic<bool> publisher_done{false};
@@ -210,8 +211,8 @@ PeerResult stream(Broker& broker, const Workload& workload, std::size_t subscrib
 PeerResult pingpong(Broker& broker, const Workload& workload) {
     auto echo_in = broker.subscriber("ping");
     auto answer_in = broker.subscriber("pong");
-    auto ping_out = broker.publisher("ping");
-    auto pong_out = broker.publisher("pong");
+    auto ping_out = broker.publisher("ping", Traffic::latency);
+    auto pong_out = broker.publisher("pong", Traffic::latency);
     warm_up(*ping_out, {echo_in.get()}, workload.size);
     warm_up(*pong_out, {answer_in.get()}, workload.size);
 
@@ -273,37 +274,38 @@ PeerResult pingpong(Broker& broker, const Workload& workload) {
 }  // namespace
 
 const std::vector<Scenario>& all_scenarios() {
-    static const std::vector<Scenario> scenarios{Scenario::pingpong, Scenario::rate_1khz, Scenario::throughput,
-                                                 Scenario::fanout_8};
+    static const std::vector<Scenario> scenarios{Scenario::pingpong, Scenario::rate_1khz,
+                                                 Scenario::throughput, Scenario::fanout_8};
     return scenarios;
 }
 
 std::string name_of(Scenario scenario) {
     switch (scenario) {
-    case Scenario::pingpong:
-        return "pingpong";
-    case Scenario::rate_1khz:
-        return "rate_1khz";
-    case Scenario::throughput:
-        return "throughput";
-    case Scenario::fanout_8:
-        return "fanout_8";
+        case Scenario::pingpong:
+            return "pingpong";
+        case Scenario::rate_1khz:
+            return "rate_1khz";
+        case Scenario::throughput:
+            return "throughput";
+        case Scenario::fanout_8:
+            return "fanout_8";
     }
     return "?";
 }
 
 PeerResult run_scenario(Scenario scenario, Broker& broker, const Workload& workload) {
     if (workload.size < min_message_size)
-        throw std::invalid_argument("messages must be at least " + std::to_string(min_message_size) + " bytes");
+        throw std::invalid_argument("messages must be at least " + std::to_string(min_message_size) +
+                                    " bytes");
     switch (scenario) {
-    case Scenario::pingpong:
-        return pingpong(broker, workload);
-    case Scenario::rate_1khz:
-        return stream(broker, workload, 1, rate_period);
-    case Scenario::throughput:
-        return stream(broker, workload, 1, Clock::duration::zero());
-    case Scenario::fanout_8:
-        return stream(broker, workload, fanout_subscribers, Clock::duration::zero());
+        case Scenario::pingpong:
+            return pingpong(broker, workload);
+        case Scenario::rate_1khz:
+            return stream(broker, workload, 1, rate_period);
+        case Scenario::throughput:
+            return stream(broker, workload, 1, Clock::duration::zero());
+        case Scenario::fanout_8:
+            return stream(broker, workload, fanout_subscribers, Clock::duration::zero());
     }
     throw std::logic_error("unknown scenario");
 }
@@ -312,18 +314,18 @@ std::size_t default_count(Scenario scenario, std::size_t size, bool quick) {
     const std::size_t bytes = std::max<std::size_t>(size, 1);
     std::size_t count = 0;
     switch (scenario) {
-    case Scenario::pingpong:
-        count = std::clamp<std::size_t>((32u << 20) / bytes, 100, 10000);
-        break;
-    case Scenario::rate_1khz:
-        count = size >= (1u << 20) ? 1000 : 2000;  // seconds at 1 kHz
-        break;
-    case Scenario::throughput:
-        count = std::clamp<std::size_t>((256u << 20) / bytes, 200, 200000);
-        break;
-    case Scenario::fanout_8:
-        count = std::clamp<std::size_t>((64u << 20) / bytes, 100, 50000);
-        break;
+        case Scenario::pingpong:
+            count = std::clamp<std::size_t>((32u << 20) / bytes, 100, 10000);
+            break;
+        case Scenario::rate_1khz:
+            count = size >= (1u << 20) ? 1000 : 2000;  // seconds at 1 kHz
+            break;
+        case Scenario::throughput:
+            count = std::clamp<std::size_t>((256u << 20) / bytes, 200, 200000);
+            break;
+        case Scenario::fanout_8:
+            count = std::clamp<std::size_t>((64u << 20) / bytes, 100, 50000);
+            break;
     }
     return quick ? std::max<std::size_t>(count / 10, 30) : count;
 }

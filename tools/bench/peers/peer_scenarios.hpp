@@ -26,9 +26,9 @@ struct PeerResult {
     double p50_us = 0;
     double p99_us = 0;
     double p999_us = 0;
-    double msgs_per_s = 0;  ///< messages received by subscribers per second (all subscribers together)
-    double mb_per_s = 0;    ///< their payload, 10^6 bytes per second
-    double lost = 0;        ///< messages published and never received (summed over subscribers)
+    double msgs_per_s = 0;      ///< messages received by subscribers per second (all subscribers together)
+    double mb_per_s = 0;        ///< their payload, 10^6 bytes per second
+    double lost = 0;            ///< messages published and never received (summed over subscribers)
     double cpu_us_per_msg = 0;  ///< server CPU time per message received
     double rss_mb = 0;          ///< peak resident memory of the server processes at the end of the run
     std::string warning;        ///< something a reader of the figures must know (a lost connection)

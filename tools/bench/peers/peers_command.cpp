@@ -24,13 +24,15 @@ std::vector<System> chosen_systems(const std::vector<std::string>& names) {
         return systems;
     std::vector<System> chosen;
     for (const auto& name : names) {
-        auto found = std::find_if(systems.begin(), systems.end(), [&](const System& s) { return s.name == name; });
+        auto found =
+            std::find_if(systems.begin(), systems.end(), [&](const System& s) { return s.name == name; });
         if (found == systems.end()) {
             std::string known;
             for (const auto& system : systems)
                 known += (known.empty() ? "" : ", ") + system.name;
-            throw std::invalid_argument("unknown or not built system '" + name + "' (built: " + known +
-                                        (peers_built() ? ")" : "; the peers need scripts/bench-peers-setup)"));
+            throw std::invalid_argument(
+                "unknown or not built system '" + name + "' (built: " + known +
+                (peers_built() ? ")" : "; the peers need scripts/bench-peers-setup)"));
         }
         chosen.push_back(*found);
     }
@@ -60,8 +62,9 @@ PeerResult median_of(const std::vector<PeerResult>& runs) {
         return median(std::move(values));
     };
     PeerResult result;
-    for (auto member : {&PeerResult::p50_us, &PeerResult::p99_us, &PeerResult::p999_us, &PeerResult::msgs_per_s,
-                        &PeerResult::mb_per_s, &PeerResult::lost, &PeerResult::cpu_us_per_msg, &PeerResult::rss_mb})
+    for (auto member :
+         {&PeerResult::p50_us, &PeerResult::p99_us, &PeerResult::p999_us, &PeerResult::msgs_per_s,
+          &PeerResult::mb_per_s, &PeerResult::lost, &PeerResult::cpu_us_per_msg, &PeerResult::rss_mb})
         result.*member = figure(member);
     for (const auto& run : runs) {
         if (!run.warning.empty())
@@ -84,14 +87,14 @@ std::string size_label(std::size_t size) {
 
 std::string what_is_measured(Scenario scenario) {
     switch (scenario) {
-    case Scenario::pingpong:
-        return "latency = round trip / 2";
-    case Scenario::rate_1khz:
-        return "one-way latency at 1 kHz";
-    case Scenario::throughput:
-        return "one subscriber, as fast as possible; latency = send to receive under load";
-    case Scenario::fanout_8:
-        return "8 subscribers; msgs/s = deliveries to all; latency of the subscriber that finished last";
+        case Scenario::pingpong:
+            return "latency = round trip / 2";
+        case Scenario::rate_1khz:
+            return "one-way latency at 1 kHz";
+        case Scenario::throughput:
+            return "one subscriber, as fast as possible; latency = send to receive under load";
+        case Scenario::fanout_8:
+            return "8 subscribers; msgs/s = deliveries to all; latency of the subscriber that finished last";
     }
     return "";
 }
@@ -107,11 +110,16 @@ struct Row {
 
 void print_json(const Row& row) {
     for (const auto& [system, r] : row.results) {
-        nlohmann::json line{{"system", system},         {"scenario", name_of(row.scenario)},
-                            {"size", row.size},         {"p50_us", r.p50_us},
-                            {"p99_us", r.p99_us},       {"p999_us", r.p999_us},
-                            {"msgs_per_s", r.msgs_per_s}, {"mb_per_s", r.mb_per_s},
-                            {"lost", r.lost},           {"cpu_us_per_msg", r.cpu_us_per_msg},
+        nlohmann::json line{{"system", system},
+                            {"scenario", name_of(row.scenario)},
+                            {"size", row.size},
+                            {"p50_us", r.p50_us},
+                            {"p99_us", r.p99_us},
+                            {"p999_us", r.p999_us},
+                            {"msgs_per_s", r.msgs_per_s},
+                            {"mb_per_s", r.mb_per_s},
+                            {"lost", r.lost},
+                            {"cpu_us_per_msg", r.cpu_us_per_msg},
                             {"rss_mb", r.rss_mb}};
         if (!r.warning.empty())
             line["warning"] = r.warning;
@@ -123,8 +131,8 @@ void print_json(const Row& row) {
 void print_table(const Row& row, int repeat) {
     std::printf("\n%s, %s: %s (%zu per run, median of %d)\n", name_of(row.scenario).c_str(),
                 size_label(row.size).c_str(), what_is_measured(row.scenario).c_str(), row.count, repeat);
-    std::printf("  %-10s %9s %9s %9s %12s %9s %8s %10s %8s %10s %10s\n", "system", "p50 us", "p99 us", "p99.9 us",
-                "msgs/s", "MB/s", "lost", "cpu us/msg", "rss MB", "p50/plx", "msgs/plx");
+    std::printf("  %-10s %9s %9s %9s %12s %9s %8s %10s %8s %10s %10s\n", "system", "p50 us", "p99 us",
+                "p99.9 us", "msgs/s", "MB/s", "lost", "cpu us/msg", "rss MB", "p50/plx", "msgs/plx");
     const PeerResult* plexus = nullptr;
     for (const auto& [system, result] : row.results) {
         if (system == "plexus")
@@ -133,9 +141,9 @@ void print_table(const Row& row, int repeat) {
     for (const auto& [system, r] : row.results) {
         const double p50_ratio = plexus && plexus->p50_us > 0 ? r.p50_us / plexus->p50_us : 0;
         const double rate_ratio = plexus && plexus->msgs_per_s > 0 ? r.msgs_per_s / plexus->msgs_per_s : 0;
-        std::printf("  %-10s %9.1f %9.1f %9.1f %12.0f %9.1f %8.0f %10.2f %8.1f %9.2fx %9.2fx\n", system.c_str(),
-                    r.p50_us, r.p99_us, r.p999_us, r.msgs_per_s, r.mb_per_s, r.lost, r.cpu_us_per_msg, r.rss_mb,
-                    p50_ratio, rate_ratio);
+        std::printf("  %-10s %9.1f %9.1f %9.1f %12.0f %9.1f %8.0f %10.2f %8.1f %9.2fx %9.2fx\n",
+                    system.c_str(), r.p50_us, r.p99_us, r.p999_us, r.msgs_per_s, r.mb_per_s, r.lost,
+                    r.cpu_us_per_msg, r.rss_mb, p50_ratio, rate_ratio);
         if (!r.warning.empty())
             std::printf("  %-10s note: %s\n", "", r.warning.c_str());
     }
@@ -151,15 +159,19 @@ int run_peers(const PeersOptions& options) {
     const auto scenarios = chosen_scenarios(options.scenarios);
     const int repeat = options.quick ? 1 : options.repeat;
     if (!peers_built() && !options.json) {
-        std::printf("Only Plexus is built into this bench: run scripts/bench-peers-setup to add Mosquitto, NATS, "
-                    "ZeroMQ and Redis.\n");
+        std::printf(
+            "Only Plexus is built into this bench: run scripts/bench-peers-setup to add Mosquitto, NATS, "
+            "ZeroMQ and Redis.\n");
     }
     const std::string self = self_path();
     int status = 0;
     for (const Scenario scenario : scenarios) {
         for (const std::size_t size : options.sizes) {
-            Row row{scenario, size, options.count > 0 ? options.count : default_count(scenario, size, options.quick),
-                    {}, {}};
+            Row row{scenario,
+                    size,
+                    options.count > 0 ? options.count : default_count(scenario, size, options.quick),
+                    {},
+                    {}};
             std::map<std::string, std::vector<PeerResult>> runs;
             std::map<std::string, std::string> failed;
             // Systems alternate run by run, so that drift of this machine hits all of them alike.
@@ -174,8 +186,8 @@ int run_peers(const PeersOptions& options) {
                         runs[system.name].push_back(run_scenario(scenario, *broker, {size, row.count}));
                     } catch (const std::exception& e) {
                         failed[system.name] = e.what();
-                        std::cerr << "plexus-bench peers: " << system.name << ", " << name_of(scenario) << ", "
-                                  << size << " B: " << e.what() << '\n';
+                        std::cerr << "plexus-bench peers: " << system.name << ", " << name_of(scenario)
+                                  << ", " << size << " B: " << e.what() << '\n';
                         status = 1;
                     }
                 }

@@ -50,11 +50,12 @@ private:
 class PlexusBroker : public Broker {
 public:
     explicit PlexusBroker(const BrokerSetup& setup)
-        : topology_(Topology::plexus(setup.dir, setup.plexusd, 1)), control_(connect_client(topology_->near_socket())) {}
+        : topology_(Topology::plexus(setup.dir, setup.plexusd, 1)),
+          control_(connect_client(topology_->near_socket())) {}
 
     std::vector<pid_t> pids() const override { return topology_->pids(); }
 
-    std::unique_ptr<Publisher> publisher(const std::string& topic) override {
+    std::unique_ptr<Publisher> publisher(const std::string& topic, Traffic /*traffic*/) override {
         const std::string name = port_name(topic, "pub");
         auto publisher = std::make_unique<PlexusPublisher>(topology_->near_socket(), name);
         auto& ports = topics_[topic];

@@ -42,6 +42,13 @@ public:
     virtual bool receive(std::string& payload, std::chrono::milliseconds timeout) = 0;
 };
 
+/// What a publisher is for, so that a client library with a documented faster mode for one of
+/// them can use it (nats.c: "send ASAP" for latency instead of its flusher thread's batching).
+enum class Traffic {
+    latency,  ///< one message at a time, each wanted at the other end as soon as possible
+    bulk,     ///< as many messages as possible
+};
+
 /// One running system: its server processes and a factory of clients.
 class Broker {
 public:
@@ -49,7 +56,7 @@ public:
     /// The server processes whose CPU time and peak memory are measured.
     virtual std::vector<pid_t> pids() const = 0;
     /// A new client that publishes on `topic`.
-    virtual std::unique_ptr<Publisher> publisher(const std::string& topic) = 0;
+    virtual std::unique_ptr<Publisher> publisher(const std::string& topic, Traffic traffic) = 0;
     /// A new client subscribed to `topic`. Messages published before the subscription took
     /// effect may be missed (the scenarios warm up until a message gets through).
     virtual std::unique_ptr<Subscriber> subscriber(const std::string& topic) = 0;
@@ -57,9 +64,9 @@ public:
 
 /// Where a system's programs are and where it may write its files.
 struct BrokerSetup {
-    const TempDir& dir;          ///< configuration files, sockets, logs
-    std::string plexusd;         ///< the plexusd binary (Plexus only)
-    std::string self;            ///< this program, for helper processes (the ZeroMQ proxy)
+    const TempDir& dir;   ///< configuration files, sockets, logs
+    std::string plexusd;  ///< the plexusd binary (Plexus only)
+    std::string self;     ///< this program, for helper processes (the ZeroMQ proxy)
 };
 
 /// A system the bench can measure: its JSON `system` name, and how to start it.
