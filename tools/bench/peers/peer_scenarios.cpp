@@ -315,16 +315,16 @@ std::size_t default_count(Scenario scenario, std::size_t size, bool quick) {
     std::size_t count = 0;
     switch (scenario) {
         case Scenario::pingpong:
-            count = std::clamp<std::size_t>((32u << 20) / bytes, 100, 10000);
+            count = std::clamp<std::size_t>((8u << 20) / bytes, 100, 5000);
             break;
         case Scenario::rate_1khz:
-            count = size >= (1u << 20) ? 1000 : 2000;  // seconds at 1 kHz
+            count = size >= (1u << 20) ? 500 : 1000;  // milliseconds at 1 kHz
             break;
         case Scenario::throughput:
-            count = std::clamp<std::size_t>((256u << 20) / bytes, 200, 200000);
+            count = std::clamp<std::size_t>((64u << 20) / bytes, 100, 100000);
             break;
         case Scenario::fanout_8:
-            count = std::clamp<std::size_t>((64u << 20) / bytes, 100, 50000);
+            count = std::clamp<std::size_t>((16u << 20) / bytes, 50, 20000);
             break;
     }
     return quick ? std::max<std::size_t>(count / 10, 30) : count;
