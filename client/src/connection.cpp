@@ -5,6 +5,7 @@
 #include <netinet/tcp.h>
 #include <poll.h>
 #include <sys/socket.h>
+#include <sys/uio.h>
 #include <sys/un.h>
 #include <unistd.h>
 
@@ -22,6 +23,10 @@ namespace {
 // Buffered writes go out once this much is waiting: large enough to batch, small enough to stream.
 constexpr std::size_t flush_threshold = 64 * 1024;
 constexpr std::size_t read_chunk = 256 * 1024;
+// Payloads at least this large are sent from where they are instead of being copied into out_.
+constexpr std::size_t gather_threshold = 64 * 1024;
+// How long the backlog thread waits for room before it looks at its flags again.
+constexpr int backlog_poll_ms = 100;
 }  // namespace
 
 Connection::Connection(int fd, std::string description) : fd_(fd), path_(std::move(description)) {
@@ -93,6 +98,13 @@ Connection::~Connection() {
     } catch (...) {
         // Nothing to report to in a destructor; the daemon notices the close.
     }
+    {
+        std::lock_guard lock(send_mutex_);
+        stopping_ = true;
+    }
+    backlog_changed_.notify_all();
+    if (backlog_thread_.joinable())
+        backlog_thread_.join();
     if (fd_ >= 0)
         ::close(fd_);
 }
@@ -111,6 +123,7 @@ void Connection::fail(const std::string& why) {
 }
 
 void Connection::send_locked() {
+    backlog_ = false;
     std::size_t sent = 0;
     while (sent < out_.size()) {
         const ssize_t n = ::send(fd_, out_.data() + sent, out_.size() - sent, MSG_NOSIGNAL);
@@ -127,6 +140,56 @@ void Connection::send_locked() {
     out_.clear();
 }
 
+void Connection::send_available_locked() {
+    std::size_t sent = 0;
+    while (sent < out_.size()) {
+        const ssize_t n = ::send(fd_, out_.data() + sent, out_.size() - sent, MSG_NOSIGNAL | MSG_DONTWAIT);
+        if (n < 0) {
+            if (errno == EINTR)
+                continue;
+            if (errno == EAGAIN || errno == EWOULDBLOCK)
+                break;
+            const std::string why = std::strerror(errno);
+            out_.clear();
+            backlog_ = false;
+            fail(why);
+            return;
+        }
+        sent += static_cast<std::size_t>(n);
+    }
+    out_.erase(out_.begin(), out_.begin() + static_cast<std::ptrdiff_t>(sent));
+}
+
+void Connection::send_with_payload_locked(proto::ByteView payload) {
+    backlog_ = false;
+    std::size_t head_sent = 0;
+    std::size_t payload_sent = 0;
+    while (head_sent < out_.size() || payload_sent < payload.size()) {
+        iovec pieces[2];
+        int count = 0;
+        if (head_sent < out_.size())
+            pieces[count++] = {out_.data() + head_sent, out_.size() - head_sent};
+        pieces[count++] = {const_cast<std::uint8_t*>(payload.data()) + payload_sent,
+                           payload.size() - payload_sent};
+        msghdr message{};
+        message.msg_iov = pieces;
+        message.msg_iovlen = static_cast<std::size_t>(count);
+        ssize_t n = ::sendmsg(fd_, &message, MSG_NOSIGNAL);
+        if (n < 0) {
+            if (errno == EINTR)
+                continue;
+            const std::string why = std::strerror(errno);
+            out_.clear();
+            fail(why);
+            throw_if_broken();
+        }
+        const std::size_t head_part = std::min(static_cast<std::size_t>(n), out_.size() - head_sent);
+        head_sent += head_part;
+        payload_sent += static_cast<std::size_t>(n) - head_part;
+    }
+    out_.clear();
+}
+
 void Connection::write(std::uint64_t handle, const std::string& source, std::uint64_t seq,
                        const proto::Bytes& payload, bool flush) {
     throw_if_broken();
@@ -135,9 +198,46 @@ void Connection::write(std::uint64_t handle, const std::string& source, std::uin
         static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(now).count());
     std::lock_guard lock(send_mutex_);
     proto::append_data_frame_prefix(out_, handle, proto::record_size(source, seq, time_ns, payload.size()));
+    if (payload.size() >= gather_threshold) {
+        proto::append_record(out_, source, seq, time_ns, {});  // the record's head; the payload ends it
+        send_with_payload_locked(payload);
+        return;
+    }
     proto::append_record(out_, source, seq, time_ns, payload);
-    if (flush || out_.size() >= flush_threshold)
+    if (out_.size() >= flush_threshold) {
         send_locked();
+    } else if (flush && !backlog_) {
+        send_available_locked();
+        if (!out_.empty()) {
+            backlog_ = true;
+            start_backlog_thread_locked();
+            backlog_changed_.notify_one();
+        }
+    }
+    throw_if_broken();
+}
+
+void Connection::start_backlog_thread_locked() {
+    if (!backlog_thread_.joinable())
+        backlog_thread_ = std::thread([this] { send_backlog(); });
+}
+
+void Connection::send_backlog() {
+    std::unique_lock lock(send_mutex_);
+    for (;;) {
+        backlog_changed_.wait(lock, [&] { return backlog_ || stopping_; });
+        if (stopping_)
+            return;
+        lock.unlock();
+        pollfd room{fd_, POLLOUT, 0};
+        ::poll(&room, 1, backlog_poll_ms);
+        lock.lock();
+        if (!backlog_)
+            continue;
+        send_available_locked();
+        if (out_.empty())
+            backlog_ = false;
+    }
 }
 
 void Connection::flush() {

@@ -11,6 +11,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <thread>
 
 #include "plexus/client.hpp"
 #include "plexus/proto/control.hpp"
@@ -50,7 +51,16 @@ private:
     /// Reads what the socket has (waiting at most until `deadline`) and dispatches whole frames.
     void receive(Clock::time_point deadline);
     void dispatch(proto::FrameType type, proto::ByteView fields);
+    /// Sends all of out_, blocking until the socket takes it.
     void send_locked();
+    /// Sends what the socket takes now without blocking; keeps the rest at the front of out_.
+    void send_available_locked();
+    /// Sends out_ and then `payload` with one gathering call per piece the socket takes: a large
+    /// payload is not copied into out_ first.
+    void send_with_payload_locked(proto::ByteView payload);
+    /// The backlog thread: sends what a full socket could not take, as soon as it has room.
+    void send_backlog();
+    void start_backlog_thread_locked();
     void fail(const std::string& why);
     void throw_if_broken() const;
 
@@ -59,6 +69,13 @@ private:
 
     std::mutex send_mutex_;
     proto::Bytes out_;
+    // When a flushing write finds the socket full, the rest stays in out_ (the backlog) and
+    // writes only append to it until it reaches the flush threshold: under saturation many
+    // messages leave in one system call, while an idle link still sends each message at once.
+    bool backlog_ = false;
+    bool stopping_ = false;
+    std::condition_variable backlog_changed_;
+    std::thread backlog_thread_;  ///< started the first time a backlog forms
 
     mutable std::mutex state_mutex_;
     std::condition_variable changed_;
