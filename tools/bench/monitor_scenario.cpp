@@ -55,8 +55,9 @@ int run_monitor(const Options& options) {
     };
     std::vector<std::unique_ptr<Measurement>> measurements;
     for (const auto& [name, carrier] : variants) {
-        measurements.push_back(plexus_stream(
-            *topology, options, StreamSpec{name + "-", detection(options.size), carrier, check_detection, {}}));
+        measurements.push_back(
+            plexus_stream(*topology, options,
+                          StreamSpec{name + "-", detection(options.size), carrier, check_detection, {}}));
     }
     std::vector<std::vector<RunResult>> runs(variants.size());
     {

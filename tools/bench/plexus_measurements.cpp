@@ -227,7 +227,8 @@ std::unique_ptr<Measurement> plexus_latency(const Topology& topology, const Opti
 
 std::unique_ptr<Measurement> plexus_throughput(const Topology& topology, const Options& options) {
     const std::size_t size = options.size;
-    StreamSpec spec{"", blob(size), "", [size](const Received& message) { check_payload(message, size); }, {}};
+    StreamSpec spec{
+        "", blob(size), "", [size](const Received& message) { check_payload(message, size); }, {}};
     return std::make_unique<PlexusThroughput>(topology, options, std::move(spec));
 }
 
