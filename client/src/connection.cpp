@@ -123,21 +123,7 @@ void Connection::fail(const std::string& why) {
 }
 
 void Connection::send_locked() {
-    backlog_ = false;
-    std::size_t sent = 0;
-    while (sent < out_.size()) {
-        const ssize_t n = ::send(fd_, out_.data() + sent, out_.size() - sent, MSG_NOSIGNAL);
-        if (n < 0) {
-            if (errno == EINTR)
-                continue;
-            const std::string why = std::strerror(errno);
-            out_.clear();
-            fail(why);
-            throw_if_broken();
-        }
-        sent += static_cast<std::size_t>(n);
-    }
-    out_.clear();
+    send_with_payload_locked({});
 }
 
 void Connection::send_available_locked() {

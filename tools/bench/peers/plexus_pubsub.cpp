@@ -59,9 +59,7 @@ public:
         const std::string name = port_name(topic, "pub");
         auto publisher = std::make_unique<PlexusPublisher>(topology_->near_socket(), name);
         auto& ports = topics_[topic];
-        for (const auto& subscriber : ports.subscribers)
-            connect_when_registered(control_, name, subscriber);
-        ports.publishers.push_back(name);
+        join(name, ports.publishers, ports.subscribers, true);
         return publisher;
     }
 
@@ -69,9 +67,7 @@ public:
         const std::string name = port_name(topic, "sub");
         auto subscriber = std::make_unique<PlexusSubscriber>(topology_->near_socket(), name);
         auto& ports = topics_[topic];
-        for (const auto& publisher : ports.publishers)
-            connect_when_registered(control_, publisher, name);
-        ports.subscribers.push_back(name);
+        join(name, ports.subscribers, ports.publishers, false);
         return subscriber;
     }
 
@@ -80,6 +76,18 @@ private:
         std::vector<std::string> publishers;
         std::vector<std::string> subscribers;
     };
+
+    /// Connects a new port to every port on the other side of its topic, then lists it on its own.
+    void join(const std::string& name, std::vector<std::string>& own_side,
+              const std::vector<std::string>& other_side, bool is_publisher) {
+        for (const auto& other : other_side) {
+            if (is_publisher)
+                connect_when_registered(control_, name, other);
+            else
+                connect_when_registered(control_, other, name);
+        }
+        own_side.push_back(name);
+    }
 
     std::string port_name(const std::string& topic, const std::string& role) {
         return "/peers/" + topic + "/" + role + std::to_string(++opened_);
