@@ -10,13 +10,16 @@ namespace plexus::daemon {
 namespace {
 // Linux's IOV_MAX is 1024; stay below it so one batch is one sendmsg.
 constexpr std::size_t max_buffers = 1000;
+// Records smaller than this are copied into the batch: a copy of a few KiB costs less than a buffer
+// of its own in the system call and the reference that keeps its chunk alive.
+constexpr std::size_t copy_below = 4096;
 }  // namespace
 
 void Batch::clear() {
     buffers.clear();
     messages.clear();
     control.clear();
-    prefixes.clear();
+    flat.clear();
     bytes = 0;
 }
 
@@ -31,14 +34,21 @@ bool Outbox::empty() const {
 }
 
 void Outbox::fill(Batch& batch, std::size_t budget) {
-    // Pieces are recorded first and turned into buffers at the end, because appending prefixes may
-    // move the prefix buffer.
+    // Pieces are recorded first and turned into buffers at the end, because appending to `flat` may
+    // move it. Consecutive flat pieces merge into one.
     struct Piece {
-        enum Kind { control, prefix, record } kind;
-        std::size_t index;  // control: index in batch.control; prefix: offset; record: index in messages
+        enum Kind { control, flat, record } kind;
+        std::size_t index;  // control: index in batch.control; flat: offset; record: index in messages
         std::size_t size;
     };
     std::vector<Piece> pieces;
+    auto append_flat = [&](std::size_t offset) {
+        const std::size_t size = batch.flat.size() - offset;
+        if (!pieces.empty() && pieces.back().kind == Piece::flat)
+            pieces.back().size += size;
+        else
+            pieces.push_back({Piece::flat, offset, size});
+    };
     while (!control_.empty() && batch.bytes < budget && pieces.size() < max_buffers) {
         batch.bytes += control_.front().size();
         pieces.push_back({Piece::control, batch.control.size(), control_.front().size()});
@@ -56,12 +66,19 @@ void Outbox::fill(Batch& batch, std::size_t budget) {
             Message message = source.queue->pop();
             if (source.sent_counter)
                 ++*source.sent_counter;
-            const std::size_t offset = batch.prefixes.size();
-            proto::append_data_frame_prefix(batch.prefixes, source.handle, message.record.size());
-            pieces.push_back({Piece::prefix, offset, batch.prefixes.size() - offset});
-            pieces.push_back({Piece::record, batch.messages.size(), message.record.size()});
-            batch.bytes += batch.prefixes.size() - offset + message.record.size();
-            batch.messages.push_back(std::move(message));
+            const std::size_t offset = batch.flat.size();
+            const std::size_t record_size = message.record.size();
+            proto::append_data_frame_prefix(batch.flat, source.handle, record_size);
+            if (record_size < copy_below) {
+                batch.flat.insert(batch.flat.end(), message.record.begin(), message.record.end());
+                append_flat(offset);
+            } else {
+                append_flat(offset);
+                pieces.push_back({Piece::record, batch.messages.size(), record_size});
+                batch.messages.push_back(std::move(message));
+                batch.bytes += record_size;
+            }
+            batch.bytes += batch.flat.size() - offset;
             if (was_full && !source.queue->full() && on_space_)
                 on_space_();
             progress = true;
@@ -75,8 +92,8 @@ void Outbox::fill(Batch& batch, std::size_t budget) {
             case Piece::control:
                 batch.buffers.emplace_back(batch.control[piece.index].data(), piece.size);
                 break;
-            case Piece::prefix:
-                batch.buffers.emplace_back(batch.prefixes.data() + piece.index, piece.size);
+            case Piece::flat:
+                batch.buffers.emplace_back(batch.flat.data() + piece.index, piece.size);
                 break;
             case Piece::record:
                 batch.buffers.emplace_back(batch.messages[piece.index].record.data(), piece.size);

@@ -21,12 +21,15 @@ struct OutSource {
     std::shared_ptr<void> keep_alive;       ///< owns what `queue` points into
 };
 
-/// One gathered write: buffers point into `control`, `prefixes` and the kept messages.
+/// One gathered write: buffers point into `control`, `flat` and the kept messages. Small records
+/// are copied into `flat` with their frame headers, so a batch of thousands of small messages is a
+/// handful of buffers (Asio sends at most 64 buffers per system call); large records are sent from
+/// where they are.
 struct Batch {
     std::vector<asio::const_buffer> buffers;
-    std::vector<Message> messages;
+    std::vector<Message> messages;  ///< the large records referenced by `buffers`
     std::vector<proto::Bytes> control;
-    proto::Bytes prefixes;
+    proto::Bytes flat;
     std::size_t bytes = 0;
     void clear();
     bool empty() const { return buffers.empty(); }
