@@ -77,7 +77,7 @@ std::optional<Received> Port::read(std::chrono::milliseconds timeout) {
     auto record = connection_->read(handle_, detail::Clock::now() + timeout);
     if (!record)
         return std::nullopt;
-    auto view = proto::decode_record(*record);
+    auto view = proto::decode_record(record->record);
     if (!view)
         throw Error(ErrorCode::refused, "bad message record: " + view.error().message);
     auto data = proto::decode_cbor(view->payload);

@@ -256,8 +256,9 @@ proto::Reply Connection::request(nlohmann::json body, std::chrono::milliseconds 
     throw Error(ErrorCode::timeout, path_ + " did not answer in time");
 }
 
-std::optional<proto::Bytes> Connection::read(std::uint64_t handle, Clock::time_point deadline) {
+std::optional<InboxRecord> Connection::read(std::uint64_t handle, Clock::time_point deadline) {
     std::unique_lock lock(state_mutex_);
+    // Looked up again after every wait: forget() may erase the entry meanwhile.
     if (!wait_until(
             lock, [&] { return !inbox_[handle].empty(); }, deadline)) {
         if (!broken_.empty())
@@ -265,7 +266,7 @@ std::optional<proto::Bytes> Connection::read(std::uint64_t handle, Clock::time_p
         return std::nullopt;
     }
     auto& ready = inbox_[handle];
-    proto::Bytes record = std::move(ready.front());
+    InboxRecord record = std::move(ready.front());
     ready.pop_front();
     return record;
 }
@@ -340,13 +341,16 @@ void Connection::receive(Clock::time_point deadline) {
     }
     in_end_ += static_cast<std::size_t>(n);
     static const proto::FrameDecoder decoder(proto::default_max_frame);
+    received_.clear();
     for (;;) {
         auto decoded = decoder.decode({in_.data() + in_begin_, in_end_ - in_begin_});
         if (decoded.status == proto::DecodeStatus::bad) {
+            deliver_received();
             fail("bad frame from the daemon: " + decoded.error);
             return;
         }
         if (decoded.status == proto::DecodeStatus::need_more) {
+            deliver_received();  // before the tail moves: received_ holds offsets into in_
             if (decoded.needed > in_.size() - in_begin_) {
                 std::memmove(in_.data(), in_.data() + in_begin_, in_end_ - in_begin_);
                 in_end_ -= in_begin_;
@@ -355,27 +359,49 @@ void Connection::receive(Clock::time_point deadline) {
             }
             return;
         }
-        dispatch(decoded.type, decoded.fields);
+        if (decoded.type == proto::FrameType::data) {
+            auto data = proto::decode_data(decoded.fields);
+            if (!data) {
+                deliver_received();
+                return fail("bad data frame: " + data.error().message);
+            }
+            received_.push_back({data->handle, static_cast<std::size_t>(data->record.data() - in_.data()),
+                                 data->record.size()});
+        } else {
+            dispatch(decoded.type, decoded.fields);
+        }
         in_begin_ += decoded.used;
     }
+}
+
+void Connection::deliver_received() {
+    if (received_.empty())
+        return;
+    const std::size_t first = received_.front().offset;
+    const std::size_t last = received_.back().offset + received_.back().size;
+    auto block = std::make_shared<const proto::Bytes>(in_.begin() + static_cast<std::ptrdiff_t>(first),
+                                                      in_.begin() + static_cast<std::ptrdiff_t>(last));
+    std::lock_guard lock(state_mutex_);
+    std::uint64_t cached_handle = 0;
+    std::deque<InboxRecord>* cached = nullptr;
+    for (const auto& data : received_) {
+        if (!cached || data.handle != cached_handle) {
+            // Handles are never reused: keep data for any handle not closed, even one whose open
+            // reply is still being processed, so nothing that arrives with the reply is lost.
+            cached_handle = data.handle;
+            cached = closed_handles_.contains(data.handle) ? nullptr : &inbox_[data.handle];
+            if (!cached)
+                continue;
+        }
+        cached->push_back({block, {block->data() + (data.offset - first), data.size}});
+    }
+    received_.clear();
 }
 
 void Connection::dispatch(proto::FrameType type, proto::ByteView fields) {
     switch (type) {
         case proto::FrameType::hello:
             return;
-        case proto::FrameType::data: {
-            auto data = proto::decode_data(fields);
-            if (!data)
-                return fail("bad data frame: " + data.error().message);
-            std::lock_guard lock(state_mutex_);
-            // Handles are never reused: keep data for any handle not closed, even one whose open
-            // reply is still being processed, so nothing that arrives with the reply is lost.
-            if (!closed_handles_.contains(data->handle)) {
-                inbox_[data->handle].emplace_back(data->record.begin(), data->record.end());
-            }
-            return;
-        }
         case proto::FrameType::reply: {
             auto reply = proto::decode_reply(fields);
             if (!reply)

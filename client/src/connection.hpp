@@ -21,6 +21,12 @@ namespace plexus::detail {
 
 using Clock = std::chrono::steady_clock;
 
+/// A record delivered to a handle: a view into a block shared by every record of the same read.
+struct InboxRecord {
+    std::shared_ptr<const proto::Bytes> block;
+    proto::ByteView record;
+};
+
 /// The framed Unix-socket connection to the local daemon.
 class Connection {
 public:
@@ -41,7 +47,7 @@ public:
                const proto::Bytes& payload, bool flush);
     void flush();
     /// The next record delivered to `handle`, waiting until `deadline`.
-    std::optional<proto::Bytes> read(std::uint64_t handle, Clock::time_point deadline);
+    std::optional<InboxRecord> read(std::uint64_t handle, Clock::time_point deadline);
     /// Stops keeping messages for a closed handle.
     void forget(std::uint64_t handle);
 
@@ -50,7 +56,11 @@ private:
     bool wait_until(std::unique_lock<std::mutex>& lock, Ready ready, Clock::time_point deadline);
     /// Reads what the socket has (waiting at most until `deadline`) and dispatches whole frames.
     void receive(Clock::time_point deadline);
+    /// Handles a frame that is not data (replies, errors).
     void dispatch(proto::FrameType type, proto::ByteView fields);
+    /// Moves the data frames found by one receive() into the inboxes: one copy of the bytes they
+    /// span and one lock for all of them, not an allocation and a lock per message.
+    void deliver_received();
     /// Sends all of out_, blocking until the socket takes it.
     void send_locked();
     /// Sends what the socket takes now without blocking; keeps the rest at the front of out_.
@@ -83,7 +93,7 @@ private:
     std::string broken_;
     std::uint64_t next_id_ = 1;
     std::map<std::uint64_t, std::optional<proto::Reply>> replies_;
-    std::map<std::uint64_t, std::deque<proto::Bytes>> inbox_;
+    std::map<std::uint64_t, std::deque<InboxRecord>> inbox_;
     std::set<std::uint64_t> closed_handles_;
 
     // Only the current reader touches these.
@@ -91,6 +101,12 @@ private:
     proto::Bytes in_;
     std::size_t in_begin_ = 0;
     std::size_t in_end_ = 0;
+    struct ReceivedData {
+        std::uint64_t handle;
+        std::size_t offset;  ///< of the record in in_
+        std::size_t size;
+    };
+    std::vector<ReceivedData> received_;  ///< data frames of the current receive(), in order
 };
 
 }  // namespace plexus::detail
