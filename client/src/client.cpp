@@ -74,7 +74,7 @@ void Port::flush() {
 std::optional<Received> Port::read(std::chrono::milliseconds timeout) {
     if (!connection_)
         throw Error(ErrorCode::usage, "port " + name_ + " is closed");
-    auto record = connection_->read(handle_, detail::Clock::now() + timeout);
+    auto record = connection_->read(handle_, timeout);
     if (!record)
         return std::nullopt;
     auto view = proto::decode_record(record->record);

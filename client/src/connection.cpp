@@ -110,6 +110,8 @@ Connection::~Connection() {
 }
 
 void Connection::throw_if_broken() const {
+    if (!is_broken_.load(std::memory_order_acquire))
+        return;  // every write checks: no lock on the way when all is well
     std::lock_guard lock(state_mutex_);
     if (!broken_.empty())
         throw Error(ErrorCode::refused, broken_);
@@ -119,6 +121,7 @@ void Connection::fail(const std::string& why) {
     std::lock_guard lock(state_mutex_);
     if (broken_.empty())
         broken_ = "connection to " + path_ + " lost: " + why;
+    is_broken_.store(true, std::memory_order_release);
     changed_.notify_all();
 }
 
@@ -183,6 +186,19 @@ void Connection::write(std::uint64_t handle, const std::string& source, std::uin
     const auto time_ns =
         static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(now).count());
     std::lock_guard lock(send_mutex_);
+    if (!flush && payload.size() < gather_threshold) {
+        if (batch_count_ > 0 && batch_handle_ != handle)
+            close_batch_locked();
+        proto::append_batch_record(batch_, source, seq, time_ns, payload);
+        batch_handle_ = handle;
+        if (++batch_count_ == proto::max_batch_count || batch_.size() >= flush_threshold)
+            close_batch_locked();
+        if (out_.size() >= flush_threshold)
+            send_locked();
+        throw_if_broken();
+        return;
+    }
+    close_batch_locked();  // what was buffered goes first
     proto::append_data_frame_prefix(out_, handle, proto::record_size(source, seq, time_ns, payload.size()));
     if (payload.size() >= gather_threshold) {
         proto::append_record(out_, source, seq, time_ns, {});  // the record's head; the payload ends it
@@ -192,7 +208,7 @@ void Connection::write(std::uint64_t handle, const std::string& source, std::uin
     proto::append_record(out_, source, seq, time_ns, payload);
     if (out_.size() >= flush_threshold) {
         send_locked();
-    } else if (flush && !backlog_) {
+    } else if (!backlog_) {
         send_available_locked();
         if (!out_.empty()) {
             backlog_ = true;
@@ -201,6 +217,15 @@ void Connection::write(std::uint64_t handle, const std::string& source, std::uin
         }
     }
     throw_if_broken();
+}
+
+void Connection::close_batch_locked() {
+    if (batch_count_ == 0)
+        return;
+    proto::append_batch_frame_prefix(out_, batch_handle_, batch_count_, batch_.size());
+    out_.insert(out_.end(), batch_.begin(), batch_.end());
+    batch_.clear();
+    batch_count_ = 0;
 }
 
 void Connection::start_backlog_thread_locked() {
@@ -228,6 +253,7 @@ void Connection::send_backlog() {
 
 void Connection::flush() {
     std::lock_guard lock(send_mutex_);
+    close_batch_locked();
     if (!out_.empty())
         send_locked();
 }
@@ -241,6 +267,7 @@ proto::Reply Connection::request(nlohmann::json body, std::chrono::milliseconds 
     }
     {
         std::lock_guard lock(send_mutex_);
+        close_batch_locked();  // data written before the request reaches the daemon before it
         auto frame = proto::encode_request({id, std::move(body)});
         out_.insert(out_.end(), frame.begin(), frame.end());
         send_locked();
@@ -256,8 +283,15 @@ proto::Reply Connection::request(nlohmann::json body, std::chrono::milliseconds 
     throw Error(ErrorCode::timeout, path_ + " did not answer in time");
 }
 
-std::optional<InboxRecord> Connection::read(std::uint64_t handle, Clock::time_point deadline) {
+std::optional<InboxRecord> Connection::read(std::uint64_t handle, std::chrono::milliseconds timeout) {
     std::unique_lock lock(state_mutex_);
+    if (auto ready = inbox_.find(handle); ready != inbox_.end() && !ready->second.empty()) {
+        // Already here: no clock read (it costs as much as the rest of a read).
+        InboxRecord record = std::move(ready->second.front());
+        ready->second.pop_front();
+        return record;
+    }
+    const auto deadline = Clock::now() + timeout;
     // Looked up again after every wait: forget() may erase the entry meanwhile.
     if (!wait_until(
             lock, [&] { return !inbox_[handle].empty(); }, deadline)) {
@@ -367,6 +401,23 @@ void Connection::receive(Clock::time_point deadline) {
             }
             received_.push_back({data->handle, static_cast<std::size_t>(data->record.data() - in_.data()),
                                  data->record.size()});
+        } else if (decoded.type == proto::FrameType::data_batch) {
+            auto batch = proto::decode_batch(decoded.fields);
+            if (!batch) {
+                deliver_received();
+                return fail(batch.error().message);
+            }
+            const std::size_t before = received_.size();
+            proto::BatchRecords records(batch->records, batch->count);
+            while (const auto record = records.next()) {
+                received_.push_back(
+                    {batch->handle, static_cast<std::size_t>(record->data() - in_.data()), record->size()});
+            }
+            if (!records.error().empty()) {
+                received_.resize(before);  // none of a broken batch is delivered
+                deliver_received();
+                return fail(records.error());
+            }
         } else {
             dispatch(decoded.type, decoded.fields);
         }

@@ -2,6 +2,7 @@
 // Threading: every member is safe to call from any thread. Sending holds send_mutex_; receiving is
 // done by one waiting thread at a time (the "reader"), which hands frames to the others.
 
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
@@ -47,7 +48,7 @@ public:
                const proto::Bytes& payload, bool flush);
     void flush();
     /// The next record delivered to `handle`, waiting until `deadline`.
-    std::optional<InboxRecord> read(std::uint64_t handle, Clock::time_point deadline);
+    std::optional<InboxRecord> read(std::uint64_t handle, std::chrono::milliseconds timeout);
     /// Stops keeping messages for a closed handle.
     void forget(std::uint64_t handle);
 
@@ -68,6 +69,8 @@ private:
     /// Sends out_ and then `payload` with one gathering call per piece the socket takes: a large
     /// payload is not copied into out_ first.
     void send_with_payload_locked(proto::ByteView payload);
+    /// Appends the open batch (if any) to out_ as one data_batch frame.
+    void close_batch_locked();
     /// The backlog thread: sends what a full socket could not take, as soon as it has room.
     void send_backlog();
     void start_backlog_thread_locked();
@@ -79,6 +82,11 @@ private:
 
     std::mutex send_mutex_;
     proto::Bytes out_;
+    // Buffered writes (flush=false) of one port in a row go into one data_batch frame: the daemons
+    // then route, queue and forward them as one unit instead of message by message.
+    proto::Bytes batch_;  ///< records of the open batch, each `varint length | record`
+    std::uint64_t batch_handle_ = 0;
+    std::uint64_t batch_count_ = 0;  ///< 0: no batch open
     // When a flushing write finds the socket full, the rest stays in out_ (the backlog) and
     // writes only append to it until it reaches the flush threshold: under saturation many
     // messages leave in one system call, while an idle link still sends each message at once.
@@ -91,6 +99,7 @@ private:
     std::condition_variable changed_;
     bool reading_ = false;
     std::string broken_;
+    std::atomic<bool> is_broken_{false};  ///< broken_ is set; read without the lock
     std::uint64_t next_id_ = 1;
     std::map<std::uint64_t, std::optional<proto::Reply>> replies_;
     std::map<std::uint64_t, std::deque<InboxRecord>> inbox_;

@@ -19,6 +19,8 @@ public:
     virtual ~MessageSink() = default;
     /// True while a writer must wait before sending more (strict back-pressure).
     virtual bool full() const = 0;
+    /// How many more messages it takes before it is full (a batch is cut to fit).
+    virtual std::size_t room() const = 0;
     virtual void deliver(const Message& message) = 0;
     /// The connection is going away: send what is queued, then let go.
     virtual void close_after_flush() {}

@@ -3,10 +3,15 @@
 #include <optional>
 
 #include "../monitor/chain.hpp"
+#include "batch.hpp"
 
 namespace plexus::daemon {
 
 void Inlet::deliver(const Message& message) {
+    if (message.batch != 0) {
+        deliver_batch(message);
+        return;
+    }
     ++received;
     std::optional<Message> rewritten;  // only with monitors: without, no copy of the message
     if (chain) {
@@ -24,6 +29,18 @@ void Inlet::deliver(const Message& message) {
     ++delivered;
     port_->deliver(passed);
     dropped_by_queue += port_->queue().dropped() - dropped_before;
+}
+
+void Inlet::deliver_batch(const Message& batch) {
+    if (chain || !member_->trivial() || port_->queue().policy() != QueuePolicy::strict) {
+        // Monitors, arbitration and latest queues decide message by message.
+        for_each_record(batch, [this](const Message& single) { deliver(single); });
+        return;
+    }
+    received += batch.count();
+    accepted += batch.count();
+    delivered += batch.count();
+    port_->deliver(batch);
 }
 
 std::uint64_t Inlet::script_errors() const {

@@ -31,6 +31,7 @@ public:
     ~Inlet() override { chain.reset(); }
 
     bool full() const override { return port_->full(); }
+    std::size_t room() const override { return port_->room(); }
     /// Runs the recv chain (accept, update), then the arbitration (constraint, stimulation), then
     /// hands what passes to the port's reader queue.
     void deliver(const Message& message) override;
@@ -51,6 +52,9 @@ public:
     std::uint64_t delivered = 0;          ///< handed to the port's reader queue
 
 private:
+    /// A batch passes whole when nothing here looks at single messages; else record by record.
+    void deliver_batch(const Message& batch);
+
     std::shared_ptr<Port> port_;
     std::string source_;
     std::string carrier_;

@@ -22,10 +22,18 @@ struct Chunk {
 
 /// A message as the daemon moves it: the encoded record, never re-encoded, kept alive by the
 /// chunk it was read into. Copying a Message copies a pointer, not the payload.
+///
+/// A Message may also be a *batch*: the records of a data_batch frame (consecutive writes of one
+/// port), each `varint length | record`, moved as one unit where nothing needs to look at them one
+/// by one (see batch.hpp). Counters and queue bounds count the records, not the unit.
 struct Message {
     std::shared_ptr<const Chunk> storage;
-    proto::ByteView record;
+    proto::ByteView record;  ///< one record, or a batch's length-prefixed records
     std::uint64_t seq = 0;
+    std::uint32_t batch = 0;  ///< 0: one record; n > 0: a batch of n records
+
+    /// How many messages this unit carries.
+    std::uint64_t count() const { return batch == 0 ? 1 : batch; }
 };
 
 }  // namespace plexus::daemon

@@ -3,7 +3,7 @@
 namespace plexus::daemon {
 
 void Port::deliver(const Message& message) {
-    ++received;
+    received += message.count();
     const bool was_empty = queue_.empty();
     queue_.push(message);
     if (was_empty && on_readable)

@@ -30,6 +30,7 @@ public:
     bool closed() const { return closed_; }
 
     bool full() const override { return queue_.full(); }
+    std::size_t room() const override { return queue_.room(); }
     void deliver(const Message& message) override;
 
     /// Called whenever the queue goes from empty to not empty (wakes the owner's writer).

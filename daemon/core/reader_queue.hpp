@@ -4,6 +4,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <deque>
+#include <limits>
 #include <optional>
 #include <string>
 
@@ -30,18 +31,26 @@ public:
 
     /// True when a strict queue is at capacity (messages or bytes); a latest queue is never full.
     bool full() const {
-        return policy_ == QueuePolicy::strict && (items_.size() >= capacity_ || bytes_ >= max_bytes_);
+        return policy_ == QueuePolicy::strict && (messages_ >= capacity_ || bytes_ >= max_bytes_);
+    }
+    /// Messages a strict queue takes before it is full (0 when full); a latest queue always has room.
+    std::size_t room() const {
+        if (policy_ == QueuePolicy::latest)
+            return std::numeric_limits<std::size_t>::max();
+        return full() ? 0 : capacity_ - messages_;
     }
     bool empty() const { return items_.empty(); }
-    std::size_t depth() const { return items_.size(); }
+    /// Messages queued (a batch counts as its records).
+    std::size_t depth() const { return messages_; }
     std::size_t capacity() const { return capacity_; }
     std::size_t bytes() const { return bytes_; }
     QueuePolicy policy() const { return policy_; }
 
     /// Adds a message. A strict queue past capacity still accepts (nothing promised is lost): the
-    /// bound is kept by writers that check full() before sending.
+    /// bound is kept by writers that check full() before sending. A strict queue keeps a batch as
+    /// one unit; a latest queue splits it.
     void push(const Message& message);
-    /// Removes and returns the oldest message; the queue must not be empty.
+    /// Removes and returns the oldest message or batch; the queue must not be empty.
     Message pop();
 
     std::uint64_t pushed() const { return pushed_; }
@@ -52,6 +61,7 @@ private:
     std::size_t capacity_;
     std::size_t max_bytes_;
     std::size_t bytes_ = 0;
+    std::size_t messages_ = 0;
     std::deque<Message> items_;
     std::uint64_t pushed_ = 0;
     std::uint64_t dropped_ = 0;

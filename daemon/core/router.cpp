@@ -1,8 +1,10 @@
 #include "router.hpp"
 
 #include <algorithm>
+#include <limits>
 
 #include "../monitor/chain.hpp"
+#include "batch.hpp"
 #include "plexus/proto/port_name.hpp"
 
 namespace plexus::daemon {
@@ -95,19 +97,28 @@ bool Router::blocked(const Port& source) {
                        [](const auto& c) { return c->sink->full(); });
 }
 
+std::size_t Router::room(const Port& source) {
+    std::size_t room = std::numeric_limits<std::size_t>::max();
+    for (const auto& connection : source.outgoing)
+        room = std::min(room, connection->sink->room());
+    return room;
+}
+
 void Router::route(Port& source, const Message& message) {
-    ++source.written;
+    source.written += message.count();
     for (auto& connection : source.outgoing) {
-        ++connection->sent;
+        connection->sent += message.count();
         if (!connection->send_chain) {
-            connection->sink->deliver(message);
+            connection->sink->deliver(message);  // a batch stays whole unless the sink splits it
             continue;
         }
-        Message passed = message;
-        if (connection->send_chain->process(passed))
-            connection->sink->deliver(passed);
-        else
-            ++connection->dropped_by_monitor;
+        for_each_record(message, [&](const Message& single) {
+            Message passed = single;
+            if (connection->send_chain->process(passed))
+                connection->sink->deliver(passed);
+            else
+                ++connection->dropped_by_monitor;
+        });
     }
 }
 

@@ -34,6 +34,8 @@ public:
 
     /// True while any strict destination of `source` is full: the writer must wait.
     static bool blocked(const Port& source);
+    /// How many messages the source can write before some connection out of it is full.
+    static std::size_t room(const Port& source);
     /// Hands a message written into `source` to every connection out of it.
     static void route(Port& source, const Message& message);
 

@@ -16,6 +16,9 @@ struct InFrame {
     proto::FrameType type{};
     proto::ByteView fields;
     std::shared_ptr<const Chunk> storage;  ///< keeps `fields` valid; share it to keep a record alive
+    /// Records of a data_batch frame already delivered: a batch is cut at a strict queue's bound
+    /// and the rest waits for room.
+    std::uint32_t delivered_records = 0;
 };
 
 struct ReadOutcome {

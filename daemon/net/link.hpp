@@ -19,6 +19,7 @@ public:
         peer_->outbox().add_source({0, queue_.get(), nullptr, queue_});
     }
     bool full() const override { return queue_->full(); }
+    std::size_t room() const override { return queue_->room(); }
     void deliver(const Message& message) override {
         const bool was_empty = queue_->empty();
         queue_->push(message);

@@ -65,10 +65,13 @@ void Outbox::fill(Batch& batch, std::size_t budget) {
             const bool was_full = source.queue->full();
             Message message = source.queue->pop();
             if (source.sent_counter)
-                ++*source.sent_counter;
+                *source.sent_counter += message.count();
             const std::size_t offset = batch.flat.size();
             const std::size_t record_size = message.record.size();
-            proto::append_data_frame_prefix(batch.flat, source.handle, record_size);
+            if (message.batch == 0)
+                proto::append_data_frame_prefix(batch.flat, source.handle, record_size);
+            else
+                proto::append_batch_frame_prefix(batch.flat, source.handle, message.batch, record_size);
             if (record_size < copy_below) {
                 batch.flat.insert(batch.flat.end(), message.record.begin(), message.record.end());
                 append_flat(offset);

@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "../core/batch.hpp"
 #include "../core/router.hpp"
 #include "../daemon.hpp"
 #include "plexus/proto/message.hpp"
@@ -29,6 +30,7 @@ void Session::become_link(std::shared_ptr<Inlet> link) {
 Task<bool> Session::on_frame(InFrame frame) {
     switch (frame.type) {
         case proto::FrameType::data:
+        case proto::FrameType::data_batch:
             co_return co_await on_data(std::move(frame));
         case proto::FrameType::request: {
             auto request = proto::decode_request(frame.fields);
@@ -66,56 +68,106 @@ Task<void> Session::serve(proto::Request request) {
     send(proto::encode_reply(reply));
 }
 
-Session::DataOutcome Session::try_deliver(const InFrame& frame) {
-    auto data = proto::decode_data(frame.fields);
-    if (!data) {
-        ++daemon_.counters().protocol_errors;
-        fail("bad data frame: " + data.error().message);
-        return DataOutcome::stop;
+std::optional<Session::Incoming> Session::decode_incoming(const InFrame& frame) {
+    if (frame.type == proto::FrameType::data) {
+        auto data = proto::decode_data(frame.fields);
+        if (!data) {
+            ++daemon_.counters().protocol_errors;
+            fail("bad data frame: " + data.error().message);
+            return std::nullopt;
+        }
+        return Incoming{data->handle, Message{frame.storage, data->record, 0, 0}};
     }
-    auto record = proto::decode_record(data->record);
-    if (!record) {
+    auto batch = proto::decode_batch(frame.fields);
+    if (!batch) {
         ++daemon_.counters().protocol_errors;
-        fail("bad message record: " + record.error().message);
-        return DataOutcome::stop;
+        fail(batch.error().message);
+        return std::nullopt;
     }
+    Message message{frame.storage, batch->records, 0, static_cast<std::uint32_t>(batch->count)};
+    if (frame.delivered_records > 0)
+        message = without_first_records(message, frame.delivered_records);
+    return Incoming{batch->handle, std::move(message)};
+}
+
+bool Session::check_sources(const Message& message, const std::string& expected, std::string_view writer) {
+    // Every record must be well formed and come from the port it is written for: a reader must
+    // never see a record its writer could not have sent.
+    std::string problem;
+    auto check = [&](proto::ByteView bytes) {
+        auto record = proto::decode_record(bytes);
+        if (!record) {
+            problem = "bad message record: " + record.error().message;
+        } else if (record->source != expected) {
+            problem = "message from port '" + std::string(record->source) + "' " + std::string(writer) + " " +
+                      expected;
+        }
+        return problem.empty();
+    };
+    if (message.batch == 0) {
+        check(message.record);
+    } else {
+        proto::BatchRecords records(message.record, message.batch);
+        while (const auto record = records.next()) {
+            if (!check(*record))
+                break;
+        }
+        if (problem.empty() && !records.error().empty())
+            problem = records.error();
+    }
+    if (problem.empty())
+        return true;
+    ++daemon_.counters().protocol_errors;
+    fail(problem);
+    return false;
+}
+
+template <typename Deliver>
+Session::DataOutcome Session::deliver_within(InFrame& frame, const Message& message, std::size_t room,
+                                             Deliver deliver) {
+    if (room == 0)
+        return DataOutcome::blocked;
+    if (message.count() <= room) {
+        deliver(message);
+        return DataOutcome::delivered;
+    }
+    // Only a batch can be larger than the room: deliver its head, keep the rest for later, so
+    // that a strict queue's bound holds for batches as it does for single messages.
+    const auto fits = static_cast<std::uint32_t>(room);
+    deliver(first_records(message, fits));
+    frame.delivered_records += fits;
+    return DataOutcome::blocked;
+}
+
+Session::DataOutcome Session::try_deliver(InFrame& frame) {
+    auto incoming = decode_incoming(frame);
+    if (!incoming)
+        return DataOutcome::stop;
+    const Message& message = incoming->message;
     if (link_port_) {
         // The receiving end of a connection from another daemon: hold back while the reader is full,
         // so that TCP carries the back-pressure to the sending daemon.
-        if (record->source != link_->source()) {
-            ++daemon_.counters().protocol_errors;
-            fail("message from port '" + std::string(record->source) + "' on the link attached for " +
-                 link_->source());
+        if (!check_sources(message, link_->source(), "on the link attached for"))
             return DataOutcome::stop;
-        }
         if (link_port_->closed() || closed())
             return DataOutcome::stop;
-        if (link_port_->full())
-            return DataOutcome::blocked;
-        link_->deliver(Message{frame.storage, data->record, record->seq});
-        return DataOutcome::delivered;
+        return deliver_within(frame, message, link_->room(), [&](const Message& m) { link_->deliver(m); });
     }
-    auto it = ports.find(data->handle);
+    auto it = ports.find(incoming->handle);
     if (it == ports.end() || it->second->closed()) {
         // The client may write while its close is in flight; count it rather than cut it off.
-        ++daemon_.counters().dropped_unknown_port;
+        daemon_.counters().dropped_unknown_port += message.count();
         return DataOutcome::delivered;
     }
     Port& port = *it->second;
-    if (record->source != port.name()) {
-        ++daemon_.counters().protocol_errors;
-        fail("message from port '" + std::string(record->source) + "' written on the handle of " +
-             port.name());
+    if (!check_sources(message, port.name(), "written on the handle of"))
         return DataOutcome::stop;
-    }
-    if (Router::blocked(port))
-        return DataOutcome::blocked;
-    Router::route(port, Message{frame.storage, data->record, record->seq});
-    return DataOutcome::delivered;
+    return deliver_within(frame, message, Router::room(port),
+                          [&](const Message& m) { Router::route(port, m); });
 }
 
 FramedConnection::FrameAction Session::on_frame_now(InFrame& frame) {
-    if (frame.type != proto::FrameType::data)
+    if (frame.type != proto::FrameType::data && frame.type != proto::FrameType::data_batch)
         return FrameAction::wait;
     switch (try_deliver(frame)) {
         case DataOutcome::delivered:

@@ -39,9 +39,22 @@ protected:
 
 private:
     enum class DataOutcome { delivered, blocked, stop };
+    struct Incoming {
+        std::uint64_t handle;
+        Message message;  ///< one record or a batch
+    };
+    /// The handle and record(s) of a data or data_batch frame; fails the session if malformed.
+    std::optional<Incoming> decode_incoming(const InFrame& frame);
+    /// True if every record is well formed and written by `expected`; else fails the session with
+    /// "message from port 'x' <writer> <expected>".
+    bool check_sources(const Message& message, const std::string& expected, std::string_view writer);
     /// Routes a data frame now if nothing holds it back. Decoding twice when blocked is fine:
     /// blocking is the slow path by definition.
-    DataOutcome try_deliver(const InFrame& frame);
+    DataOutcome try_deliver(InFrame& frame);
+    /// Delivers what fits of `message` into `room` messages (via `deliver`); a batch that does not
+    /// fit is cut, and the frame remembers how much of it went. Blocked when something is left.
+    template <typename Deliver>
+    DataOutcome deliver_within(InFrame& frame, const Message& message, std::size_t room, Deliver deliver);
     Task<bool> on_data(InFrame frame);
     Task<void> serve(proto::Request request);
     Task<void> wait_for_space();

@@ -13,23 +13,11 @@ std::string describe_length(std::string_view what, std::uint64_t length, std::si
 
 }  // namespace
 
-std::optional<std::uint64_t> FieldReader::varint(std::string_view what) {
-    if (failed()) {
-        return std::nullopt;
-    }
-    const VarintDecode decoded = decode_varint(rest_);
-    switch (decoded.status) {
-        case VarintStatus::ok:
-            rest_ = rest_.subspan(decoded.used);
-            return decoded.value;
-        case VarintStatus::need_more:
-            fail("truncated " + std::string(what));
-            return std::nullopt;
-        case VarintStatus::bad:
-            break;
-    }
-    fail(std::string(what) + " is not a valid varint (longer than 10 bytes or over 64 bits)");
-    return std::nullopt;
+void FieldReader::fail_varint(std::string_view what, VarintStatus status) {
+    if (status == VarintStatus::need_more)
+        fail("truncated " + std::string(what));
+    else
+        fail(std::string(what) + " is not a valid varint (longer than 10 bytes or over 64 bits)");
 }
 
 std::optional<std::uint8_t> FieldReader::byte(std::string_view what) {

@@ -11,7 +11,7 @@ namespace {
 
 bool is_known_type(std::uint8_t type) {
     return type >= static_cast<std::uint8_t>(FrameType::hello) &&
-           type <= static_cast<std::uint8_t>(FrameType::error);
+           type <= static_cast<std::uint8_t>(FrameType::data_batch);
 }
 
 FrameDecode need_more(std::size_t needed) {
@@ -111,6 +111,8 @@ std::string frame_type_name(std::uint8_t type) {
             return "data";
         case static_cast<std::uint8_t>(FrameType::error):
             return "error";
+        case static_cast<std::uint8_t>(FrameType::data_batch):
+            return "data_batch";
         default:
             return "unknown(" + std::to_string(type) + ")";
     }

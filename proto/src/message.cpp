@@ -52,4 +52,49 @@ Result<DataView> decode_data(ByteView fields) {
     return DataView{*handle, reader.rest()};
 }
 
+Result<BatchView> decode_batch(ByteView fields) {
+    FieldReader reader(fields);
+    const auto handle = reader.varint("handle");
+    const auto count = reader.varint("count");
+    if (reader.failed())
+        return Error{"bad batch frame: " + reader.error()};
+    if (*count == 0 || *count > max_batch_count) {
+        return Error{"bad batch frame: count " + std::to_string(*count) + " outside 1.." +
+                     std::to_string(max_batch_count)};
+    }
+    return BatchView{*handle, *count, reader.rest()};
+}
+
+std::optional<ByteView> BatchRecords::next() {
+    if (!error_.empty())
+        return std::nullopt;
+    if (left_ == 0) {
+        if (!rest_.empty())
+            error_ = "bad batch frame: " + std::to_string(rest_.size()) + " bytes after the last record";
+        return std::nullopt;
+    }
+    FieldReader reader(rest_);
+    const auto record = reader.bytes("record", rest_.size());
+    if (!record) {
+        error_ = "bad batch frame: " + reader.error() + " (" + std::to_string(left_) + " records left)";
+        return std::nullopt;
+    }
+    rest_ = reader.rest();
+    --left_;
+    return record;
+}
+
+void append_batch_record(Bytes& out, std::string_view source, std::uint64_t seq, std::uint64_t time_ns,
+                         ByteView payload) {
+    append_varint(out, record_size(source, seq, time_ns, payload.size()));
+    append_record(out, source, seq, time_ns, payload);
+}
+
+void append_batch_frame_prefix(Bytes& out, std::uint64_t handle, std::uint64_t count,
+                               std::size_t records_size) {
+    append_frame_header(out, FrameType::data_batch, varint_size(handle) + varint_size(count) + records_size);
+    append_varint(out, handle);
+    append_varint(out, count);
+}
+
 }  // namespace plexus::proto

@@ -30,26 +30,4 @@ std::size_t varint_size(std::uint64_t value) {
     return size;
 }
 
-VarintDecode decode_varint(ByteView input) {
-    std::uint64_t value = 0;
-    for (std::size_t i = 0; i < max_varint_size; ++i) {
-        if (i == input.size()) {
-            return {VarintStatus::need_more};
-        }
-        const std::uint8_t byte = input[i];
-        const std::uint64_t bits = byte & 0x7f;
-        // The tenth byte holds bit 63 only: anything more would not fit in 64 bits, and a
-        // continuation bit there would make the varint longer than ten bytes. Both are refused
-        // as soon as they are seen, without waiting for more input.
-        if (i == max_varint_size - 1 && ((byte & 0x80) != 0 || bits > 1)) {
-            return {VarintStatus::bad};
-        }
-        value |= bits << (7 * i);
-        if ((byte & 0x80) == 0) {
-            return {VarintStatus::ok, value, i + 1};
-        }
-    }
-    return {VarintStatus::bad};  // not reached: the tenth byte either ends the varint or is refused
-}
-
 }  // namespace plexus::proto

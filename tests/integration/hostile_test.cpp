@@ -17,6 +17,7 @@
 #include <array>
 #include <cerrno>
 #include <cstring>
+#include <functional>
 #include <ostream>
 #include <random>
 #include <stdexcept>
@@ -695,7 +696,9 @@ TEST(Hostile_test, AHelloOfAnotherVersionIsRefusedNamingBothVersions) {
         expect_error_then_close(daemon, listener, raw_hello("PLXS", 99, role_and_node(role_for(listener))),
                                 {"version", "99", std::to_string(proto::protocol_version)});
         // A later version may lay out the rest differently: still answered with the version mismatch.
-        expect_error_then_close(daemon, listener, raw_hello("PLXS", 2, {0xff, 0xff, 0xff}), {"version", "2"});
+        expect_error_then_close(daemon, listener,
+                                raw_hello("PLXS", proto::protocol_version + 1, {0xff, 0xff, 0xff}),
+                                {"version", std::to_string(proto::protocol_version + 1)});
         // Versions are u32: a larger one is refused.
         expect_error_then_close(daemon, listener,
                                 raw_hello("PLXS", std::uint64_t{1} << 40, role_and_node("client")),
@@ -912,6 +915,63 @@ TEST(Hostile_test, ALinkThatSendsABrokenRecordIsCutOffAndTheReaderIsUnharmed) {
     ASSERT_TRUE(first.has_value());
     EXPECT_EQ(first->data, Value("fine"));
     EXPECT_EQ(first->envelope.source, "/victim/source");
+    EXPECT_TRUE(daemon.process().running());
+}
+
+/// A data_batch frame for `handle` holding one record per source, then `extra` raw bytes appended
+/// to the records (and `count` declared: by default the number of sources).
+Bytes batch_frame(std::uint64_t handle, const std::vector<std::string>& sources, const Bytes& extra = {},
+                  std::optional<std::uint64_t> count = std::nullopt) {
+    Bytes records;
+    std::uint64_t seq = 1;
+    for (const auto& source : sources) {
+        Bytes payload;
+        nlohmann::json::to_cbor(Value("from " + source), payload);
+        proto::append_batch_record(records, source, seq++, 1, payload);
+    }
+    records.insert(records.end(), extra.begin(), extra.end());
+    Bytes frame;
+    proto::append_batch_frame_prefix(frame, handle, count.value_or(sources.size()), records.size());
+    frame.insert(frame.end(), records.begin(), records.end());
+    return frame;
+}
+
+TEST(Hostile_test, ABrokenBatchIsRefusedWholeAndTheReaderSeesNoneOfIt) {
+    TempDir dir;
+    Daemon daemon(dir, "solo");
+    Client good({daemon.socket()});
+    auto sink = good.open("/batch/sink");
+    using Make = std::function<Bytes(std::uint64_t handle)>;
+    const std::vector<std::pair<std::string, Make>> broken_batches = {
+        {"a record from another port",
+         [](auto h) {
+             return batch_frame(h, {"/batch/evil", "/batch/other"});
+         }},
+        {"fewer records than the count", [](auto h) { return batch_frame(h, {"/batch/evil"}, {}, 3); }},
+        {"a record length past the end",
+         [](auto h) {
+             return batch_frame(h, {"/batch/evil"}, {0x7f, 0x01});
+         }},
+        {"bytes after the last record", [](auto h) { return batch_frame(h, {"/batch/evil"}, {0x00}); }},
+        {"a count of zero", [](auto h) { return batch_frame(h, {}, {}, 0); }},
+    };
+    for (const auto& [what, make] : broken_batches) {
+        SCOPED_TRACE(what);
+        auto hostile = Stream::open(daemon, Listener::daemon_unix);
+        ASSERT_TRUE(hostile.send(
+            concat(hello_frame("client"), request_frame(1, {{"op", "open"}, {"port", "/batch/evil"}}))));
+        auto opened = hostile.reply_to(1);
+        ASSERT_TRUE(opened.has_value());
+        ASSERT_EQ(opened->code, proto::ReplyCode::ok) << opened->body.dump();
+        ASSERT_EQ(good.connect("/batch/evil", "/batch/sink"), "local");
+        ASSERT_TRUE(hostile.send(make(opened->body["handle"].get<std::uint64_t>())));
+        const auto frames = hostile.frames_until_closed();
+        EXPECT_EQ(hostile.end(), End::eof) << end_name(hostile.end());
+        EXPECT_TRUE(error_reason(frames).has_value()) << "no error frame for " << what;
+        // The port goes with its session; then nothing from the batch may be queued for the reader.
+        ASSERT_TRUE(eventually([&] { return !good.lookup("/batch/evil").has_value(); }));
+        EXPECT_FALSE(sink.read(std::chrono::milliseconds(0)).has_value()) << "part of a broken batch arrived";
+    }
     EXPECT_TRUE(daemon.process().running());
 }
 

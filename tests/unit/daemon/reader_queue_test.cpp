@@ -1,5 +1,8 @@
 #include "core/reader_queue.hpp"
 
+#include "core/batch.hpp"
+#include "plexus/proto/message.hpp"
+
 #include <gtest/gtest.h>
 
 namespace plexus::daemon {
@@ -74,6 +77,63 @@ TEST(ReaderQueue_test, ALatestQueueDropsOldestToStayWithinItsByteBoundButKeepsTh
     ReaderQueue tiny(QueuePolicy::latest, 100, 10);
     tiny.push(sized(1, chunk, 1000));
     EXPECT_EQ(tiny.depth(), 1u) << "a message larger than the bound on its own is still delivered";
+}
+
+/// A batch of `n` records from /w, each with a `size`-byte payload, in a chunk of its own.
+Message batch_of(std::uint32_t n, std::size_t size = 10) {
+    proto::Bytes records;
+    for (std::uint32_t i = 1; i <= n; ++i)
+        proto::append_batch_record(records, "/w", i, 0, proto::Bytes(size, static_cast<std::uint8_t>(i)));
+    auto chunk = std::make_shared<Chunk>(records.size());
+    std::copy(records.begin(), records.end(), chunk->data());
+    return Message{chunk, {chunk->data(), records.size()}, 0, n};
+}
+
+std::vector<std::uint64_t> seqs_of(const Message& message) {
+    std::vector<std::uint64_t> seqs;
+    for_each_record(message,
+                    [&](const Message& single) { seqs.push_back(proto::decode_record(single.record)->seq); });
+    return seqs;
+}
+
+TEST(ReaderQueue_test, AStrictQueueKeepsABatchWholeAndCountsItsRecords) {
+    ReaderQueue queue(QueuePolicy::strict, 8);
+    queue.push(batch_of(5));
+    EXPECT_EQ(queue.depth(), 5u);
+    EXPECT_EQ(queue.room(), 3u);
+    EXPECT_EQ(queue.pushed(), 5u);
+    queue.push(batch_of(3));
+    EXPECT_TRUE(queue.full());
+    EXPECT_EQ(queue.room(), 0u);
+    const Message first = queue.pop();
+    EXPECT_EQ(first.batch, 5u);
+    EXPECT_EQ(seqs_of(first), (std::vector<std::uint64_t>{1, 2, 3, 4, 5}));
+    EXPECT_EQ(queue.depth(), 3u);
+}
+
+TEST(ReaderQueue_test, ALatestQueueSplitsABatchAndDropsSingleMessages) {
+    ReaderQueue queue(QueuePolicy::latest, 3);
+    queue.push(batch_of(5));
+    EXPECT_EQ(queue.depth(), 3u);
+    EXPECT_EQ(queue.dropped(), 2u);
+    std::vector<std::uint64_t> kept;
+    while (!queue.empty()) {
+        const Message single = queue.pop();
+        EXPECT_EQ(single.batch, 0u);
+        kept.push_back(proto::decode_record(single.record)->seq);
+    }
+    EXPECT_EQ(kept, (std::vector<std::uint64_t>{3, 4, 5}));
+}
+
+TEST(ReaderQueue_test, ABatchCutsIntoAHeadAndARestThatTogetherHoldEveryRecord) {
+    const Message batch = batch_of(6, 100);
+    const Message head = first_records(batch, 2);
+    const Message rest = without_first_records(batch, 2);
+    EXPECT_EQ(head.batch, 2u);
+    EXPECT_EQ(rest.batch, 4u);
+    EXPECT_EQ(seqs_of(head), (std::vector<std::uint64_t>{1, 2}));
+    EXPECT_EQ(seqs_of(rest), (std::vector<std::uint64_t>{3, 4, 5, 6}));
+    EXPECT_EQ(head.record.size() + rest.record.size(), batch.record.size());
 }
 
 }  // namespace

@@ -280,6 +280,13 @@ void decode_fields(const FrameDecode& frame) {
         case FrameType::error:
             (void)decode_error(frame.fields);
             break;
+        case FrameType::data_batch:
+            if (const auto batch = decode_batch(frame.fields)) {
+                BatchRecords records(batch->records, batch->count);
+                while (const auto record = records.next())
+                    (void)decode_record(*record);
+            }
+            break;
     }
 }
 
@@ -356,6 +363,7 @@ TEST(FrameTypeName_test, NamesKnownAndUnknownTypes) {
     EXPECT_EQ(frame_type_name(3), "reply");
     EXPECT_EQ(frame_type_name(4), "data");
     EXPECT_EQ(frame_type_name(5), "error");
+    EXPECT_EQ(frame_type_name(6), "data_batch");
     EXPECT_EQ(frame_type_name(9), "unknown(9)");
     EXPECT_EQ(frame_type_name(0), "unknown(0)");
 }

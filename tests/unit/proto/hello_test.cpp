@@ -59,7 +59,7 @@ TEST(Hello_test, RefusesEveryTruncation) {
 }
 
 TEST(Hello_test, RefusesWrongMagic) {
-    Bytes fields = hello_fields(1, "client", "");
+    Bytes fields = hello_fields(protocol_version, "client", "");
     fields[3] = 'X';
     const auto hello = decode_hello(fields);
     ASSERT_FALSE(hello);
@@ -67,10 +67,10 @@ TEST(Hello_test, RefusesWrongMagic) {
 }
 
 TEST(Hello_test, RefusesOverlongRoleAndNode) {
-    const auto role = decode_hello(hello_fields(1, std::string(65, 'r'), ""));
+    const auto role = decode_hello(hello_fields(protocol_version, std::string(65, 'r'), ""));
     ASSERT_FALSE(role);
     EXPECT_EQ(role.error().message, "hello role longer than 64 bytes (65)");
-    const auto node = decode_hello(hello_fields(1, "daemon", std::string(256, 'n')));
+    const auto node = decode_hello(hello_fields(protocol_version, "daemon", std::string(256, 'n')));
     ASSERT_FALSE(node);
     EXPECT_EQ(node.error().message, "hello node longer than 255 bytes (256)");
 }
@@ -85,16 +85,16 @@ TEST(Hello_test, ReturnsOtherVersionEvenWhenRestDiffers) {
     // A future version may lay out its hello differently after the version; the caller still
     // learns the version and can answer with a version-mismatch error.
     Bytes fields{'P', 'L', 'X', 'S'};
-    append_varint(fields, 2);
+    append_varint(fields, protocol_version + 1);
     fields.push_back(0xff);
     const auto hello = decode_hello(fields);
     ASSERT_TRUE(hello);
-    EXPECT_EQ(hello->version, 2u);
+    EXPECT_EQ(hello->version, protocol_version + 1);
     EXPECT_EQ(hello->role, "");
 }
 
 TEST(Hello_test, IgnoresTrailingFields) {
-    Bytes fields = hello_fields(1, "daemon", "x");
+    Bytes fields = hello_fields(protocol_version, "daemon", "x");
     fields.push_back(0x42);
     const auto hello = decode_hello(fields);
     ASSERT_TRUE(hello);

@@ -124,5 +124,85 @@ TEST(DataFrame_test, RefusesEveryTruncationOfHandle) {
     }
 }
 
+/// A whole batch frame of `count` records from /cam with payloads of `payload_size` bytes.
+Bytes batch_frame(std::uint64_t handle, std::uint64_t count, std::size_t payload_size) {
+    Bytes records;
+    for (std::uint64_t i = 1; i <= count; ++i)
+        append_batch_record(records, "/cam", i, 1000 + i, Bytes(payload_size, static_cast<std::uint8_t>(i)));
+    Bytes frame;
+    append_batch_frame_prefix(frame, handle, count, records.size());
+    frame.insert(frame.end(), records.begin(), records.end());
+    return frame;
+}
+
+TEST(BatchFrame_test, RoundTripsEveryRecordInOrder) {
+    const Bytes frame = batch_frame(42, 3, 5);
+    const auto decoded = FrameDecoder().decode(frame);
+    ASSERT_EQ(decoded.status, DecodeStatus::frame);
+    EXPECT_EQ(decoded.type, FrameType::data_batch);
+    EXPECT_EQ(decoded.used, frame.size());
+    const auto batch = decode_batch(decoded.fields);
+    ASSERT_TRUE(batch) << batch.error().message;
+    EXPECT_EQ(batch->handle, 42u);
+    EXPECT_EQ(batch->count, 3u);
+    BatchRecords records(batch->records, batch->count);
+    for (std::uint64_t i = 1; i <= 3; ++i) {
+        const auto record = records.next();
+        ASSERT_TRUE(record) << records.error();
+        const auto view = decode_record(*record);
+        ASSERT_TRUE(view);
+        EXPECT_EQ(view->source, "/cam");
+        EXPECT_EQ(view->seq, i);
+        EXPECT_EQ(view->time_ns, 1000 + i);
+        EXPECT_EQ(Bytes(view->payload.begin(), view->payload.end()), Bytes(5, static_cast<std::uint8_t>(i)));
+    }
+    EXPECT_FALSE(records.next());
+    EXPECT_EQ(records.error(), "");
+}
+
+TEST(BatchFrame_test, RefusesCountZeroAndCountsOverTheLimit) {
+    Bytes fields;
+    append_varint(fields, 1);
+    append_varint(fields, 0);
+    EXPECT_EQ(decode_batch(fields).error().message, "bad batch frame: count 0 outside 1..1048576");
+    fields.clear();
+    append_varint(fields, 1);
+    append_varint(fields, std::numeric_limits<std::uint64_t>::max());
+    EXPECT_FALSE(decode_batch(fields));
+}
+
+TEST(BatchFrame_test, EveryTruncationOfTheRecordsIsAnErrorNotACrash) {
+    const Bytes frame = batch_frame(7, 4, 3);
+    const auto whole = FrameDecoder().decode(frame);
+    ASSERT_EQ(whole.status, DecodeStatus::frame);
+    const auto batch = decode_batch(whole.fields);
+    ASSERT_TRUE(batch);
+    for (std::size_t cut = 0; cut < batch->records.size(); ++cut) {
+        BatchRecords records(batch->records.first(cut), batch->count);
+        std::size_t seen = 0;
+        while (records.next())
+            ++seen;
+        EXPECT_LT(seen, 4u) << "cut at " << cut;
+        EXPECT_NE(records.error(), "") << "cut at " << cut;
+    }
+}
+
+TEST(BatchFrame_test, RefusesARecordLengthPastTheEndAndBytesAfterTheLastRecord) {
+    Bytes lying;
+    append_varint(lying, std::uint64_t{1} << 32);  // a record "of 4 GiB" in a 10-byte batch
+    lying.resize(10, 0);
+    BatchRecords records(lying, 1);
+    EXPECT_FALSE(records.next());
+    EXPECT_NE(records.error().find("record"), std::string::npos) << records.error();
+
+    Bytes extra;
+    append_batch_record(extra, "/a", 1, 1, {});
+    extra.push_back(0x00);
+    BatchRecords trailing(extra, 1);
+    EXPECT_TRUE(trailing.next());
+    EXPECT_FALSE(trailing.next());
+    EXPECT_EQ(trailing.error(), "bad batch frame: 1 bytes after the last record");
+}
+
 }  // namespace
 }  // namespace plexus::proto

@@ -8,6 +8,7 @@
 #include <string_view>
 
 #include "plexus/proto/bytes.hpp"
+#include "plexus/proto/varint.hpp"
 
 namespace plexus::proto {
 
@@ -16,7 +17,17 @@ class FieldReader {
 public:
     explicit FieldReader(ByteView body) : rest_(body) {}
 
-    std::optional<std::uint64_t> varint(std::string_view what);
+    std::optional<std::uint64_t> varint(std::string_view what) {
+        if (!failed()) {
+            const VarintDecode decoded = decode_varint(rest_);
+            if (decoded.status == VarintStatus::ok) {
+                rest_ = rest_.subspan(decoded.used);
+                return decoded.value;
+            }
+            fail_varint(what, decoded.status);
+        }
+        return std::nullopt;
+    }
     std::optional<std::uint8_t> byte(std::string_view what);
     /// A varint length then that many bytes; refused if longer than max_size or than what is left.
     std::optional<std::string_view> string(std::string_view what, std::size_t max_size);
@@ -31,6 +42,7 @@ public:
 
 private:
     void fail(std::string message);
+    void fail_varint(std::string_view what, VarintStatus status);
     ByteView rest_;
     std::optional<std::string> error_;
 };

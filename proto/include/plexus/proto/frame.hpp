@@ -14,11 +14,12 @@
 namespace plexus::proto {
 
 enum class FrameType : std::uint8_t {
-    hello = 1,    ///< first frame each side sends: magic, protocol version, role, node
-    request = 2,  ///< varint id | CBOR map (a control request)
-    reply = 3,    ///< varint id | varint code | CBOR map
-    data = 4,     ///< varint handle | message record (see message.hpp)
-    error = 5,    ///< string reason; the sender closes the connection after it
+    hello = 1,       ///< first frame each side sends: magic, protocol version, role, node
+    request = 2,     ///< varint id | CBOR map (a control request)
+    reply = 3,       ///< varint id | varint code | CBOR map
+    data = 4,        ///< varint handle | message record (see message.hpp)
+    error = 5,       ///< string reason; the sender closes the connection after it
+    data_batch = 6,  ///< varint handle | varint count | count x (varint length | record)
 };
 
 /// Default largest body accepted: 64 MiB, enough for large blobs, far below what a lie could ask for.

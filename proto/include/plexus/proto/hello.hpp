@@ -9,7 +9,7 @@
 
 namespace plexus::proto {
 
-inline constexpr std::uint32_t protocol_version = 1;
+inline constexpr std::uint32_t protocol_version = 2;
 inline constexpr std::string_view hello_magic = "PLXS";
 
 struct Hello {

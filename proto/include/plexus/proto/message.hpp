@@ -5,6 +5,8 @@
 // A data frame carries: varint handle | record.
 
 #include <cstdint>
+#include <optional>
+#include <string>
 #include <string_view>
 
 #include "plexus/proto/bytes.hpp"
@@ -40,5 +42,46 @@ void append_data_frame(Bytes& out, std::uint64_t handle, ByteView record);
 void append_data_frame_prefix(Bytes& out, std::uint64_t handle, std::size_t record_size);
 /// Decodes the fields of a data frame.
 Result<DataView> decode_data(ByteView fields);
+
+// A batch frame carries many records for one handle: consecutive writes on one port, sent and
+// forwarded as one unit so that a stream of small messages costs the daemons per batch, not per
+// message. Fields: varint handle | varint count | count x (varint length | record).
+
+/// Largest count a batch may declare (a batch of empty records could not be larger than this
+/// within the frame limit anyway; the bound keeps the count meaningful before the records are read).
+inline constexpr std::uint64_t max_batch_count = 1u << 20;
+
+struct BatchView {
+    std::uint64_t handle = 0;
+    std::uint64_t count = 0;
+    ByteView records;  ///< count x (varint length | record), undecoded
+};
+
+/// Decodes the handle and count of a batch frame; the records are checked by BatchRecords.
+Result<BatchView> decode_batch(ByteView fields);
+
+/// Walks the records of a batch: next() gives each record in turn, then nullopt. A length that runs
+/// past the end, trailing bytes, or fewer records than the count make error() non-empty.
+class BatchRecords {
+public:
+    BatchRecords(ByteView records, std::uint64_t count) : rest_(records), left_(count) {}
+    std::optional<ByteView> next();
+    const std::string& error() const { return error_; }
+    /// The records not yet walked.
+    ByteView rest() const { return rest_; }
+
+private:
+    ByteView rest_;
+    std::uint64_t left_;
+    std::string error_;
+};
+
+/// Appends a record to the records of a batch being built: varint length | record.
+void append_batch_record(Bytes& out, std::string_view source, std::uint64_t seq, std::uint64_t time_ns,
+                         ByteView payload);
+/// Appends the header, handle and count of a batch frame whose records (`records_size` bytes,
+/// as built by append_batch_record) follow.
+void append_batch_frame_prefix(Bytes& out, std::uint64_t handle, std::uint64_t count,
+                               std::size_t records_size);
 
 }  // namespace plexus::proto
