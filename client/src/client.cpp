@@ -2,6 +2,7 @@
 
 #include "connection.hpp"
 #include "plexus/client.hpp"
+#include "plexus/proto/cbor.hpp"
 #include "plexus/proto/defaults.hpp"
 #include "plexus/proto/message.hpp"
 
@@ -62,7 +63,7 @@ void Port::write(const Value& value, bool flush) {
         throw Error(ErrorCode::usage, "port " + name_ + " is closed");
     thread_local proto::Bytes payload;
     payload.clear();
-    nlohmann::json::to_cbor(value, payload);
+    proto::encode_cbor(value, payload);
     connection_->write(handle_, name_, next_seq_++, payload, flush);
 }
 

@@ -23,6 +23,9 @@ namespace {
 // Buffered writes go out once this much is waiting: large enough to batch, small enough to stream.
 constexpr std::size_t flush_threshold = 64 * 1024;
 constexpr std::size_t read_chunk = 256 * 1024;
+// A batch frame is closed at this size: small enough that a strict queue of the default capacity
+// takes several before it is full, large enough to cost the daemons little per message.
+constexpr std::size_t batch_limit = 16 * 1024;
 // Payloads at least this large are sent from where they are instead of being copied into out_.
 constexpr std::size_t gather_threshold = 64 * 1024;
 // How long the backlog thread waits for room before it looks at its flags again.
@@ -191,7 +194,7 @@ void Connection::write(std::uint64_t handle, const std::string& source, std::uin
             close_batch_locked();
         proto::append_batch_record(batch_, source, seq, time_ns, payload);
         batch_handle_ = handle;
-        if (++batch_count_ == proto::max_batch_count || batch_.size() >= flush_threshold)
+        if (++batch_count_ == proto::max_batch_count || batch_.size() >= batch_limit)
             close_batch_locked();
         if (out_.size() >= flush_threshold)
             send_locked();

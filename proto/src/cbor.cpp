@@ -480,4 +480,49 @@ Result<json> decode_cbor_fast(ByteView bytes, std::size_t max_depth) {
     }
 }
 
+namespace {
+
+/// A definite-length head: major type and length in the shortest form, as to_cbor writes it.
+void append_head(Bytes& out, std::uint8_t major, std::uint64_t length) {
+    const auto type = static_cast<std::uint8_t>(major << 5);
+    int bytes = 0;
+    if (length < 24) {
+        out.push_back(static_cast<std::uint8_t>(type | length));
+        return;
+    }
+    if (length <= 0xff) {
+        out.push_back(type | 24);
+        bytes = 1;
+    } else if (length <= 0xffff) {
+        out.push_back(type | 25);
+        bytes = 2;
+    } else if (length <= 0xffffffff) {
+        out.push_back(type | 26);
+        bytes = 4;
+    } else {
+        out.push_back(type | 27);
+        bytes = 8;
+    }
+    for (int shift = 8 * (bytes - 1); shift >= 0; shift -= 8)
+        out.push_back(static_cast<std::uint8_t>(length >> shift));
+}
+
+}  // namespace
+
+void encode_cbor(const json& value, Bytes& out) {
+    if (value.is_binary() && !value.get_binary().has_subtype()) {
+        const auto& bytes = value.get_binary();
+        append_head(out, 2, bytes.size());
+        out.insert(out.end(), bytes.begin(), bytes.end());
+        return;
+    }
+    if (value.is_string()) {
+        const auto& text = value.get_ref<const std::string&>();
+        append_head(out, 3, text.size());
+        out.insert(out.end(), text.begin(), text.end());
+        return;
+    }
+    json::to_cbor(value, out);
+}
+
 }  // namespace plexus::proto

@@ -1,5 +1,7 @@
 #include "plexus/proto/message.hpp"
 
+#include <cstring>
+
 #include "plexus/proto/fields.hpp"
 #include "plexus/proto/frame.hpp"
 #include "plexus/proto/varint.hpp"
@@ -8,11 +10,17 @@ namespace plexus::proto {
 
 void append_record(Bytes& out, std::string_view source, std::uint64_t seq, std::uint64_t time_ns,
                    ByteView payload) {
-    out.reserve(out.size() + record_size(source, seq, time_ns, payload.size()));
-    append_string(out, source);
-    append_varint(out, seq);
-    append_varint(out, time_ns);
-    out.insert(out.end(), payload.begin(), payload.end());
+    // One resize and direct writes: every message written goes through here.
+    const std::size_t at = out.size();
+    out.resize(at + record_size(source, seq, time_ns, payload.size()));
+    std::uint8_t* cursor = out.data() + at;
+    cursor += write_varint(cursor, source.size());
+    std::memcpy(cursor, source.data(), source.size());
+    cursor += source.size();
+    cursor += write_varint(cursor, seq);
+    cursor += write_varint(cursor, time_ns);
+    if (!payload.empty())
+        std::memcpy(cursor, payload.data(), payload.size());
 }
 
 std::size_t record_size(std::string_view source, std::uint64_t seq, std::uint64_t time_ns,

@@ -518,3 +518,34 @@ TEST(CborDecode_test, AgreesWithNlohmannOnMutatedInput) {
 
 }  // namespace
 }  // namespace plexus::proto
+
+namespace plexus::proto {
+namespace {
+
+TEST(CborEncode_test, WritesExactlyWhatToCborWrites) {
+    std::vector<nlohmann::json> values{nlohmann::json::binary({}),
+                                       nlohmann::json::binary({1, 2, 3}),
+                                       nlohmann::json::binary({1}, 7),
+                                       "",
+                                       "short",
+                                       nullptr,
+                                       true,
+                                       -5,
+                                       1.5,
+                                       nlohmann::json::parse(R"({"a":[1,"x",{"b":null}]})")};
+    // Every length class of the head: 0..23 inline, then 1, 2, 4 byte lengths.
+    for (std::size_t size : {23u, 24u, 255u, 256u, 65535u, 65536u, 70000u}) {
+        values.push_back(nlohmann::json::binary(std::vector<std::uint8_t>(size, 0x5a)));
+        values.push_back(std::string(size, 'q'));
+    }
+    for (const auto& value : values) {
+        Bytes ours{0xee};  // appends: what was there stays
+        encode_cbor(value, ours);
+        Bytes theirs{0xee};
+        nlohmann::json::to_cbor(value, theirs);
+        EXPECT_EQ(ours, theirs) << value.dump().substr(0, 80);
+    }
+}
+
+}  // namespace
+}  // namespace plexus::proto

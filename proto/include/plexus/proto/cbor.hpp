@@ -27,4 +27,9 @@ namespace plexus::proto {
 /// deeper than max_depth, with a reason that names the byte offset.
 Result<nlohmann::json> decode_cbor_fast(ByteView bytes, std::size_t max_depth = max_cbor_depth);
 
+/// Appends `value` as CBOR, byte for byte what nlohmann::json::to_cbor writes. Byte strings
+/// (without a subtype) and text strings, the payloads of raw streams, are written directly; other
+/// values go through to_cbor.
+void encode_cbor(const nlohmann::json& value, Bytes& out);
+
 }  // namespace plexus::proto

@@ -15,10 +15,25 @@ inline constexpr std::size_t max_varint_size = 10;
 void append_varint(Bytes& out, std::uint64_t value);
 
 /// Writes `value` as a varint at `out` (room for max_varint_size bytes) and returns the bytes used.
-std::size_t write_varint(std::uint8_t* out, std::uint64_t value);
+inline std::size_t write_varint(std::uint8_t* out, std::uint64_t value) {
+    std::size_t used = 0;
+    while (value >= 0x80) {
+        out[used++] = static_cast<std::uint8_t>(value | 0x80);
+        value >>= 7;
+    }
+    out[used++] = static_cast<std::uint8_t>(value);
+    return used;
+}
 
 /// How many bytes `value` takes as a varint.
-std::size_t varint_size(std::uint64_t value);
+inline std::size_t varint_size(std::uint64_t value) {
+    std::size_t size = 1;
+    while (value >= 0x80) {
+        value >>= 7;
+        ++size;
+    }
+    return size;
+}
 
 enum class VarintStatus { ok, need_more, bad };
 
