@@ -470,10 +470,40 @@ private:
 
 }  // namespace
 
+namespace {
+
+/// The payload of a raw stream is one definite-length byte or text string that fills the input:
+/// decoded here without the general decoder's machinery. Anything else (or anything wrong) is
+/// left to the general decoder, which also words the errors.
+std::optional<json> decode_whole_string(ByteView bytes) {
+    if (bytes.empty())
+        return std::nullopt;
+    const std::uint8_t major = bytes[0] >> 5;
+    const std::uint8_t info = bytes[0] & 0x1f;
+    if ((major != major_bytes && major != major_text) || info > info_eight_bytes)
+        return std::nullopt;
+    const std::size_t width = info < info_one_byte ? 0 : std::size_t{1} << (info - info_one_byte);
+    if (bytes.size() < 1 + width)
+        return std::nullopt;
+    std::uint64_t length = info < info_one_byte ? info : 0;
+    for (std::size_t i = 0; i < width; ++i)
+        length = (length << 8) | bytes[1 + i];
+    if (length != bytes.size() - 1 - width)
+        return std::nullopt;
+    const auto content = bytes.subspan(1 + width);
+    if (major == major_bytes)
+        return json::binary(json::binary_t::container_type(content.begin(), content.end()));
+    return json(std::string(content.begin(), content.end()));
+}
+
+}  // namespace
+
 Result<json> decode_cbor_fast(ByteView bytes, std::size_t max_depth) {
     // Every length is checked before it is allocated, so what can still throw is running out of
     // memory for a value the input really holds; a decoder must not throw even then.
     try {
+        if (auto whole = decode_whole_string(bytes))
+            return std::move(*whole);
         return Decoder(bytes, max_depth).decode();
     } catch (const std::exception& error) {
         return Error{std::string("cannot decode CBOR: ") + error.what()};
