@@ -28,33 +28,13 @@ std::optional<std::uint8_t> FieldReader::byte(std::string_view what) {
     return (*view)[0];
 }
 
-std::optional<std::string_view> FieldReader::string(std::string_view what, std::size_t max_size) {
-    const auto view = bytes(what, max_size);
-    if (!view) {
-        return std::nullopt;
-    }
-    return as_string_view(*view);
-}
-
-std::optional<ByteView> FieldReader::bytes(std::string_view what, std::size_t max_size) {
-    const auto length = varint(what);
-    if (!length) {
-        return std::nullopt;
-    }
-    // The declared length is compared with the limit and with what is left while it is still a
-    // 64-bit number: nothing is sized from it until both checks pass.
-    if (*length > max_size) {
-        fail(describe_length(what, *length, max_size));
-        return std::nullopt;
-    }
-    if (*length > rest_.size()) {
-        fail("truncated " + std::string(what) + " (declares " + std::to_string(*length) + " bytes, " +
+void FieldReader::fail_length(std::string_view what, std::uint64_t length, std::size_t max_size) {
+    if (length > max_size) {
+        fail(describe_length(what, length, max_size));
+    } else {
+        fail("truncated " + std::string(what) + " (declares " + std::to_string(length) + " bytes, " +
              std::to_string(rest_.size()) + " left)");
-        return std::nullopt;
     }
-    const ByteView view = rest_.first(static_cast<std::size_t>(*length));
-    rest_ = rest_.subspan(view.size());
-    return view;
 }
 
 std::optional<ByteView> FieldReader::raw(std::string_view what, std::size_t n) {

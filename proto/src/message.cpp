@@ -73,23 +73,13 @@ Result<BatchView> decode_batch(ByteView fields) {
     return BatchView{*handle, *count, reader.rest()};
 }
 
-std::optional<ByteView> BatchRecords::next() {
-    if (!error_.empty())
-        return std::nullopt;
-    if (left_ == 0) {
-        if (!rest_.empty())
-            error_ = "bad batch frame: " + std::to_string(rest_.size()) + " bytes after the last record";
-        return std::nullopt;
-    }
-    FieldReader reader(rest_);
-    const auto record = reader.bytes("record", rest_.size());
-    if (!record) {
-        error_ = "bad batch frame: " + reader.error() + " (" + std::to_string(left_) + " records left)";
-        return std::nullopt;
-    }
-    rest_ = reader.rest();
-    --left_;
-    return record;
+void BatchRecords::finish() {
+    if (error_.empty() && left_ == 0 && !rest_.empty())
+        error_ = "bad batch frame: " + std::to_string(rest_.size()) + " bytes after the last record";
+}
+
+void BatchRecords::fail(const std::string& why) {
+    error_ = "bad batch frame: " + why + " (" + std::to_string(left_) + " records left)";
 }
 
 void append_batch_record(Bytes& out, std::string_view source, std::uint64_t seq, std::uint64_t time_ns,

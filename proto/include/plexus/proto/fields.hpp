@@ -30,8 +30,26 @@ public:
     }
     std::optional<std::uint8_t> byte(std::string_view what);
     /// A varint length then that many bytes; refused if longer than max_size or than what is left.
-    std::optional<std::string_view> string(std::string_view what, std::size_t max_size);
-    std::optional<ByteView> bytes(std::string_view what, std::size_t max_size);
+    std::optional<std::string_view> string(std::string_view what, std::size_t max_size) {
+        const auto view = bytes(what, max_size);
+        if (!view)
+            return std::nullopt;
+        return as_string_view(*view);
+    }
+    std::optional<ByteView> bytes(std::string_view what, std::size_t max_size) {
+        const auto length = varint(what);
+        if (!length)
+            return std::nullopt;
+        // The declared length is compared with the limit and with what is left while it is still a
+        // 64-bit number: nothing is sized from it until both checks pass.
+        if (*length > max_size || *length > rest_.size()) {
+            fail_length(what, *length, max_size);
+            return std::nullopt;
+        }
+        const ByteView view = rest_.first(static_cast<std::size_t>(*length));
+        rest_ = rest_.subspan(view.size());
+        return view;
+    }
     /// Exactly n raw bytes.
     std::optional<ByteView> raw(std::string_view what, std::size_t n);
     /// Everything not yet read.
@@ -43,6 +61,7 @@ public:
 private:
     void fail(std::string message);
     void fail_varint(std::string_view what, VarintStatus status);
+    void fail_length(std::string_view what, std::uint64_t length, std::size_t max_size);
     ByteView rest_;
     std::optional<std::string> error_;
 };

@@ -10,6 +10,7 @@
 #include <string_view>
 
 #include "plexus/proto/bytes.hpp"
+#include "plexus/proto/fields.hpp"
 
 namespace plexus::proto {
 
@@ -65,12 +66,28 @@ Result<BatchView> decode_batch(ByteView fields);
 class BatchRecords {
 public:
     BatchRecords(ByteView records, std::uint64_t count) : rest_(records), left_(count) {}
-    std::optional<ByteView> next();
+    std::optional<ByteView> next() {
+        if (left_ == 0 || !error_.empty()) {
+            finish();
+            return std::nullopt;
+        }
+        FieldReader reader(rest_);
+        const auto record = reader.bytes("record", rest_.size());
+        if (!record) {
+            fail(reader.error());
+            return std::nullopt;
+        }
+        rest_ = reader.rest();
+        --left_;
+        return record;
+    }
     const std::string& error() const { return error_; }
     /// The records not yet walked.
     ByteView rest() const { return rest_; }
 
 private:
+    void finish();  ///< after the last record: anything left over is an error
+    void fail(const std::string& why);
     ByteView rest_;
     std::uint64_t left_;
     std::string error_;
