@@ -16,16 +16,21 @@ namespace {
 
 class PlexusPublisher : public Publisher {
 public:
-    PlexusPublisher(const std::string& socket, const std::string& port)
-        : client_(connect_client(socket)), port_(client_.open(port)) {}
+    PlexusPublisher(const std::string& socket, const std::string& port, Traffic traffic)
+        : client_(connect_client(socket)), port_(client_.open(port)), buffered_(traffic == Traffic::bulk) {}
 
+    // Bulk traffic uses libplexus's documented buffered mode, write(v, false) then flush(), as the
+    // NATS driver uses its flusher thread and the Redis driver pipelines; latency traffic flushes
+    // every message.
     void publish(std::string_view payload) override {
-        port_.write(Value::binary(std::vector<std::uint8_t>(payload.begin(), payload.end())));
+        port_.write(Value::binary(std::vector<std::uint8_t>(payload.begin(), payload.end())), !buffered_);
     }
+    void sync() override { port_.flush(); }
 
 private:
     Client client_;
     Port port_;
+    bool buffered_;
 };
 
 class PlexusSubscriber : public Subscriber {
@@ -55,9 +60,9 @@ public:
 
     std::vector<pid_t> pids() const override { return topology_->pids(); }
 
-    std::unique_ptr<Publisher> publisher(const std::string& topic, Traffic /*traffic*/) override {
+    std::unique_ptr<Publisher> publisher(const std::string& topic, Traffic traffic) override {
         const std::string name = port_name(topic, "pub");
-        auto publisher = std::make_unique<PlexusPublisher>(topology_->near_socket(), name);
+        auto publisher = std::make_unique<PlexusPublisher>(topology_->near_socket(), name, traffic);
         auto& ports = topics_[topic];
         join(name, ports.publishers, ports.subscribers, true);
         return publisher;
