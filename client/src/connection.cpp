@@ -57,6 +57,9 @@ std::shared_ptr<Connection> Connection::to_daemon(const std::string& socket_path
                         "); start one with `plexusd --embedded-names`, or pass --socket / "
                         "set PLEXUS_SOCKET");
     }
+    // Large messages leave in few system calls (the kernel caps this at net.core.wmem_max).
+    const int send_buffer = 4 * 1024 * 1024;
+    ::setsockopt(fd, SOL_SOCKET, SO_SNDBUF, &send_buffer, sizeof send_buffer);
     auto connection = std::make_shared<Connection>(fd, socket_path);
     // A wrong program on the socket is reported now rather than at the first real request.
     proto::Reply reply = connection->request({{"op", "node"}}, std::chrono::milliseconds(5000));
