@@ -27,13 +27,17 @@ nlohmann::json checked(const proto::Reply& reply) {
 // --- Port ---
 
 Port::Port(std::shared_ptr<detail::Connection> connection, std::string name, std::uint64_t handle)
-    : connection_(std::move(connection)), name_(std::move(name)), handle_(handle) {}
+    : connection_(std::move(connection)),
+      name_(std::move(name)),
+      handle_(handle),
+      ready_(std::make_unique<detail::Inbox>()) {}
 
 Port::Port(Port&& other) noexcept
     : connection_(std::move(other.connection_)),
       name_(std::move(other.name_)),
       handle_(other.handle_),
-      next_seq_(other.next_seq_) {}
+      next_seq_(other.next_seq_),
+      ready_(std::move(other.ready_)) {}
 
 Port& Port::operator=(Port&& other) noexcept {
     if (this != &other) {
@@ -46,6 +50,7 @@ Port& Port::operator=(Port&& other) noexcept {
         name_ = std::move(other.name_);
         handle_ = other.handle_;
         next_seq_ = other.next_seq_;
+        ready_ = std::move(other.ready_);
     }
     return *this;
 }
@@ -75,10 +80,12 @@ void Port::flush() {
 std::optional<Received> Port::read(std::chrono::milliseconds timeout) {
     if (!connection_)
         throw Error(ErrorCode::usage, "port " + name_ + " is closed");
-    auto record = connection_->read(handle_, timeout);
-    if (!record)
+    auto& ready = ready_->records;
+    if (ready.empty() && !connection_->read_all(handle_, timeout, ready))
         return std::nullopt;
-    auto view = proto::decode_record(record->record);
+    const detail::InboxRecord record = std::move(ready.front());
+    ready.pop_front();
+    auto view = proto::decode_record(record.record);
     if (!view)
         throw Error(ErrorCode::refused, "bad message record: " + view.error().message);
     auto data = proto::decode_cbor(view->payload);

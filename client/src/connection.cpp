@@ -289,26 +289,23 @@ proto::Reply Connection::request(nlohmann::json body, std::chrono::milliseconds 
     throw Error(ErrorCode::timeout, path_ + " did not answer in time");
 }
 
-std::optional<InboxRecord> Connection::read(std::uint64_t handle, std::chrono::milliseconds timeout) {
+bool Connection::read_all(std::uint64_t handle, std::chrono::milliseconds timeout,
+                          std::deque<InboxRecord>& into) {
     std::unique_lock lock(state_mutex_);
-    if (auto ready = inbox_.find(handle); ready != inbox_.end() && !ready->second.empty()) {
-        // Already here: no clock read (it costs as much as the rest of a read).
-        InboxRecord record = std::move(ready->second.front());
-        ready->second.pop_front();
-        return record;
+    auto ready = inbox_.find(handle);
+    if (ready == inbox_.end() || ready->second.empty()) {
+        // Only now is the clock read: it costs as much as the rest of a read. The entry is looked up
+        // again after every wait, because forget() may erase it meanwhile.
+        if (!wait_until(
+                lock, [&] { return !inbox_[handle].empty(); }, Clock::now() + timeout)) {
+            if (!broken_.empty())
+                throw Error(ErrorCode::refused, broken_);
+            return false;
+        }
+        ready = inbox_.find(handle);
     }
-    const auto deadline = Clock::now() + timeout;
-    // Looked up again after every wait: forget() may erase the entry meanwhile.
-    if (!wait_until(
-            lock, [&] { return !inbox_[handle].empty(); }, deadline)) {
-        if (!broken_.empty())
-            throw Error(ErrorCode::refused, broken_);
-        return std::nullopt;
-    }
-    auto& ready = inbox_[handle];
-    InboxRecord record = std::move(ready.front());
-    ready.pop_front();
-    return record;
+    into.swap(ready->second);
+    return true;
 }
 
 void Connection::forget(std::uint64_t handle) {

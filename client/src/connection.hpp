@@ -28,6 +28,11 @@ struct InboxRecord {
     proto::ByteView record;
 };
 
+/// Records waiting to be read by one Port.
+struct Inbox {
+    std::deque<InboxRecord> records;
+};
+
 /// The framed Unix-socket connection to the local daemon.
 class Connection {
 public:
@@ -48,7 +53,9 @@ public:
                const proto::Bytes& payload, bool flush);
     void flush();
     /// The next record delivered to `handle`, waiting until `deadline`.
-    std::optional<InboxRecord> read(std::uint64_t handle, std::chrono::milliseconds timeout);
+    /// Moves every record delivered to `handle` so far into `into` (which must be empty), waiting
+    /// up to `timeout` for the first; false if none came.
+    bool read_all(std::uint64_t handle, std::chrono::milliseconds timeout, std::deque<InboxRecord>& into);
     /// Stops keeping messages for a closed handle.
     void forget(std::uint64_t handle);
 

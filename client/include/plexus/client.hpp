@@ -1,8 +1,10 @@
 #pragma once
 // libplexus: the thin client library components link to talk to their local plexusd.
 //
-// Threading: a Client and its Ports may be used from several threads. Writes are serialized by a
-// lock; reads are done by whichever thread is waiting (the others are handed what it reads).
+// Threading: a Client may be used from several threads, and so may different Ports of one Client
+// (writes are serialized by a lock; reads are done by whichever thread is waiting, the others are
+// handed what it reads). One Port is used by one thread at a time for writing and one for reading:
+// its sequence number and its read buffer are its own, without a lock.
 
 #include <chrono>
 #include <cstdint>
@@ -60,7 +62,8 @@ struct PortOptions {
 
 namespace detail {
 class Connection;
-}
+struct Inbox;
+}  // namespace detail
 
 class Client;
 
@@ -95,6 +98,9 @@ private:
     std::string name_;
     std::uint64_t handle_ = 0;
     std::uint64_t next_seq_ = 1;
+    /// Messages taken from the connection in one go and not yet read: one lock per batch of
+    /// messages instead of one per message.
+    std::unique_ptr<detail::Inbox> ready_;
 };
 
 /// Calls a function for every message of a port, on a thread of its own, until destroyed.
