@@ -8,12 +8,11 @@
 
 namespace plexus::proto {
 
-void append_record(Bytes& out, std::string_view source, std::uint64_t seq, std::uint64_t time_ns,
-                   ByteView payload) {
-    // One resize and direct writes: every message written goes through here.
-    const std::size_t at = out.size();
-    out.resize(at + record_size(source, seq, time_ns, payload.size()));
-    std::uint8_t* cursor = out.data() + at;
+namespace {
+
+/// Writes a record at `cursor`, which has room for it; returns the end.
+std::uint8_t* write_record(std::uint8_t* cursor, std::string_view source, std::uint64_t seq,
+                           std::uint64_t time_ns, ByteView payload) {
     cursor += write_varint(cursor, source.size());
     std::memcpy(cursor, source.data(), source.size());
     cursor += source.size();
@@ -21,6 +20,17 @@ void append_record(Bytes& out, std::string_view source, std::uint64_t seq, std::
     cursor += write_varint(cursor, time_ns);
     if (!payload.empty())
         std::memcpy(cursor, payload.data(), payload.size());
+    return cursor + payload.size();
+}
+
+}  // namespace
+
+void append_record(Bytes& out, std::string_view source, std::uint64_t seq, std::uint64_t time_ns,
+                   ByteView payload) {
+    // One resize and direct writes: every message written goes through here.
+    const std::size_t at = out.size();
+    out.resize(at + record_size(source, seq, time_ns, payload.size()));
+    write_record(out.data() + at, source, seq, time_ns, payload);
 }
 
 std::size_t record_size(std::string_view source, std::uint64_t seq, std::uint64_t time_ns,
@@ -84,8 +94,12 @@ void BatchRecords::fail(const std::string& why) {
 
 void append_batch_record(Bytes& out, std::string_view source, std::uint64_t seq, std::uint64_t time_ns,
                          ByteView payload) {
-    append_varint(out, record_size(source, seq, time_ns, payload.size()));
-    append_record(out, source, seq, time_ns, payload);
+    const std::size_t size = record_size(source, seq, time_ns, payload.size());
+    const std::size_t at = out.size();
+    out.resize(at + varint_size(size) + size);
+    std::uint8_t* cursor = out.data() + at;
+    cursor += write_varint(cursor, size);
+    write_record(cursor, source, seq, time_ns, payload);
 }
 
 void append_batch_frame_prefix(Bytes& out, std::uint64_t handle, std::uint64_t count,
