@@ -80,12 +80,24 @@ void Port::flush() {
 std::optional<Received> Port::read(std::chrono::milliseconds timeout) {
     if (!connection_)
         throw Error(ErrorCode::usage, "port " + name_ + " is closed");
-    auto& ready = ready_->records;
-    if (ready.empty() && !connection_->read_all(handle_, timeout, ready))
-        return std::nullopt;
-    const detail::InboxRecord record = std::move(ready.front());
-    ready.pop_front();
-    auto view = proto::decode_record(record.record);
+    auto& inbox = *ready_;
+    if (inbox.segments.empty()) {
+        if (!connection_->read_all(handle_, timeout, inbox.segments))
+            return std::nullopt;
+        inbox.next = 0;
+    }
+    // The segment (and the block its records live in) is let go once its last record is decoded.
+    const proto::ByteView record = inbox.segments.front().records[inbox.next++];
+    struct DropWhenDone {
+        detail::Inbox& inbox;
+        ~DropWhenDone() {
+            if (inbox.next == inbox.segments.front().records.size()) {
+                inbox.segments.pop_front();
+                inbox.next = 0;
+            }
+        }
+    } drop_when_done{inbox};
+    auto view = proto::decode_record(record);
     if (!view)
         throw Error(ErrorCode::refused, "bad message record: " + view.error().message);
     auto data = proto::decode_cbor(view->payload);

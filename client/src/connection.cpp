@@ -290,7 +290,7 @@ proto::Reply Connection::request(nlohmann::json body, std::chrono::milliseconds 
 }
 
 bool Connection::read_all(std::uint64_t handle, std::chrono::milliseconds timeout,
-                          std::deque<InboxRecord>& into) {
+                          std::deque<InboxSegment>& into) {
     std::unique_lock lock(state_mutex_);
     auto ready = inbox_.find(handle);
     if (ready == inbox_.end() || ready->second.empty()) {
@@ -436,18 +436,19 @@ void Connection::deliver_received() {
     auto block = std::make_shared<const proto::Bytes>(in_.begin() + static_cast<std::ptrdiff_t>(first),
                                                       in_.begin() + static_cast<std::ptrdiff_t>(last));
     std::lock_guard lock(state_mutex_);
-    std::uint64_t cached_handle = 0;
-    std::deque<InboxRecord>* cached = nullptr;
+    std::optional<std::uint64_t> run_handle;
+    InboxSegment* run = nullptr;  // the segment of the current run of records for one handle
     for (const auto& data : received_) {
-        if (!cached || data.handle != cached_handle) {
+        if (data.handle != run_handle) {
             // Handles are never reused: keep data for any handle not closed, even one whose open
             // reply is still being processed, so nothing that arrives with the reply is lost.
-            cached_handle = data.handle;
-            cached = closed_handles_.contains(data.handle) ? nullptr : &inbox_[data.handle];
-            if (!cached)
-                continue;
+            run_handle = data.handle;
+            run = nullptr;
+            if (!closed_handles_.contains(data.handle))
+                run = &inbox_[data.handle].emplace_back(InboxSegment{block, {}});
         }
-        cached->push_back({block, {block->data() + (data.offset - first), data.size}});
+        if (run)
+            run->records.emplace_back(block->data() + (data.offset - first), data.size);
     }
     received_.clear();
 }

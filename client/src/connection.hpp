@@ -22,15 +22,17 @@ namespace plexus::detail {
 
 using Clock = std::chrono::steady_clock;
 
-/// A record delivered to a handle: a view into a block shared by every record of the same read.
-struct InboxRecord {
+/// Records delivered to one handle by one socket read: views into a block they share, so that a
+/// record costs no allocation and no reference count of its own.
+struct InboxSegment {
     std::shared_ptr<const proto::Bytes> block;
-    proto::ByteView record;
+    std::vector<proto::ByteView> records;
 };
 
-/// Records waiting to be read by one Port.
+/// Records waiting to be read by one Port, taken from the connection a batch at a time.
 struct Inbox {
-    std::deque<InboxRecord> records;
+    std::deque<InboxSegment> segments;
+    std::size_t next = 0;  ///< the next record of the front segment
 };
 
 /// The framed Unix-socket connection to the local daemon.
@@ -55,7 +57,7 @@ public:
     /// The next record delivered to `handle`, waiting until `deadline`.
     /// Moves every record delivered to `handle` so far into `into` (which must be empty), waiting
     /// up to `timeout` for the first; false if none came.
-    bool read_all(std::uint64_t handle, std::chrono::milliseconds timeout, std::deque<InboxRecord>& into);
+    bool read_all(std::uint64_t handle, std::chrono::milliseconds timeout, std::deque<InboxSegment>& into);
     /// Stops keeping messages for a closed handle.
     void forget(std::uint64_t handle);
 
@@ -109,7 +111,7 @@ private:
     std::atomic<bool> is_broken_{false};  ///< broken_ is set; read without the lock
     std::uint64_t next_id_ = 1;
     std::map<std::uint64_t, std::optional<proto::Reply>> replies_;
-    std::map<std::uint64_t, std::deque<InboxRecord>> inbox_;
+    std::map<std::uint64_t, std::deque<InboxSegment>> inbox_;
     std::set<std::uint64_t> closed_handles_;
 
     // Only the current reader touches these.
