@@ -186,10 +186,6 @@ Task<void> Daemon::accept_tcp() {
     }
 }
 
-namespace {
-constexpr int unix_send_buffer = 4 * 1024 * 1024;
-}  // namespace
-
 Task<void> Daemon::accept_unix() {
     while (!stopping_) {
         auto [ec, socket] = co_await unix_acceptor_.async_accept(use_nothrow);
@@ -199,9 +195,6 @@ Task<void> Daemon::accept_unix() {
             spdlog::warn("accept on {} failed: {}", config_.socket_path, ec.message());
             continue;
         }
-        // A larger send buffer lets a large message leave in few system calls and wake-ups instead
-        // of one per default-sized (208 KiB) buffer; the kernel caps it at net.core.wmem_max.
-        socket.set_option(asio::socket_base::send_buffer_size(unix_send_buffer), ec);
         start_session(Socket(std::move(socket)), "local session");
     }
 }

@@ -28,6 +28,10 @@ constexpr std::size_t read_chunk = 256 * 1024;
 constexpr std::size_t batch_limit = 16 * 1024;
 // Payloads at least this large are sent from where they are instead of being copied into out_.
 constexpr std::size_t gather_threshold = 64 * 1024;
+// The send buffer asked for once large payloads are written (the kernel caps it at
+// net.core.wmem_max): a 1 MiB message then leaves in a few system calls instead of one per default
+// 208 KiB. Streams of small messages keep the default, so that less of them waits in the socket.
+constexpr int large_message_send_buffer = 4 * 1024 * 1024;
 // How long the backlog thread waits for room before it looks at its flags again.
 constexpr int backlog_poll_ms = 100;
 }  // namespace
@@ -57,9 +61,6 @@ std::shared_ptr<Connection> Connection::to_daemon(const std::string& socket_path
                         "); start one with `plexusd --embedded-names`, or pass --socket / "
                         "set PLEXUS_SOCKET");
     }
-    // Large messages leave in few system calls (the kernel caps this at net.core.wmem_max).
-    const int send_buffer = 4 * 1024 * 1024;
-    ::setsockopt(fd, SOL_SOCKET, SO_SNDBUF, &send_buffer, sizeof send_buffer);
     auto connection = std::make_shared<Connection>(fd, socket_path);
     // A wrong program on the socket is reported now rather than at the first real request.
     proto::Reply reply = connection->request({{"op", "node"}}, std::chrono::milliseconds(5000));
@@ -207,6 +208,7 @@ void Connection::write(std::uint64_t handle, const std::string& source, std::uin
     close_batch_locked();  // what was buffered goes first
     proto::append_data_frame_prefix(out_, handle, proto::record_size(source, seq, time_ns, payload.size()));
     if (payload.size() >= gather_threshold) {
+        enlarge_send_buffer_locked();
         proto::append_record(out_, source, seq, time_ns, {});  // the record's head; the payload ends it
         send_with_payload_locked(payload);
         return;
@@ -223,6 +225,13 @@ void Connection::write(std::uint64_t handle, const std::string& source, std::uin
         }
     }
     throw_if_broken();
+}
+
+void Connection::enlarge_send_buffer_locked() {
+    if (large_send_buffer_)
+        return;
+    large_send_buffer_ = true;
+    ::setsockopt(fd_, SOL_SOCKET, SO_SNDBUF, &large_message_send_buffer, sizeof large_message_send_buffer);
 }
 
 void Connection::close_batch_locked() {

@@ -78,6 +78,8 @@ private:
     /// Sends out_ and then `payload` with one gathering call per piece the socket takes: a large
     /// payload is not copied into out_ first.
     void send_with_payload_locked(proto::ByteView payload);
+    /// Raises the socket's send buffer, the first time a large payload is written.
+    void enlarge_send_buffer_locked();
     /// Appends the open batch (if any) to out_ as one data_batch frame.
     void close_batch_locked();
     /// The backlog thread: sends what a full socket could not take, as soon as it has room.
@@ -96,6 +98,7 @@ private:
     proto::Bytes batch_;  ///< records of the open batch, each `varint length | record`
     std::uint64_t batch_handle_ = 0;
     std::uint64_t batch_count_ = 0;  ///< 0: no batch open
+    bool large_send_buffer_ = false;
     // When a flushing write finds the socket full, the rest stays in out_ (the backlog) and
     // writes only append to it until it reaches the flush threshold: under saturation many
     // messages leave in one system call, while an idle link still sends each message at once.

@@ -1,6 +1,7 @@
 #include "framed_connection.hpp"
 
 #include <poll.h>
+#include <sys/socket.h>
 
 #include <spdlog/spdlog.h>
 
@@ -11,6 +12,9 @@ namespace plexus::daemon {
 namespace {
 // A batch of frames gathered into one write; larger batches gain nothing measurable.
 constexpr std::size_t write_budget = 256 * 1024;
+// A record this large makes a connection ask for a large send buffer.
+constexpr std::size_t large_message = 256 * 1024;
+constexpr int large_message_send_buffer = 4 * 1024 * 1024;
 // How long a closing connection waits for its peer before cutting it off.
 constexpr auto close_grace = std::chrono::seconds(2);
 }  // namespace
@@ -165,6 +169,16 @@ Task<void> FramedConnection::write_loop() {
         }
         batch.clear();
         outbox_.fill(batch, write_budget);
+        if (batch.largest >= large_message && !large_send_buffer_) {
+            // Large messages leave a Unix socket in a few system calls with a larger buffer (the
+            // kernel caps it at net.core.wmem_max); streams of small ones keep the default, so that
+            // fewer of them wait in the socket under load. TCP tunes its buffers itself: setting
+            // one would turn that off.
+            large_send_buffer_ = true;
+            boost::system::error_code ignored;
+            if (socket_.local_endpoint(ignored).protocol().family() == AF_UNIX)
+                socket_.set_option(asio::socket_base::send_buffer_size(large_message_send_buffer), ignored);
+        }
         auto [ec, n] = co_await asio::async_write(socket_, batch.buffers, use_nothrow);
         if (ec) {
             close(ec.message());

@@ -74,6 +74,7 @@ private:
     std::string description_;
     bool closed_ = false;
     bool draining_ = false;
+    bool large_send_buffer_ = false;  ///< raised after the first large message
 };
 
 }  // namespace plexus::daemon

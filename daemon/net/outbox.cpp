@@ -21,6 +21,7 @@ void Batch::clear() {
     control.clear();
     flat.clear();
     bytes = 0;
+    largest = 0;
 }
 
 void Outbox::remove_source(std::uint64_t handle) {
@@ -68,6 +69,7 @@ void Outbox::fill(Batch& batch, std::size_t budget) {
                 *source.sent_counter += message.count();
             const std::size_t offset = batch.flat.size();
             const std::size_t record_size = message.record.size();
+            batch.largest = std::max(batch.largest, record_size);
             if (message.batch == 0)
                 proto::append_data_frame_prefix(batch.flat, source.handle, record_size);
             else

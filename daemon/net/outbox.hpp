@@ -31,6 +31,7 @@ struct Batch {
     std::vector<proto::Bytes> control;
     proto::Bytes flat;
     std::size_t bytes = 0;
+    std::size_t largest = 0;  ///< the largest record or batch of records in it
     void clear();
     bool empty() const { return buffers.empty(); }
 };
