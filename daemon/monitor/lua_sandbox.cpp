@@ -1,6 +1,8 @@
 #include "lua_sandbox.hpp"
 
+#include <algorithm>
 #include <cstdlib>
+#include <cstring>
 #include <new>
 #include <stdexcept>
 
@@ -61,7 +63,8 @@ void* LuaSandbox::allocate(void* self, void* block, std::size_t old_size, std::s
     auto& box = *static_cast<LuaSandbox*>(self);
     const std::size_t old_bytes = block ? old_size : 0;
     if (new_size == 0) {
-        std::free(block);
+        if (block)
+            box.blocks_.give(block, old_bytes);
         box.used_ -= old_bytes;
         return nullptr;
     }
@@ -69,7 +72,20 @@ void* LuaSandbox::allocate(void* self, void* block, std::size_t old_size, std::s
     // collection; shrinking must never fail.
     if (new_size > old_bytes && box.used_ - old_bytes + new_size > box.limits_.memory_bytes)
         return nullptr;
-    void* moved = std::realloc(block, new_size);
+    void* moved = nullptr;
+    if (block && SmallBlocks::same_class(old_bytes, new_size)) {
+        moved = block;
+    } else if (block && old_bytes > SmallBlocks::largest && new_size > SmallBlocks::largest) {
+        moved = std::realloc(block, new_size);
+    } else {
+        moved = box.blocks_.take(new_size);
+        if (moved && block) {
+            std::memcpy(moved, block, std::min(old_bytes, new_size));
+            box.blocks_.give(block, old_bytes);
+        }
+    }
+    if (!moved && block && new_size <= old_bytes)
+        moved = block;  // a shrink must not fail: keep the larger block (it serves the smaller class too)
     if (!moved)
         return nullptr;
     box.used_ = box.used_ - old_bytes + new_size;

@@ -16,6 +16,7 @@
 #include <lua.hpp>
 
 #include "plexus/proto/bytes.hpp"
+#include "small_blocks.hpp"
 
 namespace plexus::daemon::monitor {
 
@@ -71,6 +72,7 @@ private:
     SandboxLimits limits_;
     std::function<void(std::string_view)> log_;
     std::size_t used_ = 0;
+    SmallBlocks blocks_;  ///< outlives the state: lua_close (in the destructor's body) gives blocks back
     std::chrono::steady_clock::time_point deadline_{};
     /// The clock is read at the first hook of a call, not at its start: a short call (fewer
     /// instructions than one hook period) never reads it.
