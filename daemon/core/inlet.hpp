@@ -54,6 +54,7 @@ public:
 private:
     /// A batch passes whole when nothing here looks at single messages; else record by record.
     void deliver_batch(const Message& batch);
+    void deliver_batch_through_chain(const Message& batch);
 
     std::shared_ptr<Port> port_;
     std::string source_;

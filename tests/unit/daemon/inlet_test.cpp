@@ -1,0 +1,114 @@
+// A batch through a connection's recv-side monitors: every record judged on its own, the runs of
+// records passed unchanged delivered as smaller batches, the counters per record.
+#include "core/inlet.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+
+#include "arbitration/clock.hpp"
+#include "core/batch.hpp"
+#include "monitor/chain.hpp"
+#include "plexus/proto/message.hpp"
+
+namespace plexus::daemon {
+namespace {
+
+using namespace std::chrono_literals;
+
+class QuietHost : public monitor::MonitorHost {
+public:
+    proto::Status publish(monitor::Monitor&, const std::string&, const nlohmann::json&) override {
+        return proto::Ok{};
+    }
+    void set_trig_interval(monitor::Monitor&, double) override {}
+    double now() const override { return 0; }
+    void monitor_gone(monitor::Monitor&) override {}
+};
+
+/// A batch of records from /a with seq 1..n (payload: the CBOR of the seq).
+Message batch_of(std::uint32_t n) {
+    proto::Bytes records;
+    for (std::uint32_t seq = 1; seq <= n; ++seq)
+        proto::append_batch_record(records, "/a", seq, 0, nlohmann::json::to_cbor(seq));
+    auto chunk = std::make_shared<Chunk>(records.size());
+    std::memcpy(chunk->data(), records.data(), records.size());
+    return Message{chunk, {chunk->data(), records.size()}, 0, n};
+}
+
+std::vector<std::uint64_t> seqs_of(const Message& message) {
+    std::vector<std::uint64_t> seqs;
+    for_each_record(message,
+                    [&](const Message& single) { seqs.push_back(proto::decode_record(single.record)->seq); });
+    return seqs;
+}
+
+struct Inlet_test : ::testing::Test {
+    QuietHost host;
+    arbitration::ManualClock clock;
+    std::shared_ptr<arbitration::Arbiter> arbiter = std::make_shared<arbitration::Arbiter>(clock);
+    std::shared_ptr<Port> port = std::make_shared<Port>("/b", 1, QueuePolicy::strict, 100);
+
+    std::unique_ptr<Inlet> inlet_with(const std::string& script) {
+        auto inlet = std::make_unique<Inlet>(port, "/a", "local+recv.portmonitor+file.t",
+                                             std::make_shared<arbitration::Member>(arbiter, "/a"));
+        monitor::MonitorSpec spec;
+        spec.script = monitor::Script{"t", "t.lua", script};
+        spec.side = proto::Side::recv;
+        spec.source = "/a";
+        spec.destination = "/b";
+        monitor::MonitorPolicy policy;
+        policy.limits.memory_bytes = 4u << 20;
+        policy.limits.budget = 50ms;
+        auto created = monitor::Monitor::create(spec, policy, host);
+        EXPECT_TRUE(created.ok()) << (created.ok() ? "" : created.error().message);
+        inlet->chain = std::make_shared<monitor::MonitorChain>();
+        inlet->chain->monitors.push_back(std::move(*created));
+        return inlet;
+    }
+
+    std::vector<std::vector<std::uint64_t>> queued() {
+        std::vector<std::vector<std::uint64_t>> entries;
+        while (!port->queue().empty())
+            entries.push_back(seqs_of(port->queue().pop()));
+        return entries;
+    }
+};
+
+TEST_F(Inlet_test, RecordsAMonitorPassesUnchangedStayTogetherBetweenTheOnesItDrops) {
+    auto inlet = inlet_with("PortMonitor.accept = function(msg) return msg.seq % 3 ~= 0 end");
+    inlet->deliver(batch_of(7));
+    EXPECT_EQ(inlet->received, 7u);
+    EXPECT_EQ(inlet->dropped_by_accept, 2u);
+    EXPECT_EQ(inlet->accepted, 5u);
+    EXPECT_EQ(inlet->delivered, 5u);
+    EXPECT_EQ(port->queue().depth(), 5u);
+    using Seqs = std::vector<std::uint64_t>;
+    EXPECT_EQ(queued(), (std::vector<Seqs>{{1, 2}, {4, 5}, {7}}));
+}
+
+TEST_F(Inlet_test, ARewrittenRecordLeavesOnItsOwnAndEndsTheRun) {
+    auto inlet = inlet_with(R"(
+        PortMonitor.update = function(msg)
+            if msg.seq == 2 then msg.data = 200 end
+            return msg
+        end)");
+    inlet->deliver(batch_of(4));
+    EXPECT_EQ(inlet->delivered, 4u);
+    const auto entries = [&] {
+        std::vector<Message> all;
+        while (!port->queue().empty())
+            all.push_back(port->queue().pop());
+        return all;
+    }();
+    ASSERT_EQ(entries.size(), 3u);
+    EXPECT_EQ(seqs_of(entries[0]), (std::vector<std::uint64_t>{1}));
+    EXPECT_EQ(entries[1].batch, 0u) << "the rewritten message is a record of its own";
+    const auto rewritten = proto::decode_record(entries[1].record);
+    EXPECT_EQ(rewritten->seq, 2u);
+    EXPECT_EQ(nlohmann::json::from_cbor(rewritten->payload.begin(), rewritten->payload.end()), 200);
+    EXPECT_EQ(seqs_of(entries[2]), (std::vector<std::uint64_t>{3, 4}));
+}
+
+}  // namespace
+}  // namespace plexus::daemon
