@@ -7,9 +7,8 @@
 #include <cstring>
 
 #include "arbitration/clock.hpp"
-#include "core/batch.hpp"
 #include "monitor/chain.hpp"
-#include "plexus/proto/message.hpp"
+#include "test_messages.hpp"
 
 namespace plexus::daemon {
 namespace {
@@ -26,21 +25,11 @@ public:
     void monitor_gone(monitor::Monitor&) override {}
 };
 
+using test::seqs_of;
+
 /// A batch of records from /a with seq 1..n (payload: the CBOR of the seq).
 Message batch_of(std::uint32_t n) {
-    proto::Bytes records;
-    for (std::uint32_t seq = 1; seq <= n; ++seq)
-        proto::append_batch_record(records, "/a", seq, 0, nlohmann::json::to_cbor(seq));
-    auto chunk = std::make_shared<Chunk>(records.size());
-    std::memcpy(chunk->data(), records.data(), records.size());
-    return Message{chunk, {chunk->data(), records.size()}, 0, n};
-}
-
-std::vector<std::uint64_t> seqs_of(const Message& message) {
-    std::vector<std::uint64_t> seqs;
-    for_each_record(message,
-                    [&](const Message& single) { seqs.push_back(proto::decode_record(single.record)->seq); });
-    return seqs;
+    return test::batch_of(n, "/a", [](std::uint32_t seq) { return nlohmann::json::to_cbor(seq); });
 }
 
 struct Inlet_test : ::testing::Test {

@@ -1,7 +1,6 @@
 #include "core/reader_queue.hpp"
 
-#include "core/batch.hpp"
-#include "plexus/proto/message.hpp"
+#include "test_messages.hpp"
 
 #include <gtest/gtest.h>
 
@@ -79,21 +78,12 @@ TEST(ReaderQueue_test, ALatestQueueDropsOldestToStayWithinItsByteBoundButKeepsTh
     EXPECT_EQ(tiny.depth(), 1u) << "a message larger than the bound on its own is still delivered";
 }
 
-/// A batch of `n` records from /w, each with a `size`-byte payload, in a chunk of its own.
-Message batch_of(std::uint32_t n, std::size_t size = 10) {
-    proto::Bytes records;
-    for (std::uint32_t i = 1; i <= n; ++i)
-        proto::append_batch_record(records, "/w", i, 0, proto::Bytes(size, static_cast<std::uint8_t>(i)));
-    auto chunk = std::make_shared<Chunk>(records.size());
-    std::copy(records.begin(), records.end(), chunk->data());
-    return Message{chunk, {chunk->data(), records.size()}, 0, n};
-}
+using test::seqs_of;
 
-std::vector<std::uint64_t> seqs_of(const Message& message) {
-    std::vector<std::uint64_t> seqs;
-    for_each_record(message,
-                    [&](const Message& single) { seqs.push_back(proto::decode_record(single.record)->seq); });
-    return seqs;
+/// A batch of `n` records from /w, each with a `size`-byte payload.
+Message batch_of(std::uint32_t n, std::size_t size = 10) {
+    return test::batch_of(
+        n, "/w", [size](std::uint32_t seq) { return proto::Bytes(size, static_cast<std::uint8_t>(seq)); });
 }
 
 TEST(ReaderQueue_test, AStrictQueueKeepsABatchWholeAndCountsItsRecords) {
