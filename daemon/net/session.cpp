@@ -92,7 +92,15 @@ std::optional<Session::Incoming> Session::decode_incoming(const InFrame& frame) 
 
 bool Session::check_sources(const Message& message, const std::string& expected, std::string_view writer) {
     // Every record must be well formed and come from the port it is written for: a reader must
-    // never see a record its writer could not have sent.
+    // never see a record its writer could not have sent. The fast check passes good records at a
+    // few nanoseconds each; only when it fails are they decoded one by one, to say what is wrong.
+    proto::Bytes source_field;
+    proto::append_string(source_field, expected);
+    const bool fine = message.batch == 0
+                          ? proto::record_from(message.record, source_field)
+                          : proto::batch_records_from(message.record, message.batch, source_field);
+    if (fine)
+        return true;
     std::string problem;
     auto check = [&](proto::ByteView bytes) {
         auto record = proto::decode_record(bytes);

@@ -92,6 +92,30 @@ void BatchRecords::fail(const std::string& why) {
     error_ = "bad batch frame: " + why + " (" + std::to_string(left_) + " records left)";
 }
 
+bool record_from(ByteView record, ByteView source_field) {
+    if (record.size() < source_field.size() ||
+        std::memcmp(record.data(), source_field.data(), source_field.size()) != 0)
+        return false;
+    ByteView rest = record.subspan(source_field.size());
+    const auto seq = decode_varint(rest);
+    if (seq.status != VarintStatus::ok)
+        return false;
+    return decode_varint(rest.subspan(seq.used)).status == VarintStatus::ok;
+}
+
+bool batch_records_from(ByteView records, std::uint64_t count, ByteView source_field) {
+    for (std::uint64_t i = 0; i < count; ++i) {
+        const auto length = decode_varint(records);
+        if (length.status != VarintStatus::ok || length.value > records.size() - length.used)
+            return false;
+        const ByteView record = records.subspan(length.used, static_cast<std::size_t>(length.value));
+        if (!record_from(record, source_field))
+            return false;
+        records = records.subspan(length.used + record.size());
+    }
+    return records.empty();
+}
+
 void append_batch_record(Bytes& out, std::string_view source, std::uint64_t seq, std::uint64_t time_ns,
                          ByteView payload) {
     const std::size_t size = record_size(source, seq, time_ns, payload.size());

@@ -204,5 +204,38 @@ TEST(BatchFrame_test, RefusesARecordLengthPastTheEndAndBytesAfterTheLastRecord) 
     EXPECT_EQ(trailing.error(), "bad batch frame: 1 bytes after the last record");
 }
 
+TEST(BatchFrame_test, TheFastSourceCheckPassesGoodRecordsAndNothingElse) {
+    Bytes source_field;
+    append_string(source_field, "/cam");
+    Bytes good;
+    append_batch_record(good, "/cam", 1, 10, Bytes{1, 2});
+    append_batch_record(good, "/cam", 2, 20, {});
+    EXPECT_TRUE(batch_records_from(good, 2, source_field));
+    EXPECT_FALSE(batch_records_from(good, 3, source_field)) << "fewer records than the count";
+    EXPECT_FALSE(batch_records_from(good, 1, source_field)) << "bytes after the last record";
+    for (std::size_t cut = 0; cut < good.size(); ++cut)
+        EXPECT_FALSE(batch_records_from(ByteView(good).first(cut), 2, source_field)) << "cut at " << cut;
+
+    Bytes foreign;
+    append_batch_record(foreign, "/cam", 1, 10, {});
+    append_batch_record(foreign, "/cax", 2, 20, {});
+    EXPECT_FALSE(batch_records_from(foreign, 2, source_field));
+
+    Bytes record;
+    append_record(record, "/cam", 1, 10, Bytes{9});
+    EXPECT_TRUE(record_from(record, source_field));
+    Bytes longer_name;
+    append_record(longer_name, "/camera", 1, 10, {});
+    EXPECT_FALSE(record_from(longer_name, source_field));
+    // A padded seq varint is a valid varint for both checks.
+    Bytes padded = source_field;
+    padded.insert(padded.end(), {0x81, 0x80, 0x00, 0x05});
+    EXPECT_TRUE(decode_record(padded).ok());
+    EXPECT_TRUE(record_from(padded, source_field)) << "padding inside ten bytes is a valid varint";
+    Bytes broken = source_field;
+    broken.insert(broken.end(), {0x81});  // seq cut short, no time
+    EXPECT_FALSE(record_from(broken, source_field));
+}
+
 }  // namespace
 }  // namespace plexus::proto

@@ -93,6 +93,14 @@ private:
     std::string error_;
 };
 
+/// A fast check with no error text, for the daemon's per-record validation: true when `record`
+/// starts with `source_field` (the source as append_string writes it) followed by two valid
+/// varints. False says only "look closer": decode_record then tells what is wrong, if anything
+/// (a source length written as a padded varint, say, which decode_record accepts).
+bool record_from(ByteView record, ByteView source_field);
+/// The same for every record of a batch's records, which must hold exactly `count` of them.
+bool batch_records_from(ByteView records, std::uint64_t count, ByteView source_field);
+
 /// Appends a record to the records of a batch being built: varint length | record.
 void append_batch_record(Bytes& out, std::string_view source, std::uint64_t seq, std::uint64_t time_ns,
                          ByteView payload);
