@@ -9,7 +9,6 @@
 #include <sys/un.h>
 #include <unistd.h>
 
-#include <algorithm>
 #include <cerrno>
 #include <cstring>
 
@@ -27,9 +26,6 @@ constexpr std::size_t read_chunk = 256 * 1024;
 // A batch frame is closed at this size: small enough that a strict queue of the default capacity
 // takes several before it is full, large enough to cost the daemons little per message.
 constexpr std::size_t batch_limit = 16 * 1024;
-// A record at least this large is not copied out of the receive buffer: the buffer itself goes to
-// the reader (BufferPool).
-constexpr std::size_t lend_threshold = 64 * 1024;
 // Payloads at least this large are sent from where they are instead of being copied into out_.
 constexpr std::size_t gather_threshold = 64 * 1024;
 // The send buffer asked for once large payloads are written (the kernel caps it at
@@ -441,59 +437,13 @@ void Connection::receive(Clock::time_point deadline) {
     }
 }
 
-std::optional<proto::Bytes> BufferPool::take() {
-    std::lock_guard lock(mutex_);
-    if (spare_.empty())
-        return std::nullopt;
-    proto::Bytes buffer = std::move(spare_.back());
-    spare_.pop_back();
-    return buffer;
-}
-
-void BufferPool::give(proto::Bytes buffer) {
-    std::lock_guard lock(mutex_);
-    if (spare_.size() < max_spare)
-        spare_.push_back(std::move(buffer));
-}
-
-std::shared_ptr<const proto::Bytes> Connection::lend_receive_buffer() {
-    // The records stay where recv put them: the whole buffer goes to the readers, and comes back to
-    // the pool when the last of its records has been read. A spare (or a new buffer) takes its place,
-    // with the unread tail (the start of the next frame) copied over.
-    auto pool = lent_buffers_;
-    std::shared_ptr<const proto::Bytes> lent(new proto::Bytes(std::move(in_)),
-                                             [pool](const proto::Bytes* buffer) {
-                                                 pool->give(std::move(*const_cast<proto::Bytes*>(buffer)));
-                                                 delete buffer;
-                                             });
-    auto spare = pool->take();
-    in_ = spare ? std::move(*spare) : proto::Bytes(read_chunk);
-    const std::size_t tail = in_end_ - in_begin_;
-    if (in_.size() < std::max(tail, read_chunk))
-        in_.resize(std::max(tail, read_chunk));
-    if (tail > 0)
-        std::memcpy(in_.data(), lent->data() + in_begin_, tail);
-    in_begin_ = 0;
-    in_end_ = tail;
-    return lent;
-}
-
 void Connection::deliver_received() {
     if (received_.empty())
         return;
     const std::size_t first = received_.front().offset;
     const std::size_t last = received_.back().offset + received_.back().size;
-    const bool large = std::any_of(received_.begin(), received_.end(),
-                                   [](const ReceivedData& data) { return data.size >= lend_threshold; });
-    std::shared_ptr<const proto::Bytes> block;
-    std::size_t origin = 0;  // the offset in in_ of block->data()
-    if (large) {
-        block = lend_receive_buffer();
-    } else {
-        block = std::make_shared<const proto::Bytes>(in_.begin() + static_cast<std::ptrdiff_t>(first),
-                                                     in_.begin() + static_cast<std::ptrdiff_t>(last));
-        origin = first;
-    }
+    auto block = std::make_shared<const proto::Bytes>(in_.begin() + static_cast<std::ptrdiff_t>(first),
+                                                      in_.begin() + static_cast<std::ptrdiff_t>(last));
     std::lock_guard lock(state_mutex_);
     std::optional<std::uint64_t> run_handle;
     InboxSegment* run = nullptr;  // the segment of the current run of records for one handle
@@ -507,7 +457,7 @@ void Connection::deliver_received() {
                 run = &inbox_[data.handle].emplace_back(InboxSegment{block, {}});
         }
         if (run)
-            run->records.emplace_back(block->data() + (data.offset - origin), data.size);
+            run->records.emplace_back(block->data() + (data.offset - first), data.size);
     }
     received_.clear();
 }

@@ -13,7 +13,6 @@
 #include <set>
 #include <string>
 #include <thread>
-#include <vector>
 
 #include "plexus/client.hpp"
 #include "plexus/proto/control.hpp"
@@ -34,20 +33,6 @@ struct InboxSegment {
 struct Inbox {
     std::deque<InboxSegment> segments;
     std::size_t next = 0;  ///< the next record of the front segment
-};
-
-/// Receive buffers lent to readers with large records in them, given back when the last of those
-/// records is read: a stream of large messages reuses a few buffers instead of copying each
-/// message out of the receive buffer into fresh (page-faulting) memory.
-class BufferPool {
-public:
-    std::optional<proto::Bytes> take();
-    void give(proto::Bytes buffer);
-
-private:
-    static constexpr std::size_t max_spare = 2;
-    std::mutex mutex_;
-    std::vector<proto::Bytes> spare_;
 };
 
 /// The framed Unix-socket connection to the local daemon.
@@ -86,8 +71,6 @@ private:
     /// Moves the data frames found by one receive() into the inboxes: one copy of the bytes they
     /// span and one lock for all of them, not an allocation and a lock per message.
     void deliver_received();
-    /// Hands in_ (with the records in it) to the readers and takes a spare buffer in its place.
-    std::shared_ptr<const proto::Bytes> lend_receive_buffer();
     /// Sends all of out_, blocking until the socket takes it.
     void send_locked();
     /// Sends what the socket takes now without blocking; keeps the rest at the front of out_.
@@ -145,7 +128,6 @@ private:
         std::size_t size;
     };
     std::vector<ReceivedData> received_;  ///< data frames of the current receive(), in order
-    std::shared_ptr<BufferPool> lent_buffers_ = std::make_shared<BufferPool>();
 };
 
 }  // namespace plexus::detail
