@@ -86,17 +86,14 @@ std::optional<Received> Port::read(std::chrono::milliseconds timeout) {
             return std::nullopt;
         inbox.next = 0;
     }
-    // The segment (and the block its records live in) is let go once its last record is decoded.
-    const proto::ByteView record = inbox.segments.front().records[inbox.next++];
-    struct DropWhenDone {
-        detail::Inbox& inbox;
-        ~DropWhenDone() {
-            if (inbox.next == inbox.segments.front().records.size()) {
-                inbox.segments.pop_front();
-                inbox.next = 0;
-            }
-        }
-    } drop_when_done{inbox};
+    auto& segment = inbox.segments.front();
+    const proto::ByteView record = segment.records[inbox.next++];
+    std::shared_ptr<const proto::Bytes> block;  // keeps the last record of a segment alive past it
+    if (inbox.next == segment.records.size()) {
+        block = std::move(segment.block);
+        inbox.segments.pop_front();
+        inbox.next = 0;
+    }
     auto view = proto::decode_record(record);
     if (!view)
         throw Error(ErrorCode::refused, "bad message record: " + view.error().message);
