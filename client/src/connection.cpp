@@ -30,7 +30,7 @@ constexpr std::size_t batch_limit = 16 * 1024;
 constexpr std::size_t gather_threshold = 64 * 1024;
 // The send buffer asked for once large payloads are written (the kernel caps it at
 // net.core.wmem_max): a 1 MiB message then leaves in a few system calls instead of one per default
-// 208 KiB. Streams of small messages keep the default, so that less of them waits in the socket.
+// 208 KiB. Streams of small messages keep the default, so that fewer of them wait in the socket.
 constexpr int large_message_send_buffer = 4 * 1024 * 1024;
 // How long the backlog thread waits for room before it looks at its flags again.
 constexpr int backlog_poll_ms = 100;
