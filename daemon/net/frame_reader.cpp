@@ -13,6 +13,15 @@ constexpr std::size_t max_spare = 4;
 void FrameReader::make_room(std::size_t needed_total) {
     const std::size_t pending = end_ - begin_;
     const std::size_t want = std::max(needed_total, pending + 1);
+    if (last_frame_size_ >= large_frame && pending == 0 && chunk_ && chunk_.use_count() > 1) {
+        // In a stream of large frames, the next one starts in a chunk of its own, sized like the
+        // last: appended to the chunk a queued frame still holds, its start would have to be
+        // copied out again as soon as its length showed it does not fit.
+        retire_chunk();
+        chunk_ = take_chunk(std::max({chunk_size, want, last_frame_size_}));
+        begin_ = end_ = 0;
+        return;
+    }
     if (chunk_ && chunk_->size - begin_ >= want)
         return;
     if (chunk_ && chunk_.use_count() == 1 && chunk_->size >= want) {
@@ -25,14 +34,28 @@ void FrameReader::make_room(std::size_t needed_total) {
     auto fresh = take_chunk(std::max(chunk_size, want));
     if (pending > 0)
         std::memcpy(fresh->data(), chunk_->data() + begin_, pending);
-    if (chunk_) {
-        if (spare_.size() >= max_spare)
-            spare_.erase(spare_.begin());
-        spare_.push_back(std::move(chunk_));
-    }
+    retire_chunk();
     chunk_ = std::move(fresh);
     begin_ = 0;
     end_ = pending;
+}
+
+void FrameReader::retire_chunk() {
+    if (!chunk_)
+        return;
+    if (spare_.size() >= max_spare)
+        spare_.erase(spare_.begin());
+    spare_.push_back(std::move(chunk_));
+}
+
+std::size_t FrameReader::read_space(std::size_t needed_total) const {
+    std::size_t space = chunk_->size - end_;
+    if (needed_total >= large_frame) {
+        // A large frame is read up to its end and no further, so that the next frame does not
+        // start inside this chunk (see make_room).
+        space = std::min(space, begin_ + needed_total - end_);
+    }
+    return space;
 }
 
 std::shared_ptr<Chunk> FrameReader::take_chunk(std::size_t size) {
@@ -53,6 +76,7 @@ ReadOutcome FrameReader::try_next() {
     if (decoded.status == proto::DecodeStatus::frame) {
         InFrame frame{decoded.type, decoded.fields, chunk_};
         begin_ += decoded.used;
+        last_frame_size_ = decoded.used;
         return ReadOutcome{std::move(frame), false, false, {}};
     }
     if (decoded.status == proto::DecodeStatus::bad)
@@ -62,22 +86,25 @@ ReadOutcome FrameReader::try_next() {
 
 Task<ReadOutcome> FrameReader::next(Socket& socket) {
     for (;;) {
+        std::size_t needed = 1;
         if (chunk_) {
             auto decoded = decoder_.decode({chunk_->data() + begin_, end_ - begin_});
             if (decoded.status == proto::DecodeStatus::frame) {
                 InFrame frame{decoded.type, decoded.fields, chunk_};
                 begin_ += decoded.used;
+                last_frame_size_ = decoded.used;
                 co_return ReadOutcome{std::move(frame), false, false, {}};
             }
             if (decoded.status == proto::DecodeStatus::bad) {
                 co_return ReadOutcome{std::nullopt, false, true, decoded.error};
             }
-            make_room(decoded.needed);
+            needed = decoded.needed;
+            make_room(needed);
         } else {
             make_room(1);
         }
         auto [ec, n] = co_await socket.async_read_some(
-            asio::buffer(chunk_->data() + end_, chunk_->size - end_), use_nothrow);
+            asio::buffer(chunk_->data() + end_, read_space(needed)), use_nothrow);
         if (ec) {
             if (ec == asio::error::eof && begin_ == end_)
                 co_return ReadOutcome{std::nullopt, true, false, {}};

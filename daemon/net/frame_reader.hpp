@@ -42,8 +42,14 @@ public:
 
 private:
     void make_room(std::size_t needed_total);
+    /// Moves the current chunk to the spares (reused once nothing refers to it).
+    void retire_chunk();
+    /// How much the next socket read may bring into the current chunk.
+    std::size_t read_space(std::size_t needed_total) const;
     std::shared_ptr<Chunk> take_chunk(std::size_t size);
     static constexpr std::size_t chunk_size = 64 * 1024;
+    /// Frames at least this large are read to their end only, each into a chunk of its own.
+    static constexpr std::size_t large_frame = 64 * 1024;
     proto::FrameDecoder decoder_;
     std::shared_ptr<Chunk> chunk_;
     /// Chunks handed out earlier, reused once no message refers to them: a stream of large frames
@@ -51,6 +57,7 @@ private:
     std::vector<std::shared_ptr<Chunk>> spare_;
     std::size_t begin_ = 0;
     std::size_t end_ = 0;
+    std::size_t last_frame_size_ = 0;  ///< bytes of the last whole frame returned
 };
 
 }  // namespace plexus::daemon
