@@ -23,7 +23,10 @@ public:
     // NATS driver uses its flusher thread and the Redis driver pipelines; latency traffic flushes
     // every message.
     void publish(std::string_view payload) override {
-        port_.write(Value::binary(std::vector<std::uint8_t>(payload.begin(), payload.end())), !buffered_);
+        // Copied through pointers of one element type, i.e. with memcpy, as the other drivers copy
+        // (a char-to-uint8_t iterator copy is an element loop: it made 1 MiB messages look slow).
+        const auto* first = reinterpret_cast<const std::uint8_t*>(payload.data());
+        port_.write(Value::binary(std::vector<std::uint8_t>(first, first + payload.size())), !buffered_);
     }
     void sync() override { port_.flush(); }
 
@@ -43,7 +46,7 @@ public:
         if (!message)
             return false;
         const auto& bytes = message->data.get_binary();
-        payload.assign(bytes.begin(), bytes.end());
+        payload.assign(reinterpret_cast<const char*>(bytes.data()), bytes.size());
         return true;
     }
 
