@@ -87,6 +87,12 @@ std::optional<Received> Port::read(std::chrono::milliseconds timeout) {
         inbox.next = 0;
     }
     auto& segment = inbox.segments.front();
+    if (segment.whole) {
+        Received message = std::move(*segment.whole);
+        inbox.segments.pop_front();
+        inbox.next = 0;
+        return message;
+    }
     const proto::ByteView record = segment.records[inbox.next++];
     std::shared_ptr<const proto::Bytes> block;  // keeps the last record of a segment alive past it
     if (inbox.next == segment.records.size()) {

@@ -364,6 +364,10 @@ void Connection::receive(Clock::time_point deadline) {
         ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
         receive_timeout_ = left;
     }
+    if (large_) {
+        receive_large_payload();
+        return;
+    }
     if (in_begin_ == in_end_)
         in_begin_ = in_end_ = 0;
     if (in_.size() - in_end_ < read_chunk / 4) {
@@ -374,18 +378,10 @@ void Connection::receive(Clock::time_point deadline) {
         if (in_.size() - in_end_ < read_chunk / 4)
             in_.resize(in_.size() * 2);
     }
-    const ssize_t n = ::recv(fd_, in_.data() + in_end_, in_.size() - in_end_, 0);
-    if (n == 0) {
-        fail("the daemon closed the connection");
+    const std::size_t n = receive_into(in_.data() + in_end_, in_.size() - in_end_);
+    if (n == 0)
         return;
-    }
-    if (n < 0) {
-        // EAGAIN: the receive timeout passed; the caller re-checks its deadline.
-        if (errno != EINTR && errno != EAGAIN && errno != EWOULDBLOCK)
-            fail(std::strerror(errno));
-        return;
-    }
-    in_end_ += static_cast<std::size_t>(n);
+    in_end_ += n;
     static const proto::FrameDecoder decoder(proto::default_max_frame);
     received_.clear();
     for (;;) {
@@ -397,6 +393,8 @@ void Connection::receive(Clock::time_point deadline) {
         }
         if (decoded.status == proto::DecodeStatus::need_more) {
             deliver_received();  // before the tail moves: received_ holds offsets into in_
+            if (start_large_payload(decoded.needed))
+                return;
             if (decoded.needed > in_.size() - in_begin_) {
                 std::memmove(in_.data(), in_.data() + in_begin_, in_end_ - in_begin_);
                 in_end_ -= in_begin_;
@@ -437,6 +435,57 @@ void Connection::receive(Clock::time_point deadline) {
     }
 }
 
+std::size_t Connection::receive_into(std::uint8_t* at, std::size_t room) {
+    const ssize_t n = ::recv(fd_, at, room, 0);
+    if (n == 0) {
+        fail("the daemon closed the connection");
+        return 0;
+    }
+    if (n < 0) {
+        // EAGAIN: the receive timeout passed; the caller re-checks its deadline.
+        if (errno != EINTR && errno != EAGAIN && errno != EWOULDBLOCK)
+            fail(std::strerror(errno));
+        return 0;
+    }
+    return static_cast<std::size_t>(n);
+}
+
+bool Connection::start_large_payload(std::size_t frame_size) {
+    const proto::ByteView start(in_.data() + in_begin_, in_end_ - in_begin_);
+    auto frame = parse_large_payload_frame(start, frame_size);
+    if (!frame)
+        return false;
+    // Sized (and so zeroed) once: the kernel's copy then writes into pages already there.
+    large_.emplace(LargePayload{
+        frame->handle,
+        Received{std::move(frame->envelope), Value::binary(std::vector<std::uint8_t>(frame->payload_size))},
+        nullptr, frame->payload_size});
+    large_->at = large_->message.data.get_binary().data();
+    // The part of the payload already here (everything in in_ belongs to this frame: it is not whole).
+    const std::size_t here = start.size() - frame->payload_offset;
+    std::memcpy(large_->at, start.data() + frame->payload_offset, here);
+    large_->at += here;
+    large_->left -= here;
+    in_begin_ = in_end_ = 0;
+    if (large_->left == 0)
+        receive_large_payload();  // cannot happen (the frame was not whole), but stays correct
+    return true;
+}
+
+void Connection::receive_large_payload() {
+    if (large_->left > 0) {
+        const std::size_t n = receive_into(large_->at, large_->left);
+        large_->at += n;
+        large_->left -= n;
+        if (large_->left > 0)
+            return;
+    }
+    std::lock_guard lock(state_mutex_);
+    if (!closed_handles_.contains(large_->handle))
+        inbox_[large_->handle].push_back(InboxSegment{nullptr, {}, std::move(large_->message)});
+    large_.reset();
+}
+
 void Connection::deliver_received() {
     if (received_.empty())
         return;
@@ -454,7 +503,7 @@ void Connection::deliver_received() {
             run_handle = data.handle;
             run = nullptr;
             if (!closed_handles_.contains(data.handle))
-                run = &inbox_[data.handle].emplace_back(InboxSegment{block, {}});
+                run = &inbox_[data.handle].emplace_back(InboxSegment{block, {}, std::nullopt});
         }
         if (run)
             run->records.emplace_back(block->data() + (data.offset - first), data.size);

@@ -14,6 +14,7 @@
 #include <string>
 #include <thread>
 
+#include "large_payload.hpp"
 #include "plexus/client.hpp"
 #include "plexus/proto/control.hpp"
 #include "plexus/proto/frame.hpp"
@@ -23,10 +24,12 @@ namespace plexus::detail {
 using Clock = std::chrono::steady_clock;
 
 /// Records delivered to one handle by one socket read: views into a block they share, so that a
-/// record costs no allocation and no reference count of its own.
+/// record costs no allocation and no reference count of its own. Or one message received straight
+/// into its Value (a large byte-string payload): then `whole` is set and there are no records.
 struct InboxSegment {
     std::shared_ptr<const proto::Bytes> block;
     std::vector<proto::ByteView> records;
+    std::optional<Received> whole;
 };
 
 /// Records waiting to be read by one Port, taken from the connection a batch at a time.
@@ -66,6 +69,13 @@ private:
     bool wait_until(std::unique_lock<std::mutex>& lock, Ready ready, Clock::time_point deadline);
     /// Reads what the socket has (waiting at most until `deadline`) and dispatches whole frames.
     void receive(Clock::time_point deadline);
+    /// Starts receiving the frame that begins at in_begin_ (of `frame_size` bytes, not all here)
+    /// straight into its message, when it is a large byte-string payload; false otherwise.
+    bool start_large_payload(std::size_t frame_size);
+    /// One recv of the rest of that payload; delivers the message once it is whole.
+    void receive_large_payload();
+    /// recv() with the errors handled; 0 when nothing came (timeout or the connection failed).
+    std::size_t receive_into(std::uint8_t* at, std::size_t room);
     /// Handles a frame that is not data (replies, errors).
     void dispatch(proto::FrameType type, proto::ByteView fields);
     /// Moves the data frames found by one receive() into the inboxes: one copy of the bytes they
@@ -128,6 +138,13 @@ private:
         std::size_t size;
     };
     std::vector<ReceivedData> received_;  ///< data frames of the current receive(), in order
+    struct LargePayload {
+        std::uint64_t handle = 0;
+        Received message;            ///< its data: the byte string, sized, being filled
+        std::uint8_t* at = nullptr;  ///< the next byte to fill
+        std::size_t left = 0;
+    };
+    std::optional<LargePayload> large_;  ///< a large payload being received straight into its message
 };
 
 }  // namespace plexus::detail

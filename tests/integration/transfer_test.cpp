@@ -128,8 +128,9 @@ TEST(Transfer_test, OneMebibyteBlobFromTheLibraryArrivesByteForByte) {
 }
 
 TEST(Transfer_test, AStreamMixingLargeAndSmallMessagesArrivesWholeAndInOrder) {
-    // Large records are read in place and their receive buffer lent to the reader; the small ones
-    // around them (and the start of the next frame, already received) must survive the swap.
+    // The large ones are received straight into their messages (client/src/large_payload.hpp),
+    // the small ones through the receive buffer: the start of a large frame arrives in that
+    // buffer after small frames, and small frames follow it in the same socket reads.
     TempDir dir;
     Daemon daemon(dir, "solo");
     Client receiving({daemon.socket()});
@@ -152,6 +153,7 @@ TEST(Transfer_test, AStreamMixingLargeAndSmallMessagesArrivesWholeAndInOrder) {
         auto message = sink.read(30s);
         ASSERT_TRUE(message.has_value()) << "message " << i;
         EXPECT_EQ(message->envelope.seq, i + 1);
+        EXPECT_EQ(message->envelope.source, "/mix/source");
         ASSERT_TRUE(message->data.is_binary());
         const std::vector<std::uint8_t>& received = message->data.get_binary();
         EXPECT_TRUE(received == sent[i]) << "message " << i << " differs";

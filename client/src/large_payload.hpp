@@ -1,0 +1,34 @@
+#pragma once
+// Threading: pure functions.
+//
+// A data frame whose payload is one large byte string (an image, a point cloud) can be received
+// straight into the buffer of the Value the reader gets: recognised from its first bytes, the
+// rest of it never passes through the connection's receive buffer. This saves two copies of the
+// payload per message (into the shared block of records, then into the Value).
+
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+
+#include "plexus/client.hpp"
+#include "plexus/proto/bytes.hpp"
+
+namespace plexus::detail {
+
+/// Frames at least this large are worth receiving straight into their message.
+inline constexpr std::size_t large_payload_frame = 64 * 1024;
+
+struct LargePayloadFrame {
+    std::uint64_t handle = 0;
+    Envelope envelope;
+    std::size_t payload_offset = 0;  ///< of the byte string's content, from the frame's first byte
+    std::size_t payload_size = 0;    ///< the content runs to the end of the frame
+};
+
+/// Recognises a data frame of `frame_size` bytes (at least large_payload_frame) that carries one
+/// CBOR byte string without a tag, from `start`, the frame's first bytes. Anything else, or a
+/// start too short to tell, gives nullopt: such frames take the ordinary path, which also judges
+/// malformed ones.
+std::optional<LargePayloadFrame> parse_large_payload_frame(proto::ByteView start, std::size_t frame_size);
+
+}  // namespace plexus::detail
