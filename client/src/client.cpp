@@ -68,8 +68,17 @@ void Port::write(const Value& value, bool flush) {
         throw Error(ErrorCode::usage, "port " + name_ + " is closed");
     thread_local proto::Bytes payload;
     payload.clear();
+    if (value.is_binary() && !value.get_binary().has_subtype() &&
+        value.get_binary().size() >= detail::large_payload_frame) {
+        // A large blob (an image, a point cloud) leaves from the Value itself: only its CBOR head
+        // is written here, and no copy of it is made on the way to the socket.
+        const auto& bytes = value.get_binary();
+        proto::append_byte_string_head(payload, bytes.size());
+        connection_->write(handle_, name_, next_seq_++, payload, {bytes.data(), bytes.size()}, flush);
+        return;
+    }
     proto::encode_cbor(value, payload);
-    connection_->write(handle_, name_, next_seq_++, payload, flush);
+    connection_->write(handle_, name_, next_seq_++, payload, {}, flush);
 }
 
 void Port::flush() {

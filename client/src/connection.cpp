@@ -187,13 +187,20 @@ void Connection::send_with_payload_locked(proto::ByteView payload) {
 }
 
 void Connection::write(std::uint64_t handle, const std::string& source, std::uint64_t seq,
-                       const proto::Bytes& payload, bool flush) {
+                       proto::ByteView payload, proto::ByteView tail, bool flush) {
+    if (!tail.empty() && payload.size() + tail.size() < gather_threshold) {
+        // Not the large payload a tail is for: one piece, as any other.
+        proto::Bytes whole(payload.begin(), payload.end());
+        whole.insert(whole.end(), tail.begin(), tail.end());
+        return write(handle, source, seq, whole, {}, flush);
+    }
     throw_if_broken();
     const auto now = std::chrono::system_clock::now().time_since_epoch();
     const auto time_ns =
         static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(now).count());
+    const std::size_t payload_size = payload.size() + tail.size();
     std::lock_guard lock(send_mutex_);
-    if (!flush && payload.size() < gather_threshold) {
+    if (!flush && payload_size < gather_threshold) {
         if (batch_count_ > 0 && batch_handle_ != handle)
             close_batch_locked();
         proto::append_batch_record(batch_, source, seq, time_ns, payload);
@@ -206,11 +213,16 @@ void Connection::write(std::uint64_t handle, const std::string& source, std::uin
         return;
     }
     close_batch_locked();  // what was buffered goes first
-    proto::append_data_frame_prefix(out_, handle, proto::record_size(source, seq, time_ns, payload.size()));
-    if (payload.size() >= gather_threshold) {
+    proto::append_data_frame_prefix(out_, handle, proto::record_size(source, seq, time_ns, payload_size));
+    if (payload_size >= gather_threshold) {
         enlarge_send_buffer_locked();
         proto::append_record(out_, source, seq, time_ns, {});  // the record's head; the payload ends it
-        send_with_payload_locked(payload);
+        if (tail.empty()) {
+            send_with_payload_locked(payload);
+        } else {
+            out_.insert(out_.end(), payload.begin(), payload.end());
+            send_with_payload_locked(tail);
+        }
         return;
     }
     proto::append_record(out_, source, seq, time_ns, payload);

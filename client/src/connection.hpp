@@ -54,8 +54,10 @@ public:
     /// Sends a control request and waits for its reply; throws Error on timeout or a broken link.
     proto::Reply request(nlohmann::json body, std::chrono::milliseconds timeout);
     /// Queues a data frame for `handle` holding a record; sends when `flush` or the buffer is large.
-    void write(std::uint64_t handle, const std::string& source, std::uint64_t seq,
-               const proto::Bytes& payload, bool flush);
+    /// The payload is `payload` followed by `tail`: a large byte string is passed as its CBOR head
+    /// and its bytes, and sent from where they are (a tail only comes with a large payload).
+    void write(std::uint64_t handle, const std::string& source, std::uint64_t seq, proto::ByteView payload,
+               proto::ByteView tail, bool flush);
     void flush();
     /// The next record delivered to `handle`, waiting until `deadline`.
     /// Moves every record delivered to `handle` so far into `into` (which must be empty), waiting

@@ -541,6 +541,10 @@ void append_head(Bytes& out, std::uint8_t major, std::uint64_t length) {
 
 }  // namespace
 
+void append_byte_string_head(Bytes& out, std::size_t size) {
+    append_head(out, 2, size);
+}
+
 void encode_cbor(const json& value, Bytes& out) {
     if (value.is_binary() && !value.get_binary().has_subtype()) {
         const auto& bytes = value.get_binary();

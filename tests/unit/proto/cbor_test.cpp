@@ -547,5 +547,16 @@ TEST(CborEncode_test, WritesExactlyWhatToCborWrites) {
     }
 }
 
+TEST(CborEncode_test, AByteStringHeadFollowedByTheBytesIsWhatToCborWrites) {
+    // How libplexus sends a large blob: the head, then the bytes from where they are.
+    for (std::size_t size : {0u, 23u, 24u, 255u, 256u, 65535u, 65536u, 1u << 20}) {
+        const std::vector<std::uint8_t> bytes(size, 0x3c);
+        Bytes ours;
+        append_byte_string_head(ours, size);
+        ours.insert(ours.end(), bytes.begin(), bytes.end());
+        EXPECT_EQ(ours, nlohmann::json::to_cbor(nlohmann::json::binary(bytes))) << size;
+    }
+}
+
 }  // namespace
 }  // namespace plexus::proto

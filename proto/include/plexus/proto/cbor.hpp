@@ -32,4 +32,8 @@ Result<nlohmann::json> decode_cbor_fast(ByteView bytes, std::size_t max_depth = 
 /// values go through to_cbor.
 void encode_cbor(const nlohmann::json& value, Bytes& out);
 
+/// Appends the head of a CBOR byte string of `size` bytes (what encode_cbor writes before the
+/// bytes of a binary value without a subtype): a writer can then send the bytes from where they are.
+void append_byte_string_head(Bytes& out, std::size_t size);
+
 }  // namespace plexus::proto
