@@ -14,6 +14,9 @@ namespace {
 /// of the deadline, large enough that the look costs nothing measurable.
 constexpr int instructions_per_check = 1000;
 
+/// Where the traceback message handler lives on the state's stack, from its creation on.
+constexpr int traceback_index = 1;
+
 int traceback(lua_State* L) {
     const char* message = lua_tostring(L, 1);
     if (!message)
@@ -41,6 +44,9 @@ LuaSandbox::LuaSandbox(SandboxLimits limits, std::function<void(std::string_view
     // Each message leaves a little garbage (its decoded payload) that dies young: the generational
     // collector handles exactly that pattern more cheaply than the incremental one.
     lua_gc(L_, LUA_GCGEN, 0, 0);
+    // The message handler of every protected call stays at the bottom of the stack, so that a
+    // call per message does not push and remove it.
+    lua_pushcfunction(L_, traceback);
     if (auto error = run([this](lua_State*) { open_safe_libraries(); })) {
         lua_close(L_);
         L_ = nullptr;
@@ -223,11 +229,10 @@ std::optional<ScriptError> LuaSandbox::run(const std::function<void(lua_State*)>
     if (!L_)
         return ScriptError{"the script's Lua state is closed", false, false};
     const int base = lua_gettop(L_);
-    lua_pushcfunction(L_, traceback);
     lua_pushcfunction(L_, &LuaSandbox::trampoline);
     lua_pushlightuserdata(L_, const_cast<void*>(static_cast<const void*>(&body)));
     arm_budget();
-    const int status = lua_pcall(L_, 1, 0, base + 1);
+    const int status = lua_pcall(L_, 1, 0, traceback_index);
     auto error = error_from_stack(status);
     lua_settop(L_, base);
     return error;
@@ -247,15 +252,11 @@ std::optional<ScriptError> LuaSandbox::error_from_stack(int status) {
 
 std::optional<ScriptError> LuaSandbox::call(int arguments, int results) {
     const int function = lua_gettop(L_) - arguments;
-    lua_pushcfunction(L_, traceback);
-    lua_insert(L_, function);
     arm_budget();
-    const int status = lua_pcall(L_, arguments, results, function);
+    const int status = lua_pcall(L_, arguments, results, traceback_index);
     auto error = error_from_stack(status);
     if (error)
         lua_settop(L_, function - 1);
-    else
-        lua_remove(L_, function);  // the traceback handler, below the results
     return error;
 }
 

@@ -396,10 +396,13 @@ Monitor::Verdict Monitor::process(Message& message) {
     std::optional<nlohmann::json> replacement;
     lua_State* L = sandbox_->state();
     message_box_->view = &view;
-    lua_rawgeti(L, LUA_REGISTRYINDEX, message_ref_);
-    lua_pushnil(L);
-    lua_setiuservalue(L, -2, 1);  // forget the previous message's data
-    lua_pop(L, 1);
+    if (data_kept_) {
+        lua_rawgeti(L, LUA_REGISTRYINDEX, message_ref_);
+        lua_pushnil(L);
+        lua_setiuservalue(L, -2, 1);  // forget the previous message's data
+        lua_pop(L, 1);
+        data_kept_ = false;
+    }
 
     std::optional<ScriptError> error;
     if (has_accept_)
@@ -432,6 +435,7 @@ Monitor::Verdict Monitor::process(Message& message) {
     }
     // The userdata outlives the call (the registry holds it): detach it from this stack frame.
     message_box_->view = nullptr;
+    data_kept_ = view.touched || view.assigned;
     if (error) {
         failed(in_accept ? "accept" : "update", *error);
         const Verdict verdict = verdict_on_failure(in_accept);

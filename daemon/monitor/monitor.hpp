@@ -134,6 +134,7 @@ private:
     std::unique_ptr<LuaSandbox> sandbox_;
     int message_ref_ = LUA_NOREF;        ///< the one `msg` userdata, reused for every message
     MessageBox* message_box_ = nullptr;  ///< its memory: Lua never moves a userdata
+    bool data_kept_ = false;             ///< its user value still holds the last message's data
     int api_name_ref_ = LUA_NOREF;       ///< "PortMonitor", kept alive so pushing it never allocates
     int accept_name_ref_ = LUA_NOREF;    ///< "accept", likewise
     bool has_accept_ = false;
