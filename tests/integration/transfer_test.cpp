@@ -127,6 +127,34 @@ TEST(Transfer_test, OneMebibyteBlobFromTheLibraryArrivesByteForByte) {
     EXPECT_TRUE(received == blob);
 }
 
+TEST(Transfer_test, MessagesLargerThanTheQueueByteBoundStillPassAStrictQueue) {
+    // A reader queue holds at most 8 MiB by default: a message larger than that must not wedge it.
+    TempDir dir;
+    Daemon first(dir, "first");
+    Daemon second(dir, "second", first.names());
+    Client receiving({second.socket()});
+    auto sink = receiving.open("/huge/sink");
+    Client sending({first.socket()});
+    auto source = sending.open("/huge/source");
+    ASSERT_EQ(sending.connect("/huge/source", "/huge/sink"), "tcp");
+    std::vector<std::uint8_t> blob(12u << 20);
+    std::mt19937 random(3);
+    for (auto& byte : blob)
+        byte = static_cast<std::uint8_t>(random());
+    for (int i = 0; i < 3; ++i) {
+        blob[0] = static_cast<std::uint8_t>(i);
+        source.write(Value::binary(blob));
+    }
+    for (int i = 0; i < 3; ++i) {
+        auto message = sink.read(60s);
+        ASSERT_TRUE(message.has_value()) << "message " << i;
+        ASSERT_TRUE(message->data.is_binary());
+        blob[0] = static_cast<std::uint8_t>(i);
+        const std::vector<std::uint8_t>& received = message->data.get_binary();
+        EXPECT_TRUE(received == blob) << "message " << i << " differs";
+    }
+}
+
 TEST(Transfer_test, AStreamMixingLargeAndSmallMessagesArrivesWholeAndInOrder) {
     // The large ones are received straight into their messages (client/src/large_payload.hpp),
     // the small ones through the receive buffer: the start of a large frame arrives in that
