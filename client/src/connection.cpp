@@ -479,8 +479,6 @@ bool Connection::start_large_payload(std::size_t frame_size) {
     large_->at += here;
     large_->left -= here;
     in_begin_ = in_end_ = 0;
-    if (large_->left == 0)
-        receive_large_payload();  // cannot happen (the frame was not whole), but stays correct
     return true;
 }
 
