@@ -231,8 +231,7 @@ std::optional<ScriptError> LuaSandbox::run(const std::function<void(lua_State*)>
     const int base = lua_gettop(L_);
     lua_pushcfunction(L_, &LuaSandbox::trampoline);
     lua_pushlightuserdata(L_, const_cast<void*>(static_cast<const void*>(&body)));
-    arm_budget();
-    const int status = lua_pcall(L_, 1, 0, traceback_index);
+    const int status = protected_call(1, 0);
     auto error = error_from_stack(status);
     lua_settop(L_, base);
     return error;
@@ -250,10 +249,29 @@ std::optional<ScriptError> LuaSandbox::error_from_stack(int status) {
     return error;
 }
 
+int LuaSandbox::protected_call(int arguments, int results) {
+    arm_budget();
+    if (depth_ == 0) {
+        ++depth_;
+        const int status = lua_pcall(L_, arguments, results, traceback_index);
+        --depth_;
+        return status;
+    }
+    // Inside another call (from a C function the script called), index 1 is that function's first
+    // argument: the handler goes below the function instead, and is taken away after.
+    const int function = lua_gettop(L_) - arguments;
+    lua_pushcfunction(L_, traceback);
+    lua_insert(L_, function);
+    ++depth_;
+    const int status = lua_pcall(L_, arguments, results, function);
+    --depth_;
+    lua_remove(L_, function);
+    return status;
+}
+
 std::optional<ScriptError> LuaSandbox::call(int arguments, int results) {
     const int function = lua_gettop(L_) - arguments;
-    arm_budget();
-    const int status = lua_pcall(L_, arguments, results, traceback_index);
+    const int status = protected_call(arguments, results);
     auto error = error_from_stack(status);
     if (error)
         lua_settop(L_, function - 1);

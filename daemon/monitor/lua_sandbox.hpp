@@ -65,6 +65,8 @@ private:
     static int print_to_log(lua_State* L);
     static LuaSandbox& of(lua_State* L);
 
+    /// lua_pcall of the function below `arguments` values, with the traceback handler and the budget.
+    int protected_call(int arguments, int results);
     void open_safe_libraries();
     void arm_budget();
     std::optional<ScriptError> error_from_stack(int status);
@@ -79,6 +81,7 @@ private:
     bool deadline_set_ = false;
     bool aborting_ = false;        ///< the budget is spent: every instruction raises until the call unwinds
     bool hook_tightened_ = false;  ///< the hook fires on every instruction since the last abort
+    int depth_ = 0;  ///< protected calls in progress: nested ones cannot use the handler at index 1
     lua_State* L_ = nullptr;
 };
 

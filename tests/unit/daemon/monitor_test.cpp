@@ -372,3 +372,39 @@ TEST_F(Monitor_test, AScriptThatReplacesPortMonitorKeepsTheApi) {
 
 }  // namespace
 }  // namespace plexus::daemon::monitor
+
+namespace plexus::daemon::monitor {
+namespace {
+
+/// A host whose publish calls back into the publishing monitor, as a call nested in the script's.
+class ReenteringHost : public FakeHost {
+public:
+    proto::Status publish(Monitor& monitor, const std::string& port, const json& value) override {
+        auto nested = monitor.getparam();
+        nested_result = nested.ok() ? nested->dump() : nested.error().message;
+        return FakeHost::publish(monitor, port, value);
+    }
+    std::string nested_result;
+};
+
+TEST(MonitorNesting_test, ACallNestedInTheScriptsOwnCallReportsItsErrorWithATraceback) {
+    // The handler of the outer calls sits at the bottom of the Lua stack; a nested call must not
+    // take index 1 of its C frame (publish's first argument) for it.
+    ReenteringHost host;
+    auto created = Monitor::create(spec_for(R"(
+        PortMonitor.getparam = function() error("no parameters while publishing") end
+        PortMonitor.accept = function(msg) PortMonitor.publish("/a/event", 1) return true end)"),
+                                   test_policy(), host);
+    ASSERT_TRUE(created.ok()) << created.error().message;
+    auto message = make_message(json{{"c", 1}});
+    EXPECT_EQ((*created)->process(message), Monitor::Verdict::pass);
+    EXPECT_NE(host.nested_result.find("no parameters while publishing"), std::string::npos)
+        << host.nested_result;
+    EXPECT_NE(host.nested_result.find("stack traceback"), std::string::npos) << host.nested_result;
+    // And the outer call still works afterwards.
+    EXPECT_EQ((*created)->process(message), Monitor::Verdict::pass);
+    ASSERT_EQ(host.published.size(), 2u);
+}
+
+}  // namespace
+}  // namespace plexus::daemon::monitor
