@@ -56,6 +56,9 @@ int main(int argc, char** argv) {
         "monitor",
         "throughput and daemon CPU without a monitor, with a one-field accept, with a rewriting update");
     add_common(monitor);
+    monitor->add_flag("--empty-accept", options.empty_accept,
+                      "also run `accept_empty`: an accept that returns true without touching msg, "
+                      "the cost of calling a script at all");
     monitor->callback([&] { status = run_monitor(options); });
 
     auto* arbitration = app.add_subcommand("arbitration",

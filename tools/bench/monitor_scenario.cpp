@@ -19,6 +19,10 @@ constexpr const char* accept_script = R"(-- reads one field of each message
 PortMonitor.accept = function(msg) return msg.data.c > 0.5 end
 )";
 
+constexpr const char* empty_script = R"(-- the least a monitor can do: called, touches nothing
+PortMonitor.accept = function(msg) return true end
+)";
+
 constexpr const char* update_script = R"(-- rewrites the payload: one field changed, one added
 PortMonitor.update = function(msg)
     local d = msg.data
@@ -46,13 +50,16 @@ int run_monitor(const Options& options) {
     TempDir dir;
     std::ofstream(dir.file("accept_one_field.lua")) << accept_script;
     std::ofstream(dir.file("update_rewrite.lua")) << update_script;
+    std::ofstream(dir.file("accept_empty.lua")) << empty_script;
     const auto topology = Topology::plexus(dir, options.plexusd, 1, {"--scripts", dir.path()});
 
-    const std::vector<std::pair<std::string, std::string>> variants{
+    std::vector<std::pair<std::string, std::string>> variants{
         {"none", "local"},
         {"accept_one_field", "local+recv.portmonitor+type.lua+file.accept_one_field"},
         {"update_rewrite", "local+recv.portmonitor+type.lua+file.update_rewrite"},
     };
+    if (options.empty_accept)
+        variants.emplace_back("accept_empty", "local+recv.portmonitor+type.lua+file.accept_empty");
     std::vector<std::unique_ptr<Measurement>> measurements;
     for (const auto& [name, carrier] : variants) {
         measurements.push_back(

@@ -8,14 +8,15 @@
 namespace plexus::bench {
 
 struct Options {
-    std::size_t size = 64;     ///< payload bytes per message
-    int hops = 1;              ///< 1: one daemon (relay); 2: two, linked by tcp
-    std::size_t count = 0;     ///< messages (throughput) or round trips (latency) per run; 0: by size
-    int repeat = 5;            ///< runs per system; the median of each figure is reported
-    bool json = false;         ///< one JSON object per line instead of a table
-    std::size_t capacity = 0;  ///< reader queue length asked of plexusd; 0: the daemon's default
-    std::string plexusd;       ///< path of the daemon binary
-    std::size_t ports = 1000;  ///< memory: ports to open
+    std::size_t size = 64;      ///< payload bytes per message
+    int hops = 1;               ///< 1: one daemon (relay); 2: two, linked by tcp
+    std::size_t count = 0;      ///< messages (throughput) or round trips (latency) per run; 0: by size
+    int repeat = 5;             ///< runs per system; the median of each figure is reported
+    bool json = false;          ///< one JSON object per line instead of a table
+    std::size_t capacity = 0;   ///< reader queue length asked of plexusd; 0: the daemon's default
+    std::string plexusd;        ///< path of the daemon binary
+    std::size_t ports = 1000;   ///< memory: ports to open
+    bool empty_accept = false;  ///< monitor: also run an accept that returns true without reading msg
 };
 
 /// Round trips per latency run when --count is not given: about 32 MiB each way, 100 to 10,000.
