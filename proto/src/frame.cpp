@@ -59,6 +59,11 @@ FrameDecode FrameDecoder::decode(ByteView input) const {
     if (!after_header.empty() && !is_known_type(after_header[0])) {
         return bad("unknown frame type " + std::to_string(after_header[0]));
     }
+    if (!after_header.empty() && after_header[0] == static_cast<std::uint8_t>(FrameType::request) &&
+        length > max_request_frame) {
+        return bad("request frame length " + std::to_string(length) + " exceeds limit " +
+                   std::to_string(max_request_frame));
+    }
     if (after_header.size() < body_size) {
         return need_more(header.used + body_size);
     }

@@ -118,10 +118,10 @@ Bytes role_and_node(const std::string& role) {
 }
 
 /// A frame header declaring `length` body bytes, followed by the type byte of a request.
-Bytes lying_header(std::uint64_t length) {
+Bytes lying_header(std::uint64_t length, FrameType type = FrameType::request) {
     Bytes out;
     proto::append_varint(out, length);
-    out.push_back(static_cast<std::uint8_t>(FrameType::request));
+    out.push_back(static_cast<std::uint8_t>(type));
     return out;
 }
 
@@ -524,6 +524,22 @@ TEST(Hostile_test, LengthsOverTheLimitAreRefusedAtOnceOnEveryStreamListener) {
     expect_everyone_still_served(daemon);
 }
 
+TEST(Hostile_test, ARequestOverOneMebibyteIsRefusedAtItsHeaderWhileDataMayBeLarger) {
+    // A request body decodes to up to 16 times its size: 1 MiB is the limit, judged from the header.
+    TempDir dir;
+    Daemon daemon(dir, "solo");
+    const long rss_before = daemon.rss_kib();
+    ASSERT_GT(rss_before, 0);
+    for (auto listener : {Listener::daemon_tcp, Listener::daemon_unix}) {
+        SCOPED_TRACE(listener_name(listener));
+        const std::uint64_t length = proto::max_request_frame + 1;
+        expect_error_then_close(daemon, listener, concat(hello_frame("client"), lying_header(length)),
+                                {"request frame length", "exceeds limit 1048576"});
+    }
+    EXPECT_LT(daemon.rss_kib() - rss_before, max_rss_growth_kib);
+    expect_everyone_still_served(daemon);
+}
+
 TEST(Hostile_test, LengthsOverTheLimitGetAnErrorDatagramFromTheNameServerUdpPort) {
     TempDir dir;
     Daemon daemon(dir, "solo");
@@ -561,12 +577,13 @@ TEST(Hostile_test, LengthsJustUnderTheLimitDoNotCostTheirSizeInMemoryWhileNoBody
     ASSERT_GT(rss_before, 0);
     std::vector<Stream> open_streams;
 
-    // Four sessions each promise a 64 MiB request (allowed) and send only its first bytes.
+    // Four sessions each promise a 64 MiB data frame (allowed) and send only its first bytes.
     for (auto listener :
          {Listener::daemon_tcp, Listener::daemon_unix, Listener::daemon_tcp, Listener::daemon_unix}) {
         auto stream = Stream::open(daemon, listener);
-        ASSERT_TRUE(stream.send(
-            concat(hello_frame("client"), concat(lying_header(proto::default_max_frame), {0, 1, 2}))));
+        ASSERT_TRUE(
+            stream.send(concat(hello_frame("client"),
+                               concat(lying_header(proto::default_max_frame, FrameType::data), {0, 1, 2}))));
         open_streams.push_back(std::move(stream));
     }
     ASSERT_TRUE(still_answers(daemon, Listener::daemon_unix));  // the daemon has read what they sent

@@ -25,6 +25,10 @@ enum class FrameType : std::uint8_t {
 /// Default largest body accepted: 64 MiB, enough for large blobs, far below what a lie could ask for.
 inline constexpr std::size_t default_max_frame = 64u * 1024u * 1024u;
 
+/// Largest request body accepted, whatever the frame limit: requests carry parameters, never data,
+/// and a decoded CBOR body costs up to 16 times its size (a 64 MiB array of zeros is 1 GiB of json).
+inline constexpr std::size_t max_request_frame = 1024u * 1024u;
+
 enum class DecodeStatus { frame, need_more, bad };
 
 struct FrameDecode {
@@ -37,7 +41,8 @@ struct FrameDecode {
 };
 
 /// Decodes one frame from the start of a contiguous buffer; keeps no state between calls.
-/// `bad` for a length of 0 or over max_body, a broken length varint, or an unknown frame type.
+/// `bad` for a length of 0 or over max_body (over max_request_frame for a request), a broken length
+/// varint, or an unknown frame type.
 class FrameDecoder {
 public:
     explicit FrameDecoder(std::size_t max_body = default_max_frame) : max_body_(max_body) {}
