@@ -174,6 +174,7 @@ Task<void> Daemon::accept_tcp() {
             if (stopping_ || ec == asio::error::operation_aborted)
                 co_return;
             spdlog::warn("accept on {} failed: {}", address(), ec.message());
+            co_await back_off_after_accept_error();
             continue;
         }
         socket.set_option(asio::ip::tcp::no_delay(true), ec);
@@ -193,10 +194,20 @@ Task<void> Daemon::accept_unix() {
             if (stopping_ || ec == asio::error::operation_aborted)
                 co_return;
             spdlog::warn("accept on {} failed: {}", config_.socket_path, ec.message());
+            co_await back_off_after_accept_error();
             continue;
         }
         start_session(Socket(std::move(socket)), "local session");
     }
+}
+
+Task<void> Daemon::back_off_after_accept_error() {
+    // Out of file descriptors (or memory) the failure repeats at once: retrying without a pause
+    // would spin the daemon's only thread and flood the log while sessions wait to close.
+    ++counters_.accept_errors;
+    constexpr auto pause_length = std::chrono::milliseconds(100);
+    asio::steady_timer pause(io_, pause_length);
+    co_await pause.async_wait(use_nothrow);
 }
 
 void Daemon::start_session(Socket socket, const std::string& description) {

@@ -41,6 +41,7 @@ struct DaemonConfig {
 /// Daemon-wide counters that `plexus stats` shows.
 struct DaemonCounters {
     std::uint64_t sessions_accepted = 0;
+    std::uint64_t accept_errors = 0;         ///< failed accepts (e.g. out of file descriptors)
     std::uint64_t protocol_errors = 0;       ///< peers cut off for breaking the protocol
     std::uint64_t dropped_unknown_port = 0;  ///< data frames for a handle that is not open
     std::uint64_t dropped_link_down = 0;     ///< messages queued to another daemon when the link died
@@ -77,6 +78,8 @@ private:
     proto::Status bind();
     Task<void> accept_tcp();
     Task<void> accept_unix();
+    /// Pauses the accept loop after a failed accept.
+    Task<void> back_off_after_accept_error();
     Task<void> shutdown();
     Task<void> announce_ready();
     void start_session(Socket socket, const std::string& description);

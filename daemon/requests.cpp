@@ -428,6 +428,7 @@ nlohmann::json Daemon::stats_json(const std::string& only_port) const {
             {"daemon",
              {{"sessions", sessions_.size()},
               {"sessions_accepted", counters_.sessions_accepted},
+              {"accept_errors", counters_.accept_errors},
               {"protocol_errors", counters_.protocol_errors},
               {"dropped_unknown_port", counters_.dropped_unknown_port},
               {"dropped_link_down", counters_.dropped_link_down},

@@ -52,6 +52,7 @@ void Outbox::fill(Batch& batch, std::size_t budget) {
     };
     while (!control_.empty() && batch.bytes < budget && pieces.size() < max_buffers) {
         batch.bytes += control_.front().size();
+        control_bytes_ -= control_.front().size();
         pieces.push_back({Piece::control, batch.control.size(), control_.front().size()});
         batch.control.push_back(std::move(control_.front()));
         control_.pop_front();

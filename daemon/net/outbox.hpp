@@ -43,7 +43,12 @@ public:
     /// `on_space` runs when a strict queue drops below capacity (wakes writers held back).
     explicit Outbox(std::function<void()> on_space) : on_space_(std::move(on_space)) {}
 
-    void push_control(proto::Bytes frame) { control_.push_back(std::move(frame)); }
+    void push_control(proto::Bytes frame) {
+        control_bytes_ += frame.size();
+        control_.push_back(std::move(frame));
+    }
+    /// Bytes of control frames (replies, errors) not yet handed to the socket.
+    std::size_t control_bytes() const { return control_bytes_; }
     void add_source(OutSource source) { sources_.push_back(std::move(source)); }
     void remove_source(std::uint64_t handle);
     bool empty() const;
@@ -54,6 +59,7 @@ public:
 private:
     std::function<void()> on_space_;
     std::deque<proto::Bytes> control_;
+    std::size_t control_bytes_ = 0;
     std::vector<OutSource> sources_;
     std::size_t next_source_ = 0;
 };

@@ -9,10 +9,18 @@
 
 namespace plexus::daemon {
 
+namespace {
+/// Requests one session may have in progress at once (see Session::requests_in_flight_).
+constexpr std::size_t max_requests_in_flight = 64;
+/// Reply bytes the peer has not taken yet beyond which no further request is read.
+constexpr std::size_t max_unread_replies = 4u * 1024u * 1024u;
+}  // namespace
+
 Session::Session(Socket socket, Daemon& daemon, std::uint64_t id)
     : FramedConnection(std::move(socket), daemon.config().max_frame, [&daemon] { daemon.notify_space(); }),
       daemon_(daemon),
-      id_(id) {}
+      id_(id),
+      request_done_(executor()) {}
 
 proto::Status Session::on_hello(const proto::Hello& hello) {
     if (hello.role != "client" && hello.role != "daemon" && hello.role != "link") {
@@ -39,8 +47,17 @@ Task<bool> Session::on_frame(InFrame frame) {
                 fail("bad request: " + request.error().message);
                 co_return false;
             }
+            // Requests may wait on other daemons: serve each on its own coroutine so data keeps
+            // flowing, but only so many at once, and none while the peer leaves its replies unread.
+            while (requests_in_flight_ >= max_requests_in_flight ||
+                   outbox().control_bytes() > max_unread_replies) {
+                constexpr auto recheck = std::chrono::milliseconds(100);
+                co_await request_done_.wait_for(recheck);
+                if (closed())
+                    co_return false;
+            }
+            ++requests_in_flight_;
             auto self = std::static_pointer_cast<Session>(shared_from_this());
-            // Requests may wait on other daemons: serve each on its own coroutine so data keeps flowing.
             asio::co_spawn(
                 executor(), [self, r = std::move(*request)]() mutable { return self->serve(std::move(r)); },
                 asio::detached);
@@ -66,6 +83,8 @@ Task<void> Session::serve(proto::Request request) {
     }
     reply.id = id;
     send(proto::encode_reply(reply));
+    --requests_in_flight_;
+    request_done_.notify();
 }
 
 std::optional<Session::Incoming> Session::decode_incoming(const InFrame& frame) {

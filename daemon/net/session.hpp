@@ -61,6 +61,10 @@ private:
 
     Daemon& daemon_;
     std::uint64_t id_;
+    /// Requests being served: a peer that sends requests without reading the replies is held back
+    /// (its socket no longer read) once this many are in progress, so replies cannot pile up.
+    std::size_t requests_in_flight_ = 0;
+    Signal request_done_;
     std::string role_;
     std::shared_ptr<Port> link_port_;
     std::shared_ptr<Inlet> link_;

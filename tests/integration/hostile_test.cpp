@@ -540,6 +540,28 @@ TEST(Hostile_test, ARequestOverOneMebibyteIsRefusedAtItsHeaderWhileDataMayBeLarg
     expect_everyone_still_served(daemon);
 }
 
+TEST(Hostile_test, APeerThatSendsRequestsButNeverReadsTheRepliesIsHeldBack) {
+    // Without a bound the daemon would read every request and keep every reply for a peer that
+    // never reads: memory without limit. It stops reading such a peer once replies pile up.
+    TempDir dir;
+    Daemon daemon(dir, "solo");
+    const long rss_before = daemon.rss_kib();
+    ASSERT_GT(rss_before, 0);
+    auto stream = Stream::open(daemon, Listener::daemon_unix);
+    ASSERT_TRUE(stream.send(hello_frame("client")));
+    Bytes block;
+    for (std::uint64_t id = 1; id <= 1000; ++id) {
+        const Bytes request = request_frame(id, {{"op", "stats"}});
+        block.insert(block.end(), request.begin(), request.end());
+    }
+    int blocks_sent = 0;
+    while (blocks_sent < 500 && stream.send(block, Clock::now() + std::chrono::seconds(2)))
+        ++blocks_sent;
+    EXPECT_LT(blocks_sent, 500) << "the daemon kept reading 500,000 requests whose replies nobody read";
+    EXPECT_LT(daemon.rss_kib() - rss_before, max_rss_growth_kib);
+    expect_everyone_still_served(daemon);
+}
+
 TEST(Hostile_test, LengthsOverTheLimitGetAnErrorDatagramFromTheNameServerUdpPort) {
     TempDir dir;
     Daemon daemon(dir, "solo");
