@@ -152,6 +152,9 @@ Task<proto::Reply> Daemon::connect(const proto::Request& request) {
         connection->send_chain = std::move(*send_chain);
         if (auto added = router_.add(port, connection); !added)
             co_return refuse(added.error().message);
+        // Connections that were removed leave expired entries: drop them as new ones come.
+        std::erase_if(local_destination->inbound,
+                      [](const std::weak_ptr<Inlet>& entry) { return entry.expired(); });
         local_destination->inbound.push_back(inlet);
         local_destination->arbiter->join(**member);
         nlohmann::json body2 = {{"op", "add_connection"},
@@ -291,11 +294,12 @@ Task<proto::Reply> Daemon::attach(std::shared_ptr<Session> session, const proto:
         co_return refuse(warnings.error().message);
     auto link = std::make_shared<Inlet>(port, source, carrier->text(), *member);
     link->chain = std::move(*recv_chain);
+    std::erase_if(port->inbound, [](const std::weak_ptr<Inlet>& inlet) { return inlet.expired(); });
     port->inbound.push_back(link);
     port->arbiter->join(**member);
     session->become_link(link);
     std::weak_ptr<Session> weak = session;
-    port->on_close.push_back([weak] {
+    port->on_close(weak, [weak] {
         if (auto s = weak.lock())
             s->close("destination port closed");
     });

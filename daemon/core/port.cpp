@@ -15,10 +15,17 @@ void Port::mark_closed() {
         return;
     closed_ = true;
     on_readable = nullptr;
-    auto callbacks = std::move(on_close);
-    on_close.clear();
-    for (auto& callback : callbacks)
-        callback();
+    auto callbacks = std::move(on_close_);
+    on_close_.clear();
+    for (auto& [owner, callback] : callbacks) {
+        if (!owner.expired())
+            callback();
+    }
+}
+
+void Port::on_close(std::weak_ptr<void> owner, std::function<void()> callback) {
+    std::erase_if(on_close_, [](const auto& entry) { return entry.first.expired(); });
+    on_close_.emplace_back(std::move(owner), std::move(callback));
 }
 
 }  // namespace plexus::daemon

@@ -35,8 +35,10 @@ public:
 
     /// Called whenever the queue goes from empty to not empty (wakes the owner's writer).
     std::function<void()> on_readable;
-    /// Called once when the port closes (drops inbound links, wakes waiters).
-    std::vector<std::function<void()>> on_close;
+    /// Runs `callback` once when the port closes (drops inbound links, wakes waiters), unless
+    /// `owner` is gone by then. Callbacks of owners already gone are dropped here, so that a port
+    /// that lives long while links come and go does not collect them.
+    void on_close(std::weak_ptr<void> owner, std::function<void()> callback);
 
     std::vector<std::shared_ptr<Connection>> outgoing;
     /// The connections into this port (owned by their connections or link sessions).
@@ -56,6 +58,7 @@ private:
     std::uint64_t owner_;
     ReaderQueue queue_;
     bool closed_ = false;
+    std::vector<std::pair<std::weak_ptr<void>, std::function<void()>>> on_close_;
 };
 
 }  // namespace plexus::daemon

@@ -80,7 +80,8 @@ TEST(Router_test, ClosingAPortRemovesConnectionsFromAndToIt) {
     ASSERT_TRUE(router.add(a, local_connection(a, b)).ok());
     ASSERT_TRUE(router.add(b, local_connection(b, c)).ok());
     bool told = false;
-    b->on_close.push_back([&] { told = true; });
+    auto owner = std::make_shared<int>(0);
+    b->on_close(owner, [&] { told = true; });
 
     auto removed = router.close("/b");
 
@@ -89,6 +90,22 @@ TEST(Router_test, ClosingAPortRemovesConnectionsFromAndToIt) {
     EXPECT_TRUE(b->closed());
     EXPECT_TRUE(told);
     EXPECT_EQ(router.find("/b"), nullptr);
+}
+
+TEST(Router_test, ClosingAPortSkipsAndForgetsCallbacksWhoseOwnerIsGone) {
+    Router router;
+    auto port = *router.open("/p", 1, QueuePolicy::strict, 4);
+    int calls = 0;
+    for (int i = 0; i < 1000; ++i) {
+        auto gone = std::make_shared<int>(i);
+        port->on_close(gone, [&] { ++calls; });  // `gone` ends with this iteration
+    }
+    auto alive = std::make_shared<int>(0);
+    port->on_close(alive, [&] { calls += 1000; });
+
+    router.close("/p");
+
+    EXPECT_EQ(calls, 1000);  // only the living owner's callback ran
 }
 
 TEST(Router_test, RemoveByPairReportsWhetherThereWasOne) {
