@@ -235,16 +235,18 @@ Task<proto::Reply> Daemon::connect_remote(const proto::Request& request, std::sh
     }
     links_.push_back(link_peer);
     std::weak_ptr<Connection> weak = connection;
-    link_peer->closed_handler = [this, weak](const std::string& reason) {
+    // The queue is held here, not reached through the connection: after a disconnect the
+    // connection is gone while the link still drains, and what it could not send must be counted.
+    link_peer->closed_handler = [this, weak, queue = link->queue(), source,
+                                 destination](const std::string& reason) {
+        if (queue->depth() > 0) {
+            counters_.dropped_link_down += queue->depth();
+            spdlog::warn("connection {} -> {} lost {} queued messages: {}", source, destination,
+                         queue->depth(), reason);
+        }
         auto c = weak.lock();
         if (!c)
             return;
-        auto* sink = static_cast<Link*>(c->sink.get());
-        if (sink->queued() > 0) {
-            counters_.dropped_link_down += sink->queued();
-            spdlog::warn("connection {} -> {} lost {} queued messages: {}", c->source, c->destination,
-                         sink->queued(), reason);
-        }
         if (router_.remove(c)) {
             spdlog::info("connection {} -> {} went down: {}", c->source, c->destination, reason);
             notify_space();

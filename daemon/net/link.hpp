@@ -29,6 +29,8 @@ public:
     void close_after_flush() override { peer_->close_when_drained(); }
     /// Messages still queued (lost if the link died).
     std::size_t queued() const { return queue_->depth(); }
+    /// The queue itself, for whoever must count what is left in it after the link is gone.
+    std::shared_ptr<const ReaderQueue> queue() const { return queue_; }
     const std::shared_ptr<Peer>& peer() const { return peer_; }
 
 private:

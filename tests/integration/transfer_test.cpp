@@ -155,6 +155,35 @@ TEST(Transfer_test, MessagesLargerThanTheQueueByteBoundStillPassAStrictQueue) {
     }
 }
 
+TEST(Transfer_test, MessagesLeftInALinkThatDisconnectDrainsInVainAreCounted) {
+    // A remote reader that never reads: the link to it fills, then a disconnect gives the link
+    // its grace period to drain, which cannot work. What stays queued is lost, and counted.
+    TempDir dir;
+    Daemon first(dir, "first");
+    Daemon second(dir, "second", first.names());
+    Client receiving({second.socket()});
+    auto sink = receiving.open("/stuck/sink", {QueuePolicy::strict, 1});
+    Client sending({first.socket()});
+    auto source = sending.open("/stuck/source");
+    ASSERT_EQ(sending.connect("/stuck/source", "/stuck/sink"), "tcp");
+    const std::vector<std::uint8_t> blob(64 * 1024, 7);
+    for (int i = 0; i < 300; ++i)  // ~19 MiB: more than the sink, the link queue and TCP hold
+        source.write(Value::binary(blob), false);
+    source.flush();
+
+    auto disconnected = run_cli(dir, first, {"disconnect", "/stuck/source", "/stuck/sink"});
+    ASSERT_EQ(disconnected.status, 0) << disconnected.err;
+
+    std::uint64_t lost = 0;
+    const auto deadline = std::chrono::steady_clock::now() + 20s;
+    while (lost == 0 && std::chrono::steady_clock::now() < deadline) {
+        auto stats = run_cli(dir, first, {"stats", "--json"});
+        ASSERT_EQ(stats.status, 0) << stats.err;
+        lost = nlohmann::json::parse(stats.out)["daemon"].value("dropped_link_down", std::uint64_t{0});
+    }
+    EXPECT_GT(lost, 0u) << "the messages the link could not deliver were not counted";
+}
+
 TEST(Transfer_test, AStreamMixingLargeAndSmallMessagesArrivesWholeAndInOrder) {
     // The large ones are received straight into their messages (client/src/large_payload.hpp),
     // the small ones through the receive buffer: the start of a large frame arrives in that
