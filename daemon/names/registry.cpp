@@ -10,7 +10,11 @@ proto::Status Registry::register_node(const std::string& node, const std::string
                                       std::uint64_t session) {
     if (node.empty())
         return proto::Error{"node name is empty"};
+    if (node.size() > max_node_text || address.size() > max_node_text)
+        return proto::Error{"node name or address longer than " + std::to_string(max_node_text) + " bytes"};
     auto it = nodes_.find(node);
+    if (it == nodes_.end() && nodes_.size() >= max_nodes)
+        return proto::Error{"the name server already knows " + std::to_string(max_nodes) + " nodes"};
     if (it != nodes_.end() && it->second.session != 0 && it->second.session != session) {
         return proto::Error{"node '" + node + "' is already registered by a running daemon at " +
                             it->second.address + "; give this daemon another --node name"};
@@ -46,6 +50,8 @@ proto::Status Registry::register_port(const std::string& name, std::uint64_t ses
     if (it != ports_.end() && it->second.node != node_name) {
         return proto::Error{"port " + name + " already exists on node '" + it->second.node + "'"};
     }
+    if (it == ports_.end() && ports_.size() >= max_ports)
+        return proto::Error{"the name server already knows " + std::to_string(max_ports) + " ports"};
     ports_[name] = PortEntry{name, node_name, node->address};
     return proto::Ok{};
 }
@@ -76,6 +82,12 @@ std::optional<PortEntry> Registry::lookup(const std::string& name) const {
 proto::Status Registry::add_connection(ConnectionEntry entry, std::uint64_t session) {
     if (!node_of_session(session, nullptr))
         return proto::Error{"register the node before its connections"};
+    for (const auto* name : {&entry.source, &entry.destination}) {
+        if (auto error = proto::port_name_error(*name))
+            return proto::Error{*error};
+    }
+    if (entry.carrier.size() > max_carrier_text)
+        return proto::Error{"carrier longer than " + std::to_string(max_carrier_text) + " bytes"};
     for (auto& existing : connections_) {
         if (existing.source == entry.source && existing.destination == entry.destination) {
             existing.carrier = entry.carrier;
@@ -83,6 +95,9 @@ proto::Status Registry::add_connection(ConnectionEntry entry, std::uint64_t sess
             return proto::Ok{};
         }
     }
+    if (connections_.size() >= max_connections)
+        return proto::Error{"the name server already knows " + std::to_string(max_connections) +
+                            " connections"};
     connections_.push_back(std::move(entry));
     return proto::Ok{};
 }

@@ -32,6 +32,14 @@ struct ConnectionEntry {
 /// The name server's state: nodes (daemons) tied to their sessions, their ports, and connections.
 /// When a node's session ends its ports stay for a grace period, so a daemon that reconnects (or a
 /// name server blip) does not make ports flicker; after it they go.
+/// Bounds on what one name server keeps: far above any robot system, low enough that a peer
+/// looping registrations cannot exhaust its memory or the disk its state file is saved to.
+inline constexpr std::size_t max_nodes = 4096;
+inline constexpr std::size_t max_ports = 100000;
+inline constexpr std::size_t max_connections = 10000;  // kept in a list: each add scans it
+inline constexpr std::size_t max_node_text = 255;      ///< node names and addresses
+inline constexpr std::size_t max_carrier_text = 4096;
+
 class Registry {
 public:
     explicit Registry(Clock::duration grace) : grace_(grace) {}

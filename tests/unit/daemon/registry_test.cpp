@@ -15,6 +15,26 @@ TEST(Registry_test, ANodeNameHeldByALiveSessionIsRefusedToAnother) {
     EXPECT_NE(second.error().message.find("already registered"), std::string::npos);
 }
 
+TEST(Registry_test, WhatAPeerRegistersIsCheckedAndBounded) {
+    Registry registry(2s);
+    EXPECT_FALSE(registry.register_node(std::string(300, 'n'), "h:1", 1).ok());
+    EXPECT_FALSE(registry.register_node("n", std::string(300, 'a'), 1).ok());
+    ASSERT_TRUE(registry.register_node("n", "h:1", 1).ok());
+    auto bad_name = registry.add_connection({"not a port", "/b", "tcp", false}, 1);
+    ASSERT_FALSE(bad_name.ok());
+    EXPECT_FALSE(registry.add_connection({"/a", "/b", std::string(5000, 'c'), false}, 1).ok());
+    for (std::size_t i = 0; i < max_connections; ++i)
+        ASSERT_TRUE(registry.add_connection({"/a", "/b" + std::to_string(i), "tcp", false}, 1).ok()) << i;
+    auto one_too_many = registry.add_connection({"/a", "/c", "tcp", false}, 1);
+    ASSERT_FALSE(one_too_many.ok());
+    EXPECT_NE(one_too_many.error().message.find("already knows"), std::string::npos);
+    // An existing one may still be updated.
+    EXPECT_TRUE(registry.add_connection({"/a", "/b0", "udp", true}, 1).ok());
+    for (std::uint64_t i = 2; i <= max_nodes; ++i)
+        ASSERT_TRUE(registry.register_node("n" + std::to_string(i), "h:1", i).ok()) << i;
+    EXPECT_FALSE(registry.register_node("one more", "h:1", max_nodes + 1).ok());
+}
+
 TEST(Registry_test, PortsNeedANodeAndUniqueNames) {
     Registry registry(2s);
     EXPECT_FALSE(registry.register_port("/a", 1).ok());
