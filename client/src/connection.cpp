@@ -34,6 +34,8 @@ constexpr std::size_t gather_threshold = 64 * 1024;
 constexpr int large_message_send_buffer = 4 * 1024 * 1024;
 // How long the backlog thread waits for room before it looks at its flags again.
 constexpr int backlog_poll_ms = 100;
+// How long a blocked send waits for room before it looks again whether someone reads.
+constexpr int room_poll_ms = 100;
 }  // namespace
 
 Connection::Connection(int fd, std::string description) : fd_(fd), path_(std::move(description)) {
@@ -170,10 +172,14 @@ void Connection::send_with_payload_locked(proto::ByteView payload) {
         msghdr message{};
         message.msg_iov = pieces;
         message.msg_iovlen = static_cast<std::size_t>(count);
-        ssize_t n = ::sendmsg(fd_, &message, MSG_NOSIGNAL);
+        ssize_t n = ::sendmsg(fd_, &message, MSG_NOSIGNAL | MSG_DONTWAIT);
         if (n < 0) {
             if (errno == EINTR)
                 continue;
+            if (errno == EAGAIN || errno == EWOULDBLOCK) {
+                wait_for_room_locked();
+                continue;
+            }
             const std::string why = std::strerror(errno);
             out_.clear();
             fail(why);
@@ -184,6 +190,38 @@ void Connection::send_with_payload_locked(proto::ByteView payload) {
         payload_sent += static_cast<std::size_t>(n) - head_part;
     }
     out_.clear();
+}
+
+void Connection::wait_for_room_locked() {
+    // The socket is full: the daemon is not reading it, perhaps because a strict queue that this
+    // very client reads is full. The thread that would read for this client may be waiting for
+    // send_mutex_, held here: then, unless someone reads meanwhile, both would wait forever. So
+    // when nobody is reading, what has arrived is read here, into the inboxes, while waiting.
+    bool someone_reads = false;
+    {
+        std::lock_guard lock(state_mutex_);
+        someone_reads = reading_;
+    }
+    pollfd ready{fd_, static_cast<short>(someone_reads ? POLLOUT : POLLOUT | POLLIN), 0};
+    if (::poll(&ready, 1, room_poll_ms) <= 0 || (ready.revents & POLLOUT) || !(ready.revents & POLLIN))
+        return;  // room now, a timeout (look again), or an error the next send reports
+    {
+        std::lock_guard lock(state_mutex_);
+        if (reading_ || !broken_.empty())
+            return;
+        reading_ = true;
+    }
+    try {
+        receive(Clock::now(), MSG_DONTWAIT);
+    } catch (...) {
+        std::lock_guard lock(state_mutex_);
+        reading_ = false;
+        changed_.notify_all();
+        throw;
+    }
+    std::lock_guard lock(state_mutex_);
+    reading_ = false;
+    changed_.notify_all();
 }
 
 void Connection::write(std::uint64_t handle, const std::string& source, std::uint64_t seq,
@@ -363,21 +401,23 @@ bool Connection::wait_until(std::unique_lock<std::mutex>& lock, Ready ready, Clo
     return true;
 }
 
-void Connection::receive(Clock::time_point deadline) {
+void Connection::receive(Clock::time_point deadline, int flags) {
     // One blocking recv with a receive timeout, instead of poll + recv: on the latency path every
     // system call counts. The timeout is only reset when it would overshoot the deadline by more
     // than a millisecond, or wake up far too early, so a loop of read(1s) sets it once.
-    const auto left = std::chrono::duration_cast<std::chrono::microseconds>(deadline - Clock::now());
-    if (left.count() <= 0)
-        return;
-    if (receive_timeout_ > left + std::chrono::milliseconds(1) || receive_timeout_ < left / 2) {
-        timeval tv{static_cast<time_t>(left.count() / 1000000),
-                   static_cast<suseconds_t>(left.count() % 1000000)};
-        ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
-        receive_timeout_ = left;
+    if ((flags & MSG_DONTWAIT) == 0) {
+        const auto left = std::chrono::duration_cast<std::chrono::microseconds>(deadline - Clock::now());
+        if (left.count() <= 0)
+            return;
+        if (receive_timeout_ > left + std::chrono::milliseconds(1) || receive_timeout_ < left / 2) {
+            timeval tv{static_cast<time_t>(left.count() / 1000000),
+                       static_cast<suseconds_t>(left.count() % 1000000)};
+            ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+            receive_timeout_ = left;
+        }
     }
     if (large_) {
-        receive_large_payload();
+        receive_large_payload(flags);
         return;
     }
     if (in_begin_ == in_end_)
@@ -390,7 +430,7 @@ void Connection::receive(Clock::time_point deadline) {
         if (in_.size() - in_end_ < read_chunk / 4)
             in_.resize(in_.size() * 2);
     }
-    const std::size_t n = receive_into(in_.data() + in_end_, in_.size() - in_end_);
+    const std::size_t n = receive_into(in_.data() + in_end_, in_.size() - in_end_, flags);
     if (n == 0)
         return;
     in_end_ += n;
@@ -447,8 +487,8 @@ void Connection::receive(Clock::time_point deadline) {
     }
 }
 
-std::size_t Connection::receive_into(std::uint8_t* at, std::size_t room) {
-    const ssize_t n = ::recv(fd_, at, room, 0);
+std::size_t Connection::receive_into(std::uint8_t* at, std::size_t room, int flags) {
+    const ssize_t n = ::recv(fd_, at, room, flags);
     if (n == 0) {
         fail("the daemon closed the connection");
         return 0;
@@ -482,9 +522,9 @@ bool Connection::start_large_payload(std::size_t frame_size) {
     return true;
 }
 
-void Connection::receive_large_payload() {
+void Connection::receive_large_payload(int flags) {
     if (large_->left > 0) {
-        const std::size_t n = receive_into(large_->at, large_->left);
+        const std::size_t n = receive_into(large_->at, large_->left, flags);
         large_->at += n;
         large_->left -= n;
         if (large_->left > 0)

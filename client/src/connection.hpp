@@ -69,15 +69,18 @@ public:
 private:
     template <typename Ready>
     bool wait_until(std::unique_lock<std::mutex>& lock, Ready ready, Clock::time_point deadline);
-    /// Reads what the socket has (waiting at most until `deadline`) and dispatches whole frames.
-    void receive(Clock::time_point deadline);
+    /// Reads what the socket has (waiting at most until `deadline`, or not at all with
+    /// MSG_DONTWAIT in `flags`) and dispatches whole frames.
+    void receive(Clock::time_point deadline, int flags = 0);
+    /// A send found the socket full: waits a little for room, reading meanwhile if nobody else does.
+    void wait_for_room_locked();
     /// Starts receiving the frame that begins at in_begin_ (of `frame_size` bytes, not all here)
     /// straight into its message, when it is a large byte-string payload; false otherwise.
     bool start_large_payload(std::size_t frame_size);
     /// One recv of the rest of that payload; delivers the message once it is whole.
-    void receive_large_payload();
+    void receive_large_payload(int flags);
     /// recv() with the errors handled; 0 when nothing came (timeout or the connection failed).
-    std::size_t receive_into(std::uint8_t* at, std::size_t room);
+    std::size_t receive_into(std::uint8_t* at, std::size_t room, int flags);
     /// Handles a frame that is not data (replies, errors).
     void dispatch(proto::FrameType type, proto::ByteView fields);
     /// Moves the data frames found by one receive() into the inboxes: one copy of the bytes they

@@ -4,7 +4,9 @@
 #include <signal.h>
 
 #include <atomic>
+#include <cstdlib>
 #include <fstream>
+#include <future>
 #include <mutex>
 #include <sstream>
 #include <thread>
@@ -92,6 +94,39 @@ TEST(Flow_test, StrictPolicyLosesNothingAndHoldsTheWriterBack) {
     writer.join();
     EXPECT_TRUE(done.load());
     EXPECT_EQ(port_stats(observing, "/careful")["dropped_queue"], 0);
+}
+
+TEST(Flow_test, AClientThatWritesIntoItsOwnFullStrictPortDoesNotDeadlock) {
+    // One thread writes into a strict port that the same client reads only afterwards. The daemon
+    // stops reading the client once that port is full; the blocked write must read what arrives
+    // meanwhile, or the client waits for itself forever.
+    TempDir dir;
+    Daemon daemon(dir, "solo");
+    Client client({daemon.socket()});
+    auto in = client.open("/self/in", {QueuePolicy::strict, 4});
+    auto out = client.open("/self/out");
+    client.connect("/self/out", "/self/in");
+    constexpr int total = 3000;  // 12 MB: far more than the queue and both sockets hold
+    const std::string block(4096, 's');
+    std::promise<void> finished;
+    auto result = finished.get_future();
+    std::thread scenario([&] {
+        for (int i = 0; i < total; ++i)
+            out.write(block);
+        for (int i = 1; i <= total; ++i) {
+            auto message = in.read(std::chrono::seconds(30));
+            if (!message || message->envelope.seq != static_cast<std::uint64_t>(i)) {
+                ADD_FAILURE() << "message " << i << (message ? " out of order" : " missing");
+                break;
+            }
+        }
+        finished.set_value();
+    });
+    if (result.wait_for(std::chrono::seconds(120)) != std::future_status::ready) {
+        ADD_FAILURE() << "the client deadlocked writing into its own full strict port";
+        std::_Exit(1);  // the scenario thread cannot be stopped; end the test program
+    }
+    scenario.join();
 }
 
 TEST(Flow_test, AClientThatDiesMidWriteLosesItsPortsAndNobodyElseIsHurt) {
