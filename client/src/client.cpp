@@ -87,11 +87,14 @@ void Port::flush() {
 }
 
 std::optional<Received> Port::read(std::chrono::milliseconds timeout) {
-    if (!connection_)
+    // One look at connection_ (close() resets it); no reference count per read: the Client keeps
+    // the connection alive.
+    detail::Connection* const connection = connection_.get();
+    if (!connection)
         throw Error(ErrorCode::usage, "port " + name_ + " is closed");
     auto& inbox = *ready_;
     if (inbox.segments.empty()) {
-        if (!connection_->read_all(handle_, timeout, inbox.segments))
+        if (!connection->read_all(handle_, timeout, inbox.segments))
             return std::nullopt;
         inbox.next = 0;
     }

@@ -39,10 +39,15 @@ constexpr int room_poll_ms = 100;
 }  // namespace
 
 Connection::Connection(int fd, std::string description) : fd_(fd), path_(std::move(description)) {
-    in_.resize(read_chunk);
-    std::lock_guard lock(send_mutex_);
-    out_ = proto::encode_hello({proto::protocol_version, "client", ""});
-    send_locked();
+    try {
+        in_.resize(read_chunk);
+        std::lock_guard lock(send_mutex_);
+        out_ = proto::encode_hello({proto::protocol_version, "client", ""});
+        send_locked();
+    } catch (...) {
+        ::close(fd_);  // no destructor runs for an object that was never constructed
+        throw;
+    }
 }
 
 std::shared_ptr<Connection> Connection::to_daemon(const std::string& socket_path) {
@@ -330,12 +335,16 @@ proto::Reply Connection::request(nlohmann::json body, std::chrono::milliseconds 
         id = next_id_++;
         replies_[id];
     }
-    {
+    try {
         std::lock_guard lock(send_mutex_);
         close_batch_locked();  // data written before the request reaches the daemon before it
         auto frame = proto::encode_request({id, std::move(body)});
         out_.insert(out_.end(), frame.begin(), frame.end());
         send_locked();
+    } catch (...) {
+        std::lock_guard state(state_mutex_);
+        replies_.erase(id);  // no reply will come for a request that was not sent
+        throw;
     }
     std::unique_lock lock(state_mutex_);
     const bool answered = wait_until(
@@ -356,7 +365,13 @@ bool Connection::read_all(std::uint64_t handle, std::chrono::milliseconds timeou
         // Only now is the clock read: it costs as much as the rest of a read. The entry is looked up
         // again after every wait, because forget() may erase it meanwhile.
         if (!wait_until(
-                lock, [&] { return !inbox_[handle].empty(); }, Clock::now() + timeout)) {
+                lock,
+                [&] {
+                    // find, not []: forget() may have erased the entry, and must stay erased.
+                    const auto entry = inbox_.find(handle);
+                    return entry != inbox_.end() && !entry->second.empty();
+                },
+                Clock::now() + timeout)) {
             if (!broken_.empty())
                 throw Error(ErrorCode::refused, broken_);
             return false;
@@ -409,7 +424,9 @@ void Connection::receive(Clock::time_point deadline, int flags) {
         const auto left = std::chrono::duration_cast<std::chrono::microseconds>(deadline - Clock::now());
         if (left.count() <= 0)
             return;
-        if (receive_timeout_ > left + std::chrono::milliseconds(1) || receive_timeout_ < left / 2) {
+        // 0 means "no timeout" to the kernel: a first deadline under 2 us must still set one.
+        if (receive_timeout_.count() == 0 || receive_timeout_ > left + std::chrono::milliseconds(1) ||
+            receive_timeout_ < left / 2) {
             timeval tv{static_cast<time_t>(left.count() / 1000000),
                        static_cast<suseconds_t>(left.count() % 1000000)};
             ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);

@@ -103,7 +103,9 @@ private:
     std::unique_ptr<detail::Inbox> ready_;
 };
 
-/// Calls a function for every message of a port, on a thread of its own, until destroyed.
+/// Calls a function for every message of a port, on a thread of its own, until destroyed. The
+/// Subscription is the port's reader: the Port must outlive it and must not be read, moved or
+/// closed while it runs (destroy the Subscription first). A callback that throws ends it.
 class Subscription {
 public:
     Subscription(Port& port, std::function<void(const Received&)> callback);
