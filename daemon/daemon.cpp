@@ -219,6 +219,11 @@ void Daemon::start_session(Socket socket, const std::string& description) {
     session->start({proto::protocol_version, "daemon", config_.node});
 }
 
+std::shared_ptr<Session> Daemon::session(std::uint64_t id) const {
+    const auto it = sessions_.find(id);
+    return it == sessions_.end() ? nullptr : it->second.lock();
+}
+
 void Daemon::session_closed(Session& session) {
     sessions_.erase(session.id());
     if (session.is_link())

@@ -13,6 +13,7 @@
 #include "names/name_client.hpp"
 #include "names/name_server.hpp"
 #include "net/asio.hpp"
+#include "net/shm_region.hpp"
 #include "net/signal.hpp"
 #include "plexus/proto/control.hpp"
 
@@ -36,6 +37,11 @@ struct DaemonConfig {
     std::size_t queue_bytes = ReaderQueue::default_max_bytes;  ///< byte bound of every queue
     std::chrono::milliseconds names_grace{2000};
     monitor::MonitorPolicy monitors;  ///< memory cap, time budget, quarantine of every port monitor
+    /// Size of the shared-memory region a local client may get per port it writes large payloads
+    /// through; 0 turns shared memory off.
+    std::size_t shm_region_bytes = 32u * 1024u * 1024u;
+    /// Bound on the bytes of all regions together.
+    std::size_t shm_total_bytes = 1024u * 1024u * 1024u;
 };
 
 /// Daemon-wide counters that `plexus stats` shows.
@@ -45,6 +51,8 @@ struct DaemonCounters {
     std::uint64_t protocol_errors = 0;       ///< peers cut off for breaking the protocol
     std::uint64_t dropped_unknown_port = 0;  ///< data frames for a handle that is not open
     std::uint64_t dropped_link_down = 0;     ///< messages queued to another daemon when the link died
+    std::uint64_t shm_passed = 0;  ///< messages whose payload went to readers in shared memory
+    std::uint64_t shm_copied = 0;  ///< written in shared memory, copied out for readers that needed it
 };
 
 /// The node daemon: hosts ports for local clients, connects them, moves data.
@@ -68,6 +76,8 @@ public:
     const DaemonConfig& config() const { return config_; }
     Router& router() { return router_; }
     std::uint64_t next_session_id() { return next_session_++; }
+    /// The session with this id, if it is still open.
+    std::shared_ptr<Session> session(std::uint64_t id) const;
 
     // --- used by the script host ---
     /// Opens a port that the daemon itself writes (a monitor's publish port) and registers it.
@@ -93,6 +103,8 @@ private:
     Task<proto::Reply> disconnect(const proto::Request& request);
     Task<proto::Reply> attach(std::shared_ptr<Session> session, const proto::Request& request);
     Task<proto::Reply> stats(const proto::Request& request);
+    /// `shm`: the client maps shared-memory regions; with a handle, it gets one for that port.
+    Task<proto::Reply> shm(std::shared_ptr<Session> session, const proto::Request& request);
     Task<proto::Reply> param(const proto::Request& request);
     /// The recv half of `plexus param`: the monitors of the inlet source -> destination here.
     Task<proto::Reply> param_recv(const proto::Request& request);
@@ -137,6 +149,8 @@ private:
     std::map<std::uint64_t, std::weak_ptr<Session>> sessions_;
     std::vector<std::weak_ptr<Peer>> links_;  ///< sending ends of tcp connections, flushed at shutdown
     std::uint64_t next_session_ = 1;
+    std::shared_ptr<ShmUsage> shm_usage_ = std::make_shared<ShmUsage>();
+    std::uint64_t next_region_ = 1;
     bool stopping_ = false;
 };
 

@@ -38,6 +38,8 @@ void apply_config_file(const std::string& path, plexus::daemon::DaemonConfig& co
                                              "default_capacity",
                                              "link_capacity",
                                              "queue_bytes",
+                                             "shm_region_bytes",
+                                             "shm_total_bytes",
                                              "names_grace_ms",
                                              "names_state",
                                              "scripts",
@@ -53,6 +55,10 @@ void apply_config_file(const std::string& path, plexus::daemon::DaemonConfig& co
     config.default_capacity = json.value("default_capacity", config.default_capacity);
     config.link_capacity = json.value("link_capacity", config.link_capacity);
     config.queue_bytes = json.value("queue_bytes", config.queue_bytes);
+    config.shm_region_bytes = json.value("shm_region_bytes", config.shm_region_bytes);
+    config.shm_total_bytes = json.value("shm_total_bytes", config.shm_total_bytes);
+    if (config.shm_region_bytes != 0 && config.shm_region_bytes < 1024 * 1024)
+        throw std::runtime_error("config " + path + ": shm_region_bytes must be 0 (off) or at least 1048576");
     config.names_grace = std::chrono::milliseconds(json.value("names_grace_ms", config.names_grace.count()));
     config.names_state = json.value("names_state", config.names_state);
     for (const auto& dir : json.value("scripts", std::vector<std::string>{}))

@@ -34,6 +34,8 @@ Task<proto::Reply> Daemon::handle(std::shared_ptr<Session> session, proto::Reque
         co_return co_await disconnect(request);
     if (op == "stats")
         co_return co_await stats(request);
+    if (op == "shm" && from_client)
+        co_return co_await shm(session, request);
     if (op == "param")
         co_return co_await param(request);
     if (op == "param_recv")
@@ -97,8 +99,41 @@ Task<proto::Reply> Daemon::close_port(std::shared_ptr<Session> session, const pr
     auto port = it->second;
     session->ports.erase(it);
     session->outbox().remove_source(handle);
+    session->shm_regions.erase(handle);
     forget_port(port);
     co_return ok();
+}
+
+Task<proto::Reply> Daemon::shm(std::shared_ptr<Session> session, const proto::Request& request) {
+    if (config_.shm_region_bytes == 0)
+        co_return refuse("shared memory is off on this daemon (shm_region_bytes is 0)");
+    if (!session->is_local())
+        co_return refuse("shared memory needs a client on this machine (the Unix socket)");
+    session->maps_shm = true;
+    if (!request.body.contains("handle"))
+        co_return ok();
+    const std::uint64_t handle = request.body.value("handle", std::uint64_t{0});
+    if (!session->ports.contains(handle))
+        co_return refuse("no open port with handle " + std::to_string(handle));
+    auto& region = session->shm_regions[handle];
+    if (!region) {
+        if (shm_usage_->bytes + config_.shm_region_bytes > config_.shm_total_bytes) {
+            session->shm_regions.erase(handle);
+            co_return refuse("the daemon's shared memory is used up (shm_total_bytes " +
+                             std::to_string(config_.shm_total_bytes) + ")");
+        }
+        auto created = ShmRegion::create(next_region_++, config_.shm_region_bytes, session, shm_usage_);
+        if (!created) {
+            session->shm_regions.erase(handle);
+            spdlog::warn("no shared-memory region for {}: {}", session->description(), created.error().message);
+            co_return refuse("no shared-memory region: " + created.error().message);
+        }
+        region = *created;
+        // Before the reply, so the client has the region when it learns its id.
+        session->outbox().push_writer_region(region);
+        session->wake();
+    }
+    co_return ok({{"region", region->id()}, {"size", region->size()}});
 }
 
 Task<proto::Reply> Daemon::connect(const proto::Request& request) {
@@ -438,6 +473,10 @@ nlohmann::json Daemon::stats_json(const std::string& only_port) const {
               {"protocol_errors", counters_.protocol_errors},
               {"dropped_unknown_port", counters_.dropped_unknown_port},
               {"dropped_link_down", counters_.dropped_link_down},
+              {"shm_passed", counters_.shm_passed},
+              {"shm_copied", counters_.shm_copied},
+              {"shm_regions", shm_usage_->regions},
+              {"shm_bytes", shm_usage_->bytes},
               {"monitor_published", scripts_->published()},
               {"monitor_publish_dropped", scripts_->publish_dropped()}}}};
 }

@@ -4,18 +4,21 @@
 #include <netinet/in.h>
 #include <netinet/tcp.h>
 #include <poll.h>
+#include <sys/mman.h>
 #include <sys/socket.h>
 #include <sys/uio.h>
 #include <sys/un.h>
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
 
 #include "plexus/proto/endpoint.hpp"
 #include "plexus/proto/frame.hpp"
 #include "plexus/proto/hello.hpp"
 #include "plexus/proto/message.hpp"
+#include "plexus/proto/shm.hpp"
 
 namespace plexus::detail {
 
@@ -36,7 +39,19 @@ constexpr int large_message_send_buffer = 4 * 1024 * 1024;
 constexpr int backlog_poll_ms = 100;
 // How long a blocked send waits for room before it looks again whether someone reads.
 constexpr int room_poll_ms = 100;
+// Descriptors one receive can bring (the kernel sends at most 253 with one message).
+constexpr std::size_t max_received_fds = 253;
+// Data frames larger than this are worth writing through shared memory once a region is there.
+constexpr std::size_t shm_threshold = 64 * 1024;
+// How long a write waits for a slot of a full region before it takes the socket instead.
+constexpr auto shm_room_wait = std::chrono::milliseconds(100);
+
 }  // namespace
+
+Connection::WriterRegion::~WriterRegion() {
+    ::munmap(data, size);
+    ::close(fd);
+}
 
 Connection::Connection(int fd, std::string description) : fd_(fd), path_(std::move(description)) {
     try {
@@ -73,6 +88,10 @@ std::shared_ptr<Connection> Connection::to_daemon(const std::string& socket_path
     proto::Reply reply = connection->request({{"op", "node"}}, std::chrono::milliseconds(5000));
     if (reply.code != proto::ReplyCode::ok)
         throw Error(ErrorCode::refused, "the program at " + socket_path + " is not plexusd");
+    // PLEXUS_SHM=0 keeps every payload in the socket (for comparisons, or to rule shm out).
+    const char* shm = std::getenv("PLEXUS_SHM");
+    if (!shm || std::string_view(shm) != "0")
+        connection->enable_shm();
     return connection;
 }
 
@@ -119,8 +138,19 @@ Connection::~Connection() {
     backlog_changed_.notify_all();
     if (backlog_thread_.joinable())
         backlog_thread_.join();
+    for (const int fd : received_fds_)
+        ::close(fd);
+    for (const auto& [id, region] : reader_regions_)
+        ::munmap(const_cast<std::uint8_t*>(region.data), region.size);
     if (fd_ >= 0)
         ::close(fd_);
+}
+
+bool Connection::enable_shm() {
+    const proto::Reply reply = request({{"op", "shm"}}, std::chrono::milliseconds(5000));
+    std::lock_guard lock(shm_mutex_);
+    shm_ = reply.code == proto::ReplyCode::ok;
+    return shm_;
 }
 
 void Connection::throw_if_broken() const {
@@ -210,6 +240,10 @@ void Connection::wait_for_room_locked() {
     pollfd ready{fd_, static_cast<short>(someone_reads ? POLLOUT : POLLOUT | POLLIN), 0};
     if (::poll(&ready, 1, room_poll_ms) <= 0 || (ready.revents & POLLOUT) || !(ready.revents & POLLIN))
         return;  // room now, a timeout (look again), or an error the next send reports
+    receive_pending();
+}
+
+void Connection::receive_pending() {
     {
         std::lock_guard lock(state_mutex_);
         if (reading_ || !broken_.empty())
@@ -242,7 +276,10 @@ void Connection::write(std::uint64_t handle, const std::string& source, std::uin
     const auto time_ns =
         static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(now).count());
     const std::size_t payload_size = payload.size() + tail.size();
+    if (payload_size >= shm_threshold && write_through_shm(handle, source, seq, time_ns, payload, tail))
+        return;
     std::lock_guard lock(send_mutex_);
+    append_releases_locked();
     if (!flush && payload_size < gather_threshold) {
         if (batch_count_ > 0 && batch_handle_ != handle)
             close_batch_locked();
@@ -269,6 +306,11 @@ void Connection::write(std::uint64_t handle, const std::string& source, std::uin
         return;
     }
     proto::append_record(out_, source, seq, time_ns, payload);
+    send_now_or_backlog_locked();
+    throw_if_broken();
+}
+
+void Connection::send_now_or_backlog_locked() {
     if (out_.size() >= flush_threshold) {
         send_locked();
     } else if (!backlog_) {
@@ -279,7 +321,82 @@ void Connection::write(std::uint64_t handle, const std::string& source, std::uin
             backlog_changed_.notify_one();
         }
     }
+}
+
+bool Connection::write_through_shm(std::uint64_t handle, const std::string& source, std::uint64_t seq,
+                                   std::uint64_t time_ns, proto::ByteView payload, proto::ByteView tail) {
+    WriterRegion* region = writer_region(handle);
+    if (!region)
+        return false;
+    const std::size_t length = payload.size() + tail.size();
+    const auto offset = allocate_slot(*region, length);
+    if (!offset)
+        return false;
+    std::memcpy(region->data + *offset, payload.data(), payload.size());
+    if (!tail.empty())
+        std::memcpy(region->data + *offset + payload.size(), tail.data(), tail.size());
+    proto::Bytes place;
+    proto::append_shm_place(place, {region->id, *offset, length}, source, seq, time_ns);
+    std::lock_guard lock(send_mutex_);
+    close_batch_locked();  // what was buffered goes first
+    append_releases_locked();
+    proto::append_shm_frame_prefix(out_, handle, place.size());
+    out_.insert(out_.end(), place.begin(), place.end());
+    send_now_or_backlog_locked();
     throw_if_broken();
+    return true;
+}
+
+Connection::WriterRegion* Connection::writer_region(std::uint64_t handle) {
+    {
+        std::lock_guard lock(shm_mutex_);
+        if (!shm_)
+            return nullptr;
+        const auto known = port_regions_.find(handle);
+        if (known != port_regions_.end()) {
+            if (!known->second)
+                return nullptr;
+            const auto region = writer_regions_.find(*known->second);
+            return region == writer_regions_.end() ? nullptr : region->second.get();
+        }
+    }
+    // The first large write on this port asks for its region. The region's frame (and its
+    // descriptor) comes before the reply, so it is here once the reply is.
+    const proto::Reply reply = request({{"op", "shm"}, {"handle", handle}}, std::chrono::milliseconds(5000));
+    std::lock_guard lock(shm_mutex_);
+    auto& known = port_regions_[handle];
+    known.reset();
+    if (reply.code != proto::ReplyCode::ok)
+        return nullptr;  // shared memory used up or off: this port writes through the socket
+    const auto id = reply.body.value("region", std::uint64_t{0});
+    const auto region = writer_regions_.find(id);
+    if (region == writer_regions_.end())
+        return nullptr;
+    known = id;
+    return region->second.get();
+}
+
+std::optional<std::size_t> Connection::allocate_slot(WriterRegion& region, std::size_t length) {
+    std::optional<std::size_t> offset;
+    bool wait = false;
+    auto room = [&] {
+        std::lock_guard lock(shm_mutex_);
+        offset = region.ring.allocate(length);
+        wait = !region.stalled;
+        return offset.has_value();
+    };
+    if (room() || !wait)
+        return offset;
+    // Full: the readers are behind, or their releases (and the daemon's frees) are still on the
+    // way, perhaps unread in this socket. Waiting for them costs less than the socket path; a
+    // region that stays full past the wait is marked stalled and writes go through the socket,
+    // without waiting, until a slot comes free.
+    std::unique_lock lock(state_mutex_);
+    if (!wait_until(lock, room, Clock::now() + shm_room_wait)) {
+        std::lock_guard shm_lock(shm_mutex_);
+        region.stalled = true;
+    }
+    return offset;
 }
 
 void Connection::enlarge_send_buffer_locked() {
@@ -324,6 +441,7 @@ void Connection::send_backlog() {
 void Connection::flush() {
     std::lock_guard lock(send_mutex_);
     close_batch_locked();
+    append_releases_locked();
     if (!out_.empty())
         send_locked();
 }
@@ -338,6 +456,7 @@ proto::Reply Connection::request(nlohmann::json body, std::chrono::milliseconds 
     try {
         std::lock_guard lock(send_mutex_);
         close_batch_locked();  // data written before the request reaches the daemon before it
+        append_releases_locked();
         auto frame = proto::encode_request({id, std::move(body)});
         out_.insert(out_.end(), frame.begin(), frame.end());
         send_locked();
@@ -383,9 +502,20 @@ bool Connection::read_all(std::uint64_t handle, std::chrono::milliseconds timeou
 }
 
 void Connection::forget(std::uint64_t handle) {
-    std::lock_guard lock(state_mutex_);
-    inbox_.erase(handle);
-    closed_handles_.insert(handle);
+    {
+        std::lock_guard lock(state_mutex_);
+        inbox_.erase(handle);
+        closed_handles_.insert(handle);
+    }
+    // The port's region goes with it (the daemon drops its side when the port closes); frees
+    // that still come for it are ignored.
+    std::lock_guard lock(shm_mutex_);
+    const auto known = port_regions_.find(handle);
+    if (known == port_regions_.end())
+        return;
+    if (known->second)
+        writer_regions_.erase(*known->second);
+    port_regions_.erase(known);
 }
 
 template <typename Ready>
@@ -403,6 +533,7 @@ bool Connection::wait_until(std::unique_lock<std::mutex>& lock, Ready ready, Clo
         lock.unlock();
         try {
             receive(deadline);
+            flush_releases();
         } catch (...) {
             lock.lock();
             reading_ = false;
@@ -497,6 +628,11 @@ void Connection::receive(Clock::time_point deadline, int flags) {
                 deliver_received();
                 return fail(records.error());
             }
+        } else if (decoded.type == proto::FrameType::data_shm) {
+            deliver_received();  // the records before it go first
+            receive_shm_data(decoded.fields);
+            if (is_broken_.load(std::memory_order_acquire))
+                return;
         } else {
             dispatch(decoded.type, decoded.fields);
         }
@@ -505,7 +641,30 @@ void Connection::receive(Clock::time_point deadline, int flags) {
 }
 
 std::size_t Connection::receive_into(std::uint8_t* at, std::size_t room, int flags) {
-    const ssize_t n = ::recv(fd_, at, room, flags);
+    // recvmsg, not recv: shared-memory regions arrive as descriptors attached to the bytes, and a
+    // recv would close them unseen.
+    iovec piece{at, room};
+    alignas(cmsghdr) char control[CMSG_SPACE(sizeof(int) * max_received_fds)];
+    msghdr message{};
+    message.msg_iov = &piece;
+    message.msg_iovlen = 1;
+    message.msg_control = control;
+    message.msg_controllen = sizeof control;
+    const ssize_t n = ::recvmsg(fd_, &message, flags | MSG_CMSG_CLOEXEC);
+    if (n > 0 && message.msg_controllen > 0) {
+        for (cmsghdr* header = CMSG_FIRSTHDR(&message); header; header = CMSG_NXTHDR(&message, header)) {
+            if (header->cmsg_level != SOL_SOCKET || header->cmsg_type != SCM_RIGHTS)
+                continue;
+            const std::size_t count = (header->cmsg_len - CMSG_LEN(0)) / sizeof(int);
+            for (std::size_t i = 0; i < count; ++i) {
+                int fd = -1;
+                std::memcpy(&fd, CMSG_DATA(header) + i * sizeof(int), sizeof fd);
+                received_fds_.push_back(fd);
+            }
+        }
+        if (message.msg_flags & MSG_CTRUNC)
+            fail("descriptors from the daemon were cut off");
+    }
     if (n == 0) {
         fail("the daemon closed the connection");
         return 0;
@@ -594,9 +753,132 @@ void Connection::dispatch(proto::FrameType type, proto::ByteView fields) {
         }
         case proto::FrameType::error:
             return fail("the daemon reported: " + std::string(proto::as_string_view(fields)));
+        case proto::FrameType::shm_region:
+        case proto::FrameType::shm_free:
+        case proto::FrameType::shm_region_gone:
+            return on_shm_frame(type, fields);
         default:
             return fail("unexpected frame type " + proto::frame_type_name(static_cast<std::uint8_t>(type)));
     }
+}
+
+}  // namespace plexus::detail
+
+namespace plexus::detail {
+
+void Connection::on_shm_frame(proto::FrameType type, proto::ByteView fields) {
+    if (type == proto::FrameType::shm_free) {
+        const auto freed = proto::decode_shm_free(fields);
+        if (!freed)
+            return fail("bad shm_free: " + freed.error().message);
+        std::lock_guard lock(shm_mutex_);
+        const auto region = writer_regions_.find(freed->first);
+        if (region != writer_regions_.end() && region->second->ring.free(freed->second))
+            region->second->stalled = false;  // else its port closed meanwhile
+        return;
+    }
+    if (type == proto::FrameType::shm_region_gone) {
+        const auto id = proto::decode_shm_number(fields, "region");
+        if (!id)
+            return fail("bad shm_region_gone: " + id.error().message);
+        const auto region = reader_regions_.find(*id);
+        if (region != reader_regions_.end()) {
+            ::munmap(const_cast<std::uint8_t*>(region->second.data), region->second.size);
+            reader_regions_.erase(region);
+        }
+        return;
+    }
+    const auto region = proto::decode_shm_region(fields);
+    if (!region)
+        return fail("bad shm_region: " + region.error().message);
+    if (received_fds_.empty())
+        return fail("a shm_region frame came without its descriptor");
+    const int fd = received_fds_.front();
+    received_fds_.pop_front();
+    // Readers map regions read-only (the daemon sends them a read-only descriptor, so no reader
+    // can write into a writer's slots), and copy payloads out with memcpy: a pread costs twice as
+    // much per byte (page-cache look-ups per page). The mapping keeps the region; not the fd.
+    const int protection = region->writable ? PROT_READ | PROT_WRITE : PROT_READ;
+    void* mapped = ::mmap(nullptr, region->size, protection, MAP_SHARED, fd, 0);
+    if (mapped == MAP_FAILED) {
+        ::close(fd);
+        if (!region->writable)
+            return fail(std::string("cannot map a shared-memory region: ") + std::strerror(errno));
+        return;  // the request that asked for it finds no region and writes through the socket
+    }
+    if (!region->writable) {
+        ::close(fd);
+        auto& entry = reader_regions_[region->region];
+        if (entry.data)
+            ::munmap(const_cast<std::uint8_t*>(entry.data), entry.size);
+        entry = ReaderRegion{static_cast<const std::uint8_t*>(mapped), static_cast<std::size_t>(region->size)};
+        return;
+    }
+    std::lock_guard lock(shm_mutex_);
+    writer_regions_[region->region] = std::make_unique<WriterRegion>(
+        region->region, fd, static_cast<std::uint8_t*>(mapped), static_cast<std::size_t>(region->size));
+}
+
+void Connection::receive_shm_data(proto::ByteView fields) {
+    const auto data = proto::decode_shm_data(fields);
+    if (!data)
+        return fail("bad data_shm frame: " + data.error().message);
+    // Counted before anything else: the daemon holds the slot until it is released, whatever
+    // becomes of the message here.
+    unreleased_.fetch_add(1, std::memory_order_relaxed);
+    const auto region = reader_regions_.find(data->place.region);
+    if (region == reader_regions_.end())
+        return fail("data_shm for region " + std::to_string(data->place.region) + ", which was not sent");
+    const proto::ShmPlace& place = data->place;
+    if (place.offset > region->second.size || place.length > region->second.size - place.offset)
+        return fail("data_shm place outside its region");
+    {
+        std::lock_guard lock(state_mutex_);
+        if (closed_handles_.contains(data->handle))
+            return;
+    }
+    const proto::ByteView payload(region->second.data + place.offset, static_cast<std::size_t>(place.length));
+    InboxSegment segment;
+    // A byte string (an image, a point cloud) is copied straight into the Value the reader gets
+    // (and only copied: no zero-fill first); any other payload is put back together as a record,
+    // decoded when it is read.
+    const auto string_head = parse_byte_string_head(payload);
+    if (string_head && string_head->head_size + string_head->length == payload.size()) {
+        const auto record = proto::decode_record(data->head);  // checked by decode_shm_data
+        std::vector<std::uint8_t> bytes;
+        bytes.reserve(static_cast<std::size_t>(string_head->length));
+        bytes.insert(bytes.end(), payload.begin() + static_cast<std::ptrdiff_t>(string_head->head_size),
+                     payload.end());
+        segment.whole = Received{Envelope{std::string(record->source), record->seq, record->time_ns},
+                                 Value::binary(std::move(bytes))};
+    } else {
+        auto block = std::make_shared<proto::Bytes>(data->head.size() + payload.size());
+        std::memcpy(block->data(), data->head.data(), data->head.size());
+        std::memcpy(block->data() + data->head.size(), payload.data(), payload.size());
+        segment.records.emplace_back(block->data(), block->size());
+        segment.block = std::move(block);
+    }
+    std::lock_guard lock(state_mutex_);
+    if (!closed_handles_.contains(data->handle))
+        inbox_[data->handle].push_back(std::move(segment));
+}
+
+void Connection::append_releases_locked() {
+    const std::uint64_t count = unreleased_.exchange(0, std::memory_order_relaxed);
+    if (count == 0)
+        return;
+    const auto frame = proto::make_shm_number_frame(proto::FrameType::shm_release, count);
+    out_.insert(out_.end(), frame.begin(), frame.end());
+}
+
+void Connection::flush_releases() {
+    if (unreleased_.load(std::memory_order_relaxed) == 0)
+        return;
+    std::unique_lock lock(send_mutex_, std::try_to_lock);
+    if (!lock.owns_lock())
+        return;  // the thread sending now appends them to its next frames
+    append_releases_locked();
+    send_now_or_backlog_locked();
 }
 
 }  // namespace plexus::detail

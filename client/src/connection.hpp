@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "large_payload.hpp"
+#include "shm_ring.hpp"
 #include "plexus/client.hpp"
 #include "plexus/proto/control.hpp"
 #include "plexus/proto/frame.hpp"
@@ -65,8 +66,49 @@ public:
     bool read_all(std::uint64_t handle, std::chrono::milliseconds timeout, std::deque<InboxSegment>& into);
     /// Stops keeping messages for a closed handle.
     void forget(std::uint64_t handle);
+    /// Tells the daemon this client maps shared-memory regions (a local daemon only); true if the
+    /// daemon shares memory. Large payloads then travel through shared memory where they can.
+    bool enable_shm();
 
 private:
+    /// A region the daemon gave this client to write the large payloads of one port into.
+    struct WriterRegion {
+        WriterRegion(std::uint64_t id_, int fd_, std::uint8_t* data_, std::size_t size_)
+            : id(id_), fd(fd_), data(data_), size(size_), ring(size_) {}
+        ~WriterRegion();
+        std::uint64_t id;
+        int fd;
+        std::uint8_t* data;
+        std::size_t size;
+        ShmRing ring;
+        bool stalled = false;  ///< stayed full for a whole wait: do not wait again until a slot is freed
+    };
+    /// A region this client reads payloads of data_shm frames from, mapped read-only.
+    struct ReaderRegion {
+        const std::uint8_t* data = nullptr;
+        std::size_t size = 0;
+    };
+    /// Writes a large payload into the port's region and sends where it is; false when there is
+    /// no region or no room in it now (the payload then goes through the socket).
+    bool write_through_shm(std::uint64_t handle, const std::string& source, std::uint64_t seq,
+                           std::uint64_t time_ns, proto::ByteView payload, proto::ByteView tail);
+    /// The region of `handle`, asked of the daemon the first time; null when there is none.
+    WriterRegion* writer_region(std::uint64_t handle);
+    /// A slot of `length` bytes in `region`, waiting a little for the daemon's shm_free frames
+    /// when it is full (reading them itself when nobody else reads).
+    std::optional<std::size_t> allocate_slot(WriterRegion& region, std::size_t length);
+    /// Handles shm_region, shm_free and shm_region_gone.
+    void on_shm_frame(proto::FrameType type, proto::ByteView fields);
+    /// A data_shm frame: copies the payload out of the region into the handle's inbox.
+    void receive_shm_data(proto::ByteView fields);
+    /// Appends a shm_release frame for the data_shm frames taken since the last one.
+    void append_releases_locked();
+    /// Sends the releases now if the send lock is free; else whoever holds it sends them.
+    void flush_releases();
+    /// Reads what has arrived without waiting, if nobody else is reading.
+    void receive_pending();
+    /// Sends out_ now as far as the socket takes it; the rest waits for the backlog thread.
+    void send_now_or_backlog_locked();
     template <typename Ready>
     bool wait_until(std::unique_lock<std::mutex>& lock, Ready ready, Clock::time_point deadline);
     /// Reads what the socket has (waiting at most until `deadline`, or not at all with
@@ -150,6 +192,16 @@ private:
         std::size_t left = 0;
     };
     std::optional<LargePayload> large_;  ///< a large payload being received straight into its message
+    std::deque<int> received_fds_;       ///< descriptors received, for the shm_region frames to come
+    std::map<std::uint64_t, ReaderRegion> reader_regions_;  ///< by region id
+
+    // Shared memory: set up by enable_shm(), then guarded by shm_mutex_.
+    bool shm_ = false;
+    std::mutex shm_mutex_;
+    std::map<std::uint64_t, std::unique_ptr<WriterRegion>> writer_regions_;  ///< by region id
+    std::map<std::uint64_t, std::optional<std::uint64_t>> port_regions_;    ///< handle -> region id
+    /// data_shm frames received and not yet released (sent back in shm_release frames).
+    std::atomic<std::uint64_t> unreleased_{0};
 };
 
 }  // namespace plexus::detail

@@ -43,6 +43,28 @@ private:
 
 }  // namespace
 
+std::optional<ByteStringHead> parse_byte_string_head(proto::ByteView bytes) {
+    PrefixReader reader(bytes);
+    const auto initial = reader.byte();
+    if (!initial || (*initial >> 5) != cbor_major_bytes)
+        return std::nullopt;
+    // The length: the initial byte's low 5 bits, or 1, 2, 4 or 8 bytes after it.
+    const std::uint8_t info = *initial & 0x1f;
+    std::uint64_t length = info;
+    if (info >= 24) {
+        if (info > 27)
+            return std::nullopt;  // indefinite length (chunks) or reserved: the ordinary path
+        const auto width = std::size_t{1} << (info - 24);
+        const auto bytes_of_length = reader.take(width);
+        if (!bytes_of_length)
+            return std::nullopt;
+        length = 0;
+        for (const auto b : *bytes_of_length)
+            length = (length << 8) | b;
+    }
+    return ByteStringHead{length, reader.offset()};
+}
+
 std::optional<LargePayloadFrame> parse_large_payload_frame(proto::ByteView start, std::size_t frame_size) {
     if (frame_size < large_payload_frame)
         return std::nullopt;
@@ -60,23 +82,12 @@ std::optional<LargePayloadFrame> parse_large_payload_frame(proto::ByteView start
     const auto source = reader.take(static_cast<std::size_t>(*source_size));
     const auto seq = reader.varint();
     const auto time_ns = reader.varint();
-    const auto initial = reader.byte();
-    if (!source || !seq || !time_ns || !initial || (*initial >> 5) != cbor_major_bytes)
+    if (!source || !seq || !time_ns)
         return std::nullopt;
-    // The byte string's length: the initial byte's low 5 bits, or 1, 2, 4 or 8 bytes after it.
-    const std::uint8_t info = *initial & 0x1f;
-    std::uint64_t length = info;
-    if (info >= 24) {
-        if (info > 27)
-            return std::nullopt;  // indefinite length (chunks) or reserved: the ordinary path
-        const auto width = std::size_t{1} << (info - 24);
-        const auto bytes = reader.take(width);
-        if (!bytes)
-            return std::nullopt;
-        length = 0;
-        for (const auto b : *bytes)
-            length = (length << 8) | b;
-    }
+    const auto string_head = parse_byte_string_head(start.subspan(std::min(start.size(), reader.offset())));
+    if (!string_head || !reader.take(string_head->head_size))
+        return std::nullopt;
+    const std::uint64_t length = string_head->length;
     if (length != frame_size - reader.offset())
         return std::nullopt;  // not one byte string running to the frame's end
     frame.handle = *handle;

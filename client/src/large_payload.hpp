@@ -25,6 +25,13 @@ struct LargePayloadFrame {
     std::size_t payload_size = 0;    ///< the content runs to the end of the frame
 };
 
+/// The head of an untagged CBOR byte string of definite length at the start of `bytes`.
+struct ByteStringHead {
+    std::uint64_t length = 0;     ///< of the content
+    std::size_t head_size = 0;    ///< bytes of the head before the content
+};
+std::optional<ByteStringHead> parse_byte_string_head(proto::ByteView bytes);
+
 /// Recognises a data frame of `frame_size` bytes (at least large_payload_frame) that carries one
 /// CBOR byte string without a tag, from `start`, the frame's first bytes. Anything else, or a
 /// start too short to tell, gives nullopt: such frames take the ordinary path, which also judges

@@ -10,6 +10,8 @@
 
 namespace plexus::daemon {
 
+struct ShmSlot;  // net/shm_region.hpp
+
 /// A block of bytes read from a socket, left uninitialized on allocation: zero-filling a 1 MiB
 /// frame before reading into it would cost as much as the read itself.
 struct Chunk {
@@ -31,6 +33,10 @@ struct Message {
     proto::ByteView record;  ///< one record, or a batch's length-prefixed records
     std::uint64_t seq = 0;
     std::uint32_t batch = 0;  ///< 0: one record; n > 0: a batch of n records
+    /// Set for a payload left in a writer's shared memory: then `record` holds the fields of a
+    /// data_shm frame after its handle (region, offset, length, record head), and the message only
+    /// ever goes to local clients that map regions (see net/shm_region.hpp).
+    std::shared_ptr<const ShmSlot> shm{};
 
     /// How many messages this unit carries.
     std::uint64_t count() const { return batch == 0 ? 1 : batch; }

@@ -19,6 +19,9 @@ struct InFrame {
     /// Records of a data_batch frame already delivered: a batch is cut at a strict queue's bound
     /// and the rest waits for room.
     std::uint32_t delivered_records = 0;
+    /// A data_shm frame turned into its message (its slot held) the first time it was looked at,
+    /// kept while it waits for room so that the slot is not freed under the writer.
+    std::optional<Message> resolved{};
 };
 
 struct ReadOutcome {

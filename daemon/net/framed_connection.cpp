@@ -2,6 +2,10 @@
 
 #include <poll.h>
 #include <sys/socket.h>
+#include <sys/uio.h>
+
+#include <cerrno>
+#include <cstring>
 
 #include <spdlog/spdlog.h>
 
@@ -27,6 +31,7 @@ FramedConnection::FramedConnection(Socket socket, std::size_t max_frame, std::fu
       hello_signal_(socket_.get_executor()) {}
 
 void FramedConnection::start(const proto::Hello& mine) {
+    outbox_.set_owner(weak_from_this());
     send(proto::encode_hello(mine));
     auto self = shared_from_this();
     asio::co_spawn(
@@ -49,6 +54,7 @@ void FramedConnection::close(const std::string& reason) {
     boost::system::error_code ignored;
     socket_.shutdown(Socket::shutdown_both, ignored);
     socket_.close(ignored);
+    outbox_.release_all();  // the peer will not release them: free the writers' slots now
     wake_.notify();
     hello_signal_.notify();
     on_closed(reason);
@@ -70,6 +76,11 @@ void FramedConnection::fail(const std::string& reason) {
     spdlog::warn("{}: {}", description_, reason);
     send(proto::make_error_frame(reason));
     close_when_drained();
+}
+
+bool FramedConnection::is_local() {
+    boost::system::error_code ignored;
+    return socket_.local_endpoint(ignored).protocol().family() == AF_UNIX;
 }
 
 bool FramedConnection::peer_hung_up() {
@@ -154,6 +165,49 @@ Task<void> FramedConnection::read_loop() {
     }
 }
 
+Task<proto::Result<std::size_t>> FramedConnection::send_with_fds(const Batch& batch) {
+    std::vector<iovec> pieces;
+    pieces.reserve(batch.buffers.size());
+    for (const auto& buffer : batch.buffers)
+        pieces.push_back({const_cast<void*>(buffer.data()), buffer.size()});
+    std::vector<char> control(CMSG_SPACE(sizeof(int) * batch.fds.size()));
+    msghdr message{};
+    message.msg_iov = pieces.data();
+    message.msg_iovlen = pieces.size();
+    message.msg_control = control.data();
+    message.msg_controllen = control.size();
+    cmsghdr* header = CMSG_FIRSTHDR(&message);
+    header->cmsg_level = SOL_SOCKET;
+    header->cmsg_type = SCM_RIGHTS;
+    header->cmsg_len = CMSG_LEN(sizeof(int) * batch.fds.size());
+    std::memcpy(CMSG_DATA(header), batch.fds.data(), sizeof(int) * batch.fds.size());
+    for (;;) {
+        const ssize_t n = ::sendmsg(socket_.native_handle(), &message, MSG_NOSIGNAL | MSG_DONTWAIT);
+        if (n >= 0)
+            co_return static_cast<std::size_t>(n);
+        if (errno == EINTR)
+            continue;
+        if (errno != EAGAIN && errno != EWOULDBLOCK)
+            co_return proto::Error{std::string("sending region descriptors: ") + std::strerror(errno)};
+        auto [ec] = co_await socket_.async_wait(Socket::wait_write, use_nothrow);
+        if (ec)
+            co_return proto::Error{ec.message()};
+        if (closed_)
+            co_return proto::Error{"closed"};
+    }
+}
+
+void FramedConnection::consume(std::vector<asio::const_buffer>& buffers, std::size_t sent) {
+    std::size_t whole = 0;
+    while (whole < buffers.size() && sent >= buffers[whole].size()) {
+        sent -= buffers[whole].size();
+        ++whole;
+    }
+    buffers.erase(buffers.begin(), buffers.begin() + static_cast<std::ptrdiff_t>(whole));
+    if (!buffers.empty())
+        buffers.front() += sent;
+}
+
 Task<void> FramedConnection::write_loop() {
     auto self = shared_from_this();
     Batch batch;
@@ -178,6 +232,17 @@ Task<void> FramedConnection::write_loop() {
             boost::system::error_code ignored;
             if (socket_.local_endpoint(ignored).protocol().family() == AF_UNIX)
                 socket_.set_option(asio::socket_base::send_buffer_size(large_message_send_buffer), ignored);
+        }
+        if (!batch.fds.empty()) {
+            // Region descriptors ride on the batch's first bytes; the rest follows as usual.
+            const auto sent = co_await send_with_fds(batch);
+            if (!sent) {
+                close(sent.error().message);
+                co_return;
+            }
+            consume(batch.buffers, *sent);
+            if (batch.buffers.empty())
+                continue;
         }
         auto [ec, n] = co_await asio::async_write(socket_, batch.buffers, use_nothrow);
         if (ec) {

@@ -42,6 +42,8 @@ public:
     void set_description(std::string text) { description_ = std::move(text); }
     Outbox& outbox() { return outbox_; }
     asio::any_io_executor executor() { return socket_.get_executor(); }
+    /// True for a Unix-socket peer (a client on this machine), which can be given descriptors.
+    bool is_local();
     /// True when the peer has closed or reset the connection, even with unread data left: lets a
     /// session that stopped reading (back-pressure) notice that its client died.
     bool peer_hung_up();
@@ -63,6 +65,10 @@ protected:
 private:
     Task<void> read_loop();
     Task<void> write_loop();
+    /// Sends what the socket takes of `batch` (at least one byte) with its descriptors attached.
+    Task<proto::Result<std::size_t>> send_with_fds(const Batch& batch);
+    /// Drops the first `sent` bytes from `buffers`.
+    static void consume(std::vector<asio::const_buffer>& buffers, std::size_t sent);
     Task<void> close_after(std::chrono::steady_clock::duration grace);
 
     Socket socket_;

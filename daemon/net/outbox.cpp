@@ -3,7 +3,9 @@
 #include <algorithm>
 
 #include "plexus/proto/message.hpp"
+#include "plexus/proto/shm.hpp"
 #include "plexus/proto/varint.hpp"
+#include "shm_region.hpp"
 
 namespace plexus::daemon {
 
@@ -13,6 +15,9 @@ constexpr std::size_t max_buffers = 1000;
 // Records smaller than this are copied into the batch: a copy of a few KiB costs less than a buffer
 // of its own in the system call and the reference that keeps its chunk alive.
 constexpr std::size_t copy_below = 4096;
+// Descriptors sent with one batch; the kernel takes at most 253 (SCM_MAX_FD) per message, and a
+// batch adds at most one per frame before it looks at this bound again.
+constexpr std::size_t max_fds = 200;
 }  // namespace
 
 void Batch::clear() {
@@ -22,6 +27,36 @@ void Batch::clear() {
     flat.clear();
     bytes = 0;
     largest = 0;
+    fds.clear();
+    regions.clear();
+}
+
+void Outbox::push_writer_region(std::shared_ptr<const ShmRegion> region) {
+    auto frame = proto::make_shm_region_frame({region->id(), region->size(), true});
+    control_bytes_ += frame.size();
+    control_.push_back({std::move(frame), std::move(region)});
+}
+
+bool Outbox::release(std::uint64_t count) {
+    if (count > lent_.size())
+        return false;
+    lent_.erase(lent_.begin(), lent_.begin() + static_cast<std::ptrdiff_t>(count));
+    return true;
+}
+
+void Outbox::add_shm_message(Batch& batch, std::uint64_t handle, Message message) {
+    const auto& region = message.shm->region;
+    if (!regions_sent_.contains(region->id())) {
+        regions_sent_.insert(region->id());
+        region->add_reader(owner_);
+        const auto frame = proto::make_shm_region_frame({region->id(), region->size(), false});
+        batch.flat.insert(batch.flat.end(), frame.begin(), frame.end());
+        batch.fds.push_back(region->reader_fd());
+        batch.regions.push_back(region);
+    }
+    proto::append_shm_frame_prefix(batch.flat, handle, message.record.size());
+    batch.flat.insert(batch.flat.end(), message.record.begin(), message.record.end());
+    lent_.push_back(std::move(message.shm));
 }
 
 void Outbox::remove_source(std::uint64_t handle) {
@@ -50,15 +85,22 @@ void Outbox::fill(Batch& batch, std::size_t budget) {
         else
             pieces.push_back({Piece::flat, offset, size});
     };
-    while (!control_.empty() && batch.bytes < budget && pieces.size() < max_buffers) {
-        batch.bytes += control_.front().size();
-        control_bytes_ -= control_.front().size();
-        pieces.push_back({Piece::control, batch.control.size(), control_.front().size()});
-        batch.control.push_back(std::move(control_.front()));
+    while (!control_.empty() && batch.bytes < budget && pieces.size() < max_buffers &&
+           batch.fds.size() < max_fds) {
+        ControlFrame& frame = control_.front();
+        batch.bytes += frame.bytes.size();
+        control_bytes_ -= frame.bytes.size();
+        pieces.push_back({Piece::control, batch.control.size(), frame.bytes.size()});
+        if (frame.writer_region) {
+            batch.fds.push_back(frame.writer_region->writer_fd());
+            batch.regions.push_back(std::move(frame.writer_region));
+        }
+        batch.control.push_back(std::move(frame.bytes));
         control_.pop_front();
     }
     bool progress = true;
-    while (progress && batch.bytes < budget && pieces.size() + 2 <= max_buffers && !sources_.empty()) {
+    while (progress && batch.bytes < budget && pieces.size() + 2 <= max_buffers && batch.fds.size() < max_fds &&
+           !sources_.empty()) {
         progress = false;
         for (std::size_t step = 0; step < sources_.size(); ++step) {
             auto& source = sources_[(next_source_ + step) % sources_.size()];
@@ -71,24 +113,30 @@ void Outbox::fill(Batch& batch, std::size_t budget) {
             const std::size_t offset = batch.flat.size();
             const std::size_t record_size = message.record.size();
             batch.largest = std::max(batch.largest, record_size);
-            if (message.batch == 0)
-                proto::append_data_frame_prefix(batch.flat, source.handle, record_size);
-            else
-                proto::append_batch_frame_prefix(batch.flat, source.handle, message.batch, record_size);
-            if (record_size < copy_below) {
-                batch.flat.insert(batch.flat.end(), message.record.begin(), message.record.end());
+            if (message.shm) {
+                // Only the place of its payload is sent: the payload stays in shared memory.
+                add_shm_message(batch, source.handle, std::move(message));
                 append_flat(offset);
             } else {
-                append_flat(offset);
-                pieces.push_back({Piece::record, batch.messages.size(), record_size});
-                batch.messages.push_back(std::move(message));
-                batch.bytes += record_size;
+                if (message.batch == 0)
+                    proto::append_data_frame_prefix(batch.flat, source.handle, record_size);
+                else
+                    proto::append_batch_frame_prefix(batch.flat, source.handle, message.batch, record_size);
+                if (record_size < copy_below) {
+                    batch.flat.insert(batch.flat.end(), message.record.begin(), message.record.end());
+                    append_flat(offset);
+                } else {
+                    append_flat(offset);
+                    pieces.push_back({Piece::record, batch.messages.size(), record_size});
+                    batch.messages.push_back(std::move(message));
+                    batch.bytes += record_size;
+                }
             }
             batch.bytes += batch.flat.size() - offset;
             if (was_full && !source.queue->full() && on_space_)
                 on_space_();
             progress = true;
-            if (batch.bytes >= budget || pieces.size() + 2 > max_buffers)
+            if (batch.bytes >= budget || pieces.size() + 2 > max_buffers || batch.fds.size() >= max_fds)
                 break;
         }
         next_source_ = sources_.empty() ? 0 : (next_source_ + 1) % sources_.size();

@@ -5,6 +5,7 @@
 #include <deque>
 #include <functional>
 #include <memory>
+#include <set>
 #include <vector>
 
 #include "../core/reader_queue.hpp"
@@ -12,6 +13,10 @@
 #include "plexus/proto/bytes.hpp"
 
 namespace plexus::daemon {
+
+class FramedConnection;
+class ShmRegion;
+struct ShmSlot;
 
 /// A queue of messages that leaves on this socket as data frames tagged with `handle`.
 struct OutSource {
@@ -32,6 +37,10 @@ struct Batch {
     proto::Bytes flat;
     std::size_t bytes = 0;
     std::size_t largest = 0;  ///< the largest record or batch of records in it
+    /// Descriptors of shared-memory regions, sent with the batch's first byte (SCM_RIGHTS): the
+    /// shm_region frames they belong to are in the batch, so each arrives no later than its frame.
+    std::vector<int> fds;
+    std::vector<std::shared_ptr<const ShmRegion>> regions;  ///< keep `fds` open until written
     void clear();
     bool empty() const { return buffers.empty(); }
 };
@@ -45,8 +54,10 @@ public:
 
     void push_control(proto::Bytes frame) {
         control_bytes_ += frame.size();
-        control_.push_back(std::move(frame));
+        control_.push_back({std::move(frame), nullptr});
     }
+    /// Queues a shm_region frame giving `region` to the writer, with its read-write descriptor.
+    void push_writer_region(std::shared_ptr<const ShmRegion> region);
     /// Bytes of control frames (replies, errors) not yet handed to the socket.
     std::size_t control_bytes() const { return control_bytes_; }
     void add_source(OutSource source) { sources_.push_back(std::move(source)); }
@@ -56,12 +67,35 @@ public:
     /// Moves frames worth about `budget` bytes (at least one frame) into `batch`.
     void fill(Batch& batch, std::size_t budget);
 
+    // --- shared memory (see shm_region.hpp) ---
+    /// The connection this outbox writes to, which regions sent to it remember.
+    void set_owner(std::weak_ptr<FramedConnection> owner) { owner_ = std::move(owner); }
+    /// The reader is done with the `count` oldest shared-memory messages sent to it; false if it
+    /// was not sent that many.
+    bool release(std::uint64_t count);
+    /// Lets go of every shared-memory message sent (the connection closed).
+    void release_all() { lent_.clear(); }
+    /// Shared-memory messages sent and not yet released.
+    std::size_t lent() const { return lent_.size(); }
+    /// The region is gone: a later region is sent again even if it had the same id.
+    void forget_region(std::uint64_t id) { regions_sent_.erase(id); }
+
 private:
+    struct ControlFrame {
+        proto::Bytes bytes;
+        std::shared_ptr<const ShmRegion> writer_region;  ///< its read-write fd goes with the frame
+    };
+    /// Adds the frame of a shared-memory message, preceded by its region the first time.
+    void add_shm_message(Batch& batch, std::uint64_t handle, Message message);
+
     std::function<void()> on_space_;
-    std::deque<proto::Bytes> control_;
+    std::deque<ControlFrame> control_;
     std::size_t control_bytes_ = 0;
     std::vector<OutSource> sources_;
     std::size_t next_source_ = 0;
+    std::weak_ptr<FramedConnection> owner_;
+    std::deque<std::shared_ptr<const ShmSlot>> lent_;  ///< in the order sent, released in that order
+    std::set<std::uint64_t> regions_sent_;
 };
 
 }  // namespace plexus::daemon

@@ -6,6 +6,7 @@
 #include "../core/router.hpp"
 #include "../daemon.hpp"
 #include "plexus/proto/message.hpp"
+#include "plexus/proto/shm.hpp"
 
 namespace plexus::daemon {
 
@@ -14,6 +15,14 @@ namespace {
 constexpr std::size_t max_requests_in_flight = 64;
 /// Reply bytes the peer has not taken yet beyond which no further request is read.
 constexpr std::size_t max_unread_replies = 4u * 1024u * 1024u;
+/// Shared-memory messages a client may hold unreleased: a client that never releases them is
+/// broken, and each one holds a slot of some writer's region.
+constexpr std::size_t max_unreleased_shm = 1u << 16;
+
+bool is_data(proto::FrameType type) {
+    return type == proto::FrameType::data || type == proto::FrameType::data_batch ||
+           type == proto::FrameType::data_shm;
+}
 }  // namespace
 
 Session::Session(Socket socket, Daemon& daemon, std::uint64_t id)
@@ -39,7 +48,10 @@ Task<bool> Session::on_frame(InFrame frame) {
     switch (frame.type) {
         case proto::FrameType::data:
         case proto::FrameType::data_batch:
+        case proto::FrameType::data_shm:
             co_return co_await on_data(std::move(frame));
+        case proto::FrameType::shm_release:
+            co_return on_release(frame);
         case proto::FrameType::request: {
             auto request = proto::decode_request(frame.fields);
             if (!request) {
@@ -87,7 +99,9 @@ Task<void> Session::serve(proto::Request request) {
     request_done_.notify();
 }
 
-std::optional<Session::Incoming> Session::decode_incoming(const InFrame& frame) {
+std::optional<Session::Incoming> Session::decode_incoming(InFrame& frame) {
+    if (frame.type == proto::FrameType::data_shm)
+        return decode_shm(frame);
     if (frame.type == proto::FrameType::data) {
         auto data = proto::decode_data(frame.fields);
         if (!data) {
@@ -107,6 +121,82 @@ std::optional<Session::Incoming> Session::decode_incoming(const InFrame& frame) 
     if (frame.delivered_records > 0)
         message = without_first_records(message, frame.delivered_records);
     return Incoming{batch->handle, std::move(message)};
+}
+
+std::optional<Session::Incoming> Session::decode_shm(InFrame& frame) {
+    auto data = proto::decode_shm_data(frame.fields);
+    if (!data) {
+        ++daemon_.counters().protocol_errors;
+        fail("bad data_shm frame: " + data.error().message);
+        return std::nullopt;
+    }
+    auto port = ports.find(data->handle);
+    if (!frame.resolved) {
+        const auto region = shm_regions.find(data->handle);
+        if (link_port_ || region == shm_regions.end() || region->second->id() != data->place.region) {
+            ++daemon_.counters().protocol_errors;
+            fail("data_shm for region " + std::to_string(data->place.region) +
+                 ", which is not the region of handle " + std::to_string(data->handle));
+            return std::nullopt;
+        }
+        if (!region->second->holds(data->place.offset, data->place.length)) {
+            ++daemon_.counters().protocol_errors;
+            fail("data_shm place " + std::to_string(data->place.offset) + "+" +
+                 std::to_string(data->place.length) + " outside its region of " +
+                 std::to_string(region->second->size()) + " bytes");
+            return std::nullopt;
+        }
+        if (port != ports.end() && !check_sources(Message{frame.storage, data->head}, port->second->name(),
+                                                  "written on the handle of"))
+            return std::nullopt;
+        // The slot is held from here on: whatever becomes of the message, its end frees the slot.
+        frame.resolved = Message{frame.storage, data->place_and_head, 0, 0,
+                                 std::make_shared<const ShmSlot>(region->second, data->place.offset,
+                                                                 data->place.length)};
+    }
+    // Judged again at every try: connections may change while the frame waits for room.
+    if (frame.resolved->shm && (port == ports.end() || !passes_shm(*port->second))) {
+        frame.resolved = copy_out_of_shm(*frame.resolved);
+        ++daemon_.counters().shm_copied;
+    }
+    return Incoming{data->handle, *frame.resolved};
+}
+
+bool Session::passes_shm(const Port& port) const {
+    for (const auto& connection : port.outgoing) {
+        if (connection->remote || connection->send_chain)
+            return false;
+        const auto* inlet = dynamic_cast<const Inlet*>(connection->sink.get());
+        if (!inlet || inlet->chain || !inlet->member().trivial())
+            return false;
+        const auto reader = daemon_.session(inlet->port()->owner());
+        if (!reader || !reader->maps_shm)
+            return false;
+    }
+    return true;
+}
+
+Message Session::copy_out_of_shm(const Message& message) {
+    const ShmSlot& slot = *message.shm;
+    const auto data = *proto::decode_shm_place(message.record);  // checked when it arrived
+    const std::size_t size = data.head.size() + slot.length;
+    auto chunk = std::make_shared<Chunk>(size);
+    std::memcpy(chunk->data(), data.head.data(), data.head.size());
+    std::memcpy(chunk->data() + data.head.size(), slot.region->data() + slot.offset, slot.length);
+    const proto::ByteView record(chunk->data(), size);
+    return Message{std::move(chunk), record, message.seq, 0};
+}
+
+bool Session::on_release(const InFrame& frame) {
+    const auto count = proto::decode_shm_number(frame.fields, "count");
+    if (!count || !outbox().release(*count)) {
+        ++daemon_.counters().protocol_errors;
+        fail(count ? "shm_release of " + std::to_string(*count) + " messages, but " +
+                         std::to_string(outbox().lent()) + " were sent"
+                   : "bad shm_release frame: " + count.error().message);
+        return false;
+    }
+    return true;
 }
 
 bool Session::check_sources(const Message& message, const std::string& expected, std::string_view writer) {
@@ -187,14 +277,19 @@ Session::DataOutcome Session::try_deliver(InFrame& frame) {
         return DataOutcome::delivered;
     }
     Port& port = *it->second;
-    if (!check_sources(message, port.name(), "written on the handle of"))
+    if (!message.shm && !check_sources(message, port.name(), "written on the handle of"))
         return DataOutcome::stop;
-    return deliver_within(frame, message, Router::room(port),
-                          [&](const Message& m) { Router::route(port, m); });
+    const auto outcome =
+        deliver_within(frame, message, Router::room(port), [&](const Message& m) { Router::route(port, m); });
+    if (outcome == DataOutcome::delivered && message.shm)
+        ++daemon_.counters().shm_passed;
+    return outcome;
 }
 
 FramedConnection::FrameAction Session::on_frame_now(InFrame& frame) {
-    if (frame.type != proto::FrameType::data && frame.type != proto::FrameType::data_batch)
+    if (frame.type == proto::FrameType::shm_release)
+        return on_release(frame) ? FrameAction::handled : FrameAction::stop;
+    if (!is_data(frame.type))
         return FrameAction::wait;
     switch (try_deliver(frame)) {
         case DataOutcome::delivered:
@@ -235,6 +330,7 @@ Task<void> Session::wait_for_space() {
 
 void Session::on_closed(const std::string& reason) {
     spdlog::debug("{} closed: {}", description(), reason);
+    shm_regions.clear();
     daemon_.session_closed(*this);
 }
 

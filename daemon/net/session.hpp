@@ -6,6 +6,7 @@
 
 #include "../core/inlet.hpp"
 #include "framed_connection.hpp"
+#include "shm_region.hpp"
 #include "plexus/proto/control.hpp"
 
 namespace plexus::daemon {
@@ -28,6 +29,11 @@ public:
     std::map<std::uint64_t, std::shared_ptr<Port>> ports;
     std::uint64_t next_handle = 1;
 
+    /// True once the client said it maps shared-memory regions (it may then be sent data_shm frames).
+    bool maps_shm = false;
+    /// The shared-memory region of each port this client writes through one, by handle.
+    std::map<std::uint64_t, std::shared_ptr<ShmRegion>> shm_regions;
+
     /// Makes this session the receiving end of a connection into `port`.
     void become_link(std::shared_ptr<Inlet> link);
 
@@ -44,7 +50,17 @@ private:
         Message message;  ///< one record or a batch
     };
     /// The handle and record(s) of a data or data_batch frame; fails the session if malformed.
-    std::optional<Incoming> decode_incoming(const InFrame& frame);
+    std::optional<Incoming> decode_incoming(InFrame& frame);
+    /// The message of a data_shm frame: its payload left in shared memory when every reader of the
+    /// port can take it from there, else copied out of it now. Fails the session if malformed.
+    std::optional<Incoming> decode_shm(InFrame& frame);
+    /// True when every connection out of `port` goes, unwatched and unarbitrated, to a local client
+    /// that maps regions: only then may a message keep its payload in shared memory.
+    bool passes_shm(const Port& port) const;
+    /// The message with its payload copied out of shared memory into a record of its own.
+    static Message copy_out_of_shm(const Message& message);
+    /// A shm_release frame: the client is done with its oldest data_shm messages.
+    bool on_release(const InFrame& frame);
     /// True if every record is well formed and written by `expected`; else fails the session with
     /// "message from port 'x' <writer> <expected>".
     bool check_sources(const Message& message, const std::string& expected, std::string_view writer);

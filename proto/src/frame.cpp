@@ -11,7 +11,7 @@ namespace {
 
 bool is_known_type(std::uint8_t type) {
     return type >= static_cast<std::uint8_t>(FrameType::hello) &&
-           type <= static_cast<std::uint8_t>(FrameType::data_batch);
+           type <= static_cast<std::uint8_t>(FrameType::shm_region_gone);
 }
 
 FrameDecode need_more(std::size_t needed) {
@@ -118,6 +118,16 @@ std::string frame_type_name(std::uint8_t type) {
             return "error";
         case static_cast<std::uint8_t>(FrameType::data_batch):
             return "data_batch";
+        case static_cast<std::uint8_t>(FrameType::data_shm):
+            return "data_shm";
+        case static_cast<std::uint8_t>(FrameType::shm_region):
+            return "shm_region";
+        case static_cast<std::uint8_t>(FrameType::shm_release):
+            return "shm_release";
+        case static_cast<std::uint8_t>(FrameType::shm_free):
+            return "shm_free";
+        case static_cast<std::uint8_t>(FrameType::shm_region_gone):
+            return "shm_region_gone";
         default:
             return "unknown(" + std::to_string(type) + ")";
     }

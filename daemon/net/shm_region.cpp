@@ -1,0 +1,72 @@
+#include "shm_region.hpp"
+
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <string>
+
+#include "framed_connection.hpp"
+#include "plexus/proto/shm.hpp"
+
+namespace plexus::daemon {
+
+namespace {
+std::string system_error(const char* what) {
+    return std::string(what) + ": " + std::strerror(errno);
+}
+}  // namespace
+
+proto::Result<std::shared_ptr<ShmRegion>> ShmRegion::create(std::uint64_t id, std::size_t size,
+                                                           std::weak_ptr<FramedConnection> writer,
+                                                           std::shared_ptr<ShmUsage> usage) {
+    std::shared_ptr<ShmRegion> region(new ShmRegion(id, size, std::move(writer), std::move(usage)));
+    region->writer_fd_ = ::memfd_create("plexus-shm", MFD_CLOEXEC | MFD_ALLOW_SEALING);
+    if (region->writer_fd_ < 0)
+        return proto::Error{system_error("memfd_create")};
+    if (::ftruncate(region->writer_fd_, static_cast<off_t>(size)) != 0)
+        return proto::Error{system_error("ftruncate")};
+    // Sealed before anyone else has it: a client that could shrink the file would make every
+    // mapping of the cut pages fault (SIGBUS), the daemon's included.
+    if (::fcntl(region->writer_fd_, F_ADD_SEALS, F_SEAL_SHRINK | F_SEAL_GROW | F_SEAL_SEAL) != 0)
+        return proto::Error{system_error("sealing the region")};
+    // A second open file description, read-only: what readers get and what the daemon maps.
+    const std::string path = "/proc/self/fd/" + std::to_string(region->writer_fd_);
+    region->reader_fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (region->reader_fd_ < 0)
+        return proto::Error{system_error("reopening the region read-only")};
+    void* mapped = ::mmap(nullptr, size, PROT_READ, MAP_SHARED, region->reader_fd_, 0);
+    if (mapped == MAP_FAILED)
+        return proto::Error{system_error("mmap")};
+    region->data_ = static_cast<const std::uint8_t*>(mapped);
+    region->usage_->bytes += size;
+    ++region->usage_->regions;
+    return region;
+}
+
+ShmRegion::~ShmRegion() {
+    for (auto& weak : readers_) {
+        if (auto reader = weak.lock()) {
+            reader->outbox().forget_region(id_);
+            reader->send(proto::make_shm_number_frame(proto::FrameType::shm_region_gone, id_));
+        }
+    }
+    if (data_) {
+        ::munmap(const_cast<std::uint8_t*>(data_), size_);
+        usage_->bytes -= size_;
+        --usage_->regions;
+    }
+    if (reader_fd_ >= 0)
+        ::close(reader_fd_);
+    if (writer_fd_ >= 0)
+        ::close(writer_fd_);
+}
+
+void ShmRegion::free(std::uint64_t offset) {
+    if (auto writer = writer_.lock())
+        writer->send(proto::make_shm_free_frame(id_, offset));
+}
+
+}  // namespace plexus::daemon
