@@ -477,6 +477,7 @@ nlohmann::json Daemon::stats_json(const std::string& only_port) const {
               {"shm_copied", counters_.shm_copied},
               {"shm_regions", shm_usage_->regions},
               {"shm_bytes", shm_usage_->bytes},
+              {"shm_slots", shm_usage_->slots},
               {"monitor_published", scripts_->published()},
               {"monitor_publish_dropped", scripts_->publish_dropped()}}}};
 }

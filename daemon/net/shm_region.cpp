@@ -65,6 +65,7 @@ ShmRegion::~ShmRegion() {
 }
 
 void ShmRegion::free(std::uint64_t offset) {
+    --usage_->slots;
     if (auto writer = writer_.lock())
         writer->send(proto::make_shm_free_frame(id_, offset));
 }

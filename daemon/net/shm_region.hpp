@@ -25,6 +25,7 @@ class FramedConnection;
 struct ShmUsage {
     std::size_t bytes = 0;
     std::size_t regions = 0;
+    std::size_t slots = 0;  ///< payloads held for readers in all regions
 };
 
 /// One region: a sealed memfd (it can neither shrink nor grow, so nobody can make a mapping of it
@@ -54,7 +55,9 @@ public:
 
     /// Remembers a connection the region was sent to, to tell it when the region is gone.
     void add_reader(std::weak_ptr<FramedConnection> reader) { readers_.push_back(std::move(reader)); }
-    /// Tells the writer that the slot at `offset` is free again.
+    /// Counts a slot held by a message (see ShmSlot).
+    void hold() { ++usage_->slots; }
+    /// The slot at `offset` is no longer held: tells the writer it is free again.
     void free(std::uint64_t offset);
 
 private:
@@ -75,7 +78,9 @@ private:
 /// A payload in a region, held while any message refers to it; frees its slot when the last goes.
 struct ShmSlot {
     ShmSlot(std::shared_ptr<ShmRegion> region_, std::uint64_t offset_, std::uint64_t length_)
-        : region(std::move(region_)), offset(offset_), length(length_) {}
+        : region(std::move(region_)), offset(offset_), length(length_) {
+        region->hold();
+    }
     ~ShmSlot() { region->free(offset); }
     ShmSlot(const ShmSlot&) = delete;
     ShmSlot& operator=(const ShmSlot&) = delete;

@@ -29,6 +29,7 @@
 #include "plexus/proto/frame.hpp"
 #include "plexus/proto/hello.hpp"
 #include "plexus/proto/message.hpp"
+#include "plexus/proto/shm.hpp"
 #include "plexus/proto/varint.hpp"
 
 namespace plexus::test {
@@ -1012,6 +1013,95 @@ TEST(Hostile_test, ABrokenBatchIsRefusedWholeAndTheReaderSeesNoneOfIt) {
         EXPECT_FALSE(sink.read(std::chrono::milliseconds(0)).has_value()) << "part of a broken batch arrived";
     }
     EXPECT_TRUE(daemon.process().running());
+}
+
+// ---------------------------------------------------------------------------------------------
+// Shared memory
+
+/// A data_shm frame for `handle` naming a place and a record head from `source`.
+Bytes shm_frame(std::uint64_t handle, const proto::ShmPlace& place, const std::string& source) {
+    Bytes rest;
+    proto::append_shm_place(rest, place, source, 1, 1);
+    Bytes frame;
+    proto::append_shm_frame_prefix(frame, handle, rest.size());
+    frame.insert(frame.end(), rest.begin(), rest.end());
+    return frame;
+}
+
+TEST(Hostile_test, SharedMemoryFramesThatLieAreRefusedAndOthersAreUnharmed) {
+    TempDir dir;
+    Daemon daemon(dir, "solo");
+    Client good({daemon.socket()});
+    auto sink = good.open("/shm/sink");
+    struct Lie {
+        std::string what;
+        bool with_region;
+        std::function<Bytes(std::uint64_t handle, std::uint64_t region, std::uint64_t size)> make;
+        std::string reason;
+    };
+    const std::vector<Lie> lies = {
+        {"data_shm without a region", false,
+         [](auto h, auto, auto) { return shm_frame(h, {1, 0, 10}, "/shm/evil"); }, "not the region of handle"},
+        {"data_shm naming a region that is not its own", true,
+         [](auto h, auto region, auto) { return shm_frame(h, {region + 1000, 0, 10}, "/shm/evil"); },
+         "not the region of handle"},
+        {"a place running past the region's end", true,
+         [](auto h, auto region, auto size) { return shm_frame(h, {region, size - 5, 10}, "/shm/evil"); },
+         "outside its region"},
+        {"an offset near 2^64", true,
+         [](auto h, auto region, auto) { return shm_frame(h, {region, ~std::uint64_t{0} - 3, 10}, "/shm/evil"); },
+         "outside its region"},
+        {"a record head from another port", true,
+         [](auto h, auto region, auto) { return shm_frame(h, {region, 0, 10}, "/shm/sink"); }, "message from port"},
+        {"a release of messages never sent", false,
+         [](auto, auto, auto) { return proto::make_shm_number_frame(FrameType::shm_release, 1); },
+         "shm_release of 1 messages, but 0 were sent"},
+        {"a daemon's own shm_free frame", false, [](auto, auto, auto) { return proto::make_shm_free_frame(1, 0); },
+         "unexpected shm_free frame"},
+    };
+    for (const auto& lie : lies) {
+        SCOPED_TRACE(lie.what);
+        auto hostile = Stream::open(daemon, Listener::daemon_unix);
+        ASSERT_TRUE(hostile.send(
+            concat(hello_frame("client"), request_frame(1, {{"op", "open"}, {"port", "/shm/evil"}}))));
+        auto opened = hostile.reply_to(1);
+        ASSERT_TRUE(opened.has_value());
+        ASSERT_EQ(opened->code, proto::ReplyCode::ok) << opened->body.dump();
+        const auto handle = opened->body["handle"].get<std::uint64_t>();
+        ASSERT_EQ(good.connect("/shm/evil", "/shm/sink"), "local");
+        std::uint64_t region = 0;
+        std::uint64_t size = 0;
+        if (lie.with_region) {
+            ASSERT_TRUE(hostile.send(request_frame(2, {{"op", "shm"}, {"handle", handle}})));
+            auto given = hostile.reply_to(2);
+            ASSERT_TRUE(given.has_value());
+            ASSERT_EQ(given->code, proto::ReplyCode::ok) << given->body.dump();
+            region = given->body["region"].get<std::uint64_t>();
+            size = given->body["size"].get<std::uint64_t>();
+        }
+        ASSERT_TRUE(hostile.send(lie.make(handle, region, size)));
+        const auto frames = hostile.frames_until_closed();
+        EXPECT_EQ(hostile.end(), End::eof) << end_name(hostile.end());
+        const auto reason = error_reason(frames);
+        ASSERT_TRUE(reason.has_value()) << "no error frame";
+        EXPECT_NE(reason->find(lie.reason), std::string::npos) << *reason;
+        ASSERT_TRUE(eventually([&] { return !good.lookup("/shm/evil").has_value(); }));
+        EXPECT_FALSE(sink.read(std::chrono::milliseconds(0)).has_value()) << "a lie reached the reader";
+    }
+    EXPECT_TRUE(daemon.process().running());
+    EXPECT_EQ(good.stats()["daemon"]["shm_regions"], 0) << "a region outlived the session that lied";
+    expect_everyone_still_served(daemon);
+}
+
+TEST(Hostile_test, SharedMemoryIsOnlyForClientsOnTheUnixSocket) {
+    TempDir dir;
+    Daemon daemon(dir, "solo");
+    auto remote = Stream::open(daemon, Listener::daemon_tcp);
+    ASSERT_TRUE(remote.send(concat(hello_frame("client"), request_frame(1, {{"op", "shm"}}))));
+    auto reply = remote.reply_to(1);
+    ASSERT_TRUE(reply.has_value());
+    EXPECT_EQ(reply->code, proto::ReplyCode::refused);
+    EXPECT_NE(reply->body.value("error", std::string()).find("Unix socket"), std::string::npos) << reply->body.dump();
 }
 
 // ---------------------------------------------------------------------------------------------

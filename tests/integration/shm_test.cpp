@@ -1,0 +1,233 @@
+// Large payloads through shared memory between clients and their local daemon (PROTOCOL.md,
+// "Shared memory"): what arrives, which path it took (the daemon's shm_passed / shm_copied
+// counters), and that regions and slots are given back.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <thread>
+
+#include "harness.hpp"
+#include "plexus/client.hpp"
+
+namespace plexus::test {
+namespace {
+
+constexpr std::size_t mib = 1024 * 1024;
+
+/// A blob whose every byte depends on `seed`: a payload mixed up with another, or read from a slot
+/// the writer had already reused, does not compare equal.
+Value blob(std::size_t size, std::uint32_t seed) {
+    std::vector<std::uint8_t> bytes(size);
+    std::uint32_t x = seed * 2654435761u + 1;
+    for (auto& b : bytes) {
+        x = x * 1664525u + 1013904223u;
+        b = static_cast<std::uint8_t>(x >> 24);
+    }
+    return Value::binary(std::move(bytes));
+}
+
+std::uint64_t daemon_counter(Client& client, const std::string& key) {
+    return client.stats()["daemon"][key].get<std::uint64_t>();
+}
+
+/// Reads `count` messages and checks each is blob(size, first_seed + i), in order.
+void expect_blobs(Port& port, std::size_t count, std::size_t size, std::uint32_t first_seed = 0) {
+    for (std::size_t i = 0; i < count; ++i) {
+        auto message = port.read(20s);
+        ASSERT_TRUE(message.has_value()) << "message " << i << " of " << count << " never arrived";
+        ASSERT_TRUE(message->data == blob(size, first_seed + static_cast<std::uint32_t>(i)))
+            << "message " << i << " arrived changed";
+    }
+}
+
+std::string config_file(const TempDir& dir, const nlohmann::json& config) {
+    const auto path = dir.file("plexusd.json");
+    std::ofstream(path) << config.dump();
+    return path;
+}
+
+TEST(Shm_test, ALargeBlobTravelsThroughSharedMemoryAndArrivesIntact) {
+    TempDir dir;
+    Daemon daemon(dir, "solo");
+    Client writer({daemon.socket()});
+    Client reader({daemon.socket()});
+    auto source = writer.open("/shm/source");
+    auto sink = reader.open("/shm/sink");
+    ASSERT_EQ(writer.connect("/shm/source", "/shm/sink"), "local");
+
+    for (std::uint32_t i = 0; i < 20; ++i)
+        source.write(blob(mib, i));
+    expect_blobs(sink, 20, mib);
+
+    EXPECT_EQ(daemon_counter(writer, "shm_passed"), 20u);
+    EXPECT_EQ(daemon_counter(writer, "shm_copied"), 0u);
+    EXPECT_EQ(daemon_counter(writer, "shm_regions"), 1u);
+}
+
+TEST(Shm_test, EveryReaderOfAFanOutGetsTheSamePayload) {
+    TempDir dir;
+    Daemon daemon(dir, "solo");
+    Client writer({daemon.socket()});
+    auto source = writer.open("/fan/source");
+    std::vector<std::unique_ptr<Client>> readers;
+    std::vector<Port> sinks;
+    for (int i = 0; i < 3; ++i) {
+        readers.push_back(std::make_unique<Client>(Client::Options{daemon.socket()}));
+        sinks.push_back(readers.back()->open("/fan/sink" + std::to_string(i)));
+        writer.connect("/fan/source", sinks.back().name());
+    }
+
+    for (std::uint32_t i = 0; i < 10; ++i)
+        source.write(blob(300 * 1024, i));
+    for (auto& sink : sinks)
+        expect_blobs(sink, 10, 300 * 1024);
+
+    EXPECT_EQ(daemon_counter(writer, "shm_passed"), 10u) << "each message is passed once, for all readers";
+}
+
+TEST(Shm_test, APayloadThatIsNotAByteStringIsRebuiltAsItsRecord) {
+    TempDir dir;
+    Daemon daemon(dir, "solo");
+    Client writer({daemon.socket()});
+    Client reader({daemon.socket()});
+    auto source = writer.open("/map/source");
+    auto sink = reader.open("/map/sink");
+    writer.connect("/map/source", "/map/sink");
+    const Value map = {{"scan", std::string(200000, 'r')}, {"points", std::vector<int>(20000, 7)}};
+
+    source.write(map);
+    auto message = sink.read(20s);
+
+    ASSERT_TRUE(message.has_value());
+    EXPECT_EQ(message->data, map);
+    EXPECT_EQ(message->envelope.source, "/map/source");
+    EXPECT_EQ(daemon_counter(writer, "shm_passed"), 1u);
+}
+
+TEST(Shm_test, WhenOneConnectionIsRemoteTheDaemonCopiesThePayloadOutForAll) {
+    TempDir dir;
+    Daemon daemon(dir, "solo");
+    Client writer({daemon.socket()});
+    Client reader({daemon.socket()});
+    auto source = writer.open("/mixed/source");
+    auto plain = reader.open("/mixed/plain");
+    auto over_tcp = reader.open("/mixed/tcp");
+    writer.connect("/mixed/source", "/mixed/plain");
+    ASSERT_EQ(writer.connect("/mixed/source", "/mixed/tcp", "tcp"), "tcp");
+
+    for (std::uint32_t i = 0; i < 5; ++i)
+        source.write(blob(mib, i));
+    expect_blobs(plain, 5, mib);
+    expect_blobs(over_tcp, 5, mib);
+
+    EXPECT_EQ(daemon_counter(writer, "shm_passed"), 0u);
+    EXPECT_EQ(daemon_counter(writer, "shm_copied"), 5u);
+}
+
+TEST(Shm_test, AFullRegionHoldsTheWriterOrSendsThroughTheSocketAndNothingIsLostOrReordered) {
+    TempDir dir;
+    // The smallest region: two 400 KiB payloads fill it.
+    Daemon daemon(dir, "solo", "", {"--config", config_file(dir, {{"shm_region_bytes", mib}})});
+    Client writer({daemon.socket()});
+    Client reader({daemon.socket()});
+    auto source = writer.open("/full/source");
+    auto sink = reader.open("/full/sink");
+    writer.connect("/full/source", "/full/sink");
+    constexpr std::size_t size = 400 * 1024;
+
+    // Nobody reads the first five: the region fills after two, the third waits in vain and takes
+    // the socket, and so do the next until a slot comes free.
+    for (std::uint32_t i = 0; i < 5; ++i)
+        source.write(blob(size, i));
+    std::thread reading([&] { expect_blobs(sink, 60, size); });
+    for (std::uint32_t i = 5; i < 60; ++i)
+        source.write(blob(size, i));
+    reading.join();
+
+    const auto passed = daemon_counter(writer, "shm_passed");
+    EXPECT_GE(passed, 2u);
+    EXPECT_LT(passed, 60u) << "the region cannot have held the three unread messages at once";
+}
+
+TEST(Shm_test, AReaderThatLeavesWithoutReadingGivesItsSlotsBack) {
+    TempDir dir;
+    Daemon daemon(dir, "solo", "", {"--config", config_file(dir, {{"shm_region_bytes", 4 * mib}})});
+    Client writer({daemon.socket()});
+    Client stays({daemon.socket()});
+    auto source = writer.open("/leave/source");
+    auto kept = stays.open("/leave/kept");
+    writer.connect("/leave/source", "/leave/kept");
+    {
+        Client leaves({daemon.socket()});
+        auto dropped = leaves.open("/leave/dropped");
+        writer.connect("/leave/source", "/leave/dropped");
+        for (std::uint32_t i = 0; i < 3; ++i)
+            source.write(blob(mib, i));
+        expect_blobs(kept, 3, mib);
+    }  // leaves without reading or releasing: three of the region's four slots are held for it
+
+    ASSERT_TRUE(eventually([&] { return daemon_counter(writer, "shm_slots") == 0; }))
+        << "the slots of the reader that left are still held";
+    // Nobody reads now: the three fit only if every slot came back to the writer.
+    for (std::uint32_t i = 3; i < 6; ++i)
+        source.write(blob(mib, i));
+    EXPECT_EQ(daemon_counter(writer, "shm_passed"), 6u);
+    expect_blobs(kept, 3, mib, 3);
+}
+
+TEST(Shm_test, ARegionGoesOnceItsPortIsClosedAndItsMessagesAreRead) {
+    TempDir dir;
+    Daemon daemon(dir, "solo");
+    Client writer({daemon.socket()});
+    Client reader({daemon.socket()});
+    auto sink = reader.open("/gone/sink");
+    {
+        auto source = writer.open("/gone/source");
+        writer.connect("/gone/source", "/gone/sink");
+        source.write(blob(mib, 1));
+        source.write(blob(mib, 2));
+        EXPECT_EQ(daemon_counter(writer, "shm_regions"), 1u);
+    }
+    expect_blobs(sink, 2, mib, 1);
+    EXPECT_TRUE(eventually([&] { return daemon_counter(reader, "shm_regions") == 0; }))
+        << "the region outlived its port and its messages";
+    EXPECT_EQ(daemon_counter(reader, "shm_bytes"), 0u);
+}
+
+TEST(Shm_test, PlexusShmZeroKeepsEveryPayloadInTheSocket) {
+    TempDir dir;
+    Daemon daemon(dir, "solo");
+    ::setenv("PLEXUS_SHM", "0", 1);
+    Client writer({daemon.socket()});
+    Client reader({daemon.socket()});
+    ::unsetenv("PLEXUS_SHM");
+    auto source = writer.open("/off/source");
+    auto sink = reader.open("/off/sink");
+    writer.connect("/off/source", "/off/sink");
+
+    for (std::uint32_t i = 0; i < 3; ++i)
+        source.write(blob(mib, i));
+    expect_blobs(sink, 3, mib);
+
+    EXPECT_EQ(daemon_counter(writer, "shm_passed"), 0u);
+    EXPECT_EQ(daemon_counter(writer, "shm_regions"), 0u);
+}
+
+TEST(Shm_test, ADaemonWithSharedMemoryOffStillCarriesLargeBlobs) {
+    TempDir dir;
+    Daemon daemon(dir, "solo", "", {"--config", config_file(dir, {{"shm_region_bytes", 0}})});
+    Client writer({daemon.socket()});
+    Client reader({daemon.socket()});
+    auto source = writer.open("/noshm/source");
+    auto sink = reader.open("/noshm/sink");
+    writer.connect("/noshm/source", "/noshm/sink");
+
+    for (std::uint32_t i = 0; i < 3; ++i)
+        source.write(blob(mib, i));
+    expect_blobs(sink, 3, mib);
+    EXPECT_EQ(daemon_counter(writer, "shm_passed"), 0u);
+}
+
+}  // namespace
+}  // namespace plexus::test
