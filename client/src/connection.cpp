@@ -381,10 +381,13 @@ std::optional<std::size_t> Connection::allocate_slot(WriterRegion& region, std::
     bool wait = false;
     auto room = [&] {
         std::lock_guard lock(shm_mutex_);
-        offset = region.ring.allocate(length);
+        offset = region.slots.allocate(length);
         wait = !region.stalled;
         return offset.has_value();
     };
+    // The daemon's frees for earlier slots may be waiting unread: take them first (one system call
+    // that finds nothing when all is taken), so that the lowest, warmest slots are reused.
+    receive_pending();
     if (room() || !wait)
         return offset;
     // Full: the readers are behind, or their releases (and the daemon's frees) are still on the
@@ -773,7 +776,7 @@ void Connection::on_shm_frame(proto::FrameType type, proto::ByteView fields) {
             return fail("bad shm_free: " + freed.error().message);
         std::lock_guard lock(shm_mutex_);
         const auto region = writer_regions_.find(freed->first);
-        if (region != writer_regions_.end() && region->second->ring.free(freed->second))
+        if (region != writer_regions_.end() && region->second->slots.free(freed->second))
             region->second->stalled = false;  // else its port closed meanwhile
         return;
     }

@@ -15,7 +15,7 @@
 #include <thread>
 
 #include "large_payload.hpp"
-#include "shm_ring.hpp"
+#include "shm_slots.hpp"
 #include "plexus/client.hpp"
 #include "plexus/proto/control.hpp"
 #include "plexus/proto/frame.hpp"
@@ -74,13 +74,13 @@ private:
     /// A region the daemon gave this client to write the large payloads of one port into.
     struct WriterRegion {
         WriterRegion(std::uint64_t id_, int fd_, std::uint8_t* data_, std::size_t size_)
-            : id(id_), fd(fd_), data(data_), size(size_), ring(size_) {}
+            : id(id_), fd(fd_), data(data_), size(size_), slots(size_) {}
         ~WriterRegion();
         std::uint64_t id;
         int fd;
         std::uint8_t* data;
         std::size_t size;
-        ShmRing ring;
+        ShmSlots slots;
         bool stalled = false;  ///< stayed full for a whole wait: do not wait again until a slot is freed
     };
     /// A region this client reads payloads of data_shm frames from, mapped read-only.

@@ -131,6 +131,11 @@ std::optional<Session::Incoming> Session::decode_shm(InFrame& frame) {
         return std::nullopt;
     }
     auto port = ports.find(data->handle);
+    if (port == ports.end() && !link_port_) {
+        // Written while its port was closing: counted as dropped by try_deliver, like a data frame.
+        // The writer's region went with the port, so its slot needs no freeing.
+        return Incoming{data->handle, Message{frame.storage, {}, 0, 0}};
+    }
     if (!frame.resolved) {
         const auto region = shm_regions.find(data->handle);
         if (link_port_ || region == shm_regions.end() || region->second->id() != data->place.region) {
@@ -146,8 +151,7 @@ std::optional<Session::Incoming> Session::decode_shm(InFrame& frame) {
                  std::to_string(region->second->size()) + " bytes");
             return std::nullopt;
         }
-        if (port != ports.end() && !check_sources(Message{frame.storage, data->head}, port->second->name(),
-                                                  "written on the handle of"))
+        if (!check_sources(Message{frame.storage, data->head}, port->second->name(), "written on the handle of"))
             return std::nullopt;
         // The slot is held from here on: whatever becomes of the message, its end frees the slot.
         frame.resolved = Message{frame.storage, data->place_and_head, 0, 0,
@@ -155,7 +159,7 @@ std::optional<Session::Incoming> Session::decode_shm(InFrame& frame) {
                                                                  data->place.length)};
     }
     // Judged again at every try: connections may change while the frame waits for room.
-    if (frame.resolved->shm && (port == ports.end() || !passes_shm(*port->second))) {
+    if (frame.resolved->shm && !passes_shm(*port->second)) {
         frame.resolved = copy_out_of_shm(*frame.resolved);
         ++daemon_.counters().shm_copied;
     }
