@@ -37,9 +37,12 @@ struct DaemonConfig {
     std::size_t queue_bytes = ReaderQueue::default_max_bytes;  ///< byte bound of every queue
     std::chrono::milliseconds names_grace{2000};
     monitor::MonitorPolicy monitors;  ///< memory cap, time budget, quarantine of every port monitor
-    /// Size of the shared-memory region a local client may get per port it writes large payloads
-    /// through; 0 turns shared memory off.
-    std::size_t shm_region_bytes = 32u * 1024u * 1024u;
+    /// Least size of the shared-memory region a local client may get per port it writes large
+    /// payloads through (a region holds at least four of the port's first large payload); 0 turns
+    /// shared memory off. Small on purpose: the slots in use stay warm in the cache, and fewer
+    /// messages wait in a region (8 MiB against 32: 1 MiB fan-out to 8 readers 5,365 against
+    /// 3,993 deliveries/s, p50 under load 3.4 against 30 ms).
+    std::size_t shm_region_bytes = 8u * 1024u * 1024u;
     /// Bound on the bytes of all regions together.
     std::size_t shm_total_bytes = 1024u * 1024u * 1024u;
 };

@@ -325,10 +325,10 @@ void Connection::send_now_or_backlog_locked() {
 
 bool Connection::write_through_shm(std::uint64_t handle, const std::string& source, std::uint64_t seq,
                                    std::uint64_t time_ns, proto::ByteView payload, proto::ByteView tail) {
-    WriterRegion* region = writer_region(handle);
+    const std::size_t length = payload.size() + tail.size();
+    WriterRegion* region = writer_region(handle, length);
     if (!region)
         return false;
-    const std::size_t length = payload.size() + tail.size();
     const auto offset = allocate_slot(*region, length);
     if (!offset)
         return false;
@@ -347,7 +347,7 @@ bool Connection::write_through_shm(std::uint64_t handle, const std::string& sour
     return true;
 }
 
-Connection::WriterRegion* Connection::writer_region(std::uint64_t handle) {
+Connection::WriterRegion* Connection::writer_region(std::uint64_t handle, std::size_t payload_size) {
     {
         std::lock_guard lock(shm_mutex_);
         if (!shm_)
@@ -362,7 +362,8 @@ Connection::WriterRegion* Connection::writer_region(std::uint64_t handle) {
     }
     // The first large write on this port asks for its region. The region's frame (and its
     // descriptor) comes before the reply, so it is here once the reply is.
-    const proto::Reply reply = request({{"op", "shm"}, {"handle", handle}}, std::chrono::milliseconds(5000));
+    const proto::Reply reply =
+        request({{"op", "shm"}, {"handle", handle}, {"bytes", payload_size}}, std::chrono::milliseconds(5000));
     std::lock_guard lock(shm_mutex_);
     auto& known = port_regions_[handle];
     known.reset();
@@ -765,10 +766,6 @@ void Connection::dispatch(proto::FrameType type, proto::ByteView fields) {
     }
 }
 
-}  // namespace plexus::detail
-
-namespace plexus::detail {
-
 void Connection::on_shm_frame(proto::FrameType type, proto::ByteView fields) {
     if (type == proto::FrameType::shm_free) {
         const auto freed = proto::decode_shm_free(fields);
@@ -881,7 +878,16 @@ void Connection::flush_releases() {
     if (!lock.owns_lock())
         return;  // the thread sending now appends them to its next frames
     append_releases_locked();
-    send_now_or_backlog_locked();
+    // Never a blocking send here: this thread is the reader, and a daemon holding this client
+    // back would wait for it to read.
+    if (backlog_)
+        return;  // the backlog thread sends them with the rest
+    send_available_locked();
+    if (!out_.empty()) {
+        backlog_ = true;
+        start_backlog_thread_locked();
+        backlog_changed_.notify_one();
+    }
 }
 
 }  // namespace plexus::detail

@@ -92,8 +92,9 @@ private:
     /// no region or no room in it now (the payload then goes through the socket).
     bool write_through_shm(std::uint64_t handle, const std::string& source, std::uint64_t seq,
                            std::uint64_t time_ns, proto::ByteView payload, proto::ByteView tail);
-    /// The region of `handle`, asked of the daemon the first time; null when there is none.
-    WriterRegion* writer_region(std::uint64_t handle);
+    /// The region of `handle`, asked of the daemon the first time (sized for a few payloads like
+    /// this one); null when there is none.
+    WriterRegion* writer_region(std::uint64_t handle, std::size_t payload_size);
     /// A slot of `length` bytes in `region`, waiting a little for the daemon's shm_free frames
     /// when it is full (reading them itself when nobody else reads).
     std::optional<std::size_t> allocate_slot(WriterRegion& region, std::size_t length);

@@ -223,6 +223,13 @@ Task<void> FramedConnection::write_loop() {
         }
         batch.clear();
         outbox_.fill(batch, write_budget);
+        if (outbox_.lent() > Outbox::max_lent) {
+            const std::string why =
+                "more than " + std::to_string(Outbox::max_lent) + " shared-memory messages not released";
+            spdlog::warn("{}: {}", description_, why);
+            close(why);  // at once: what is queued for a peer this broken would not be read either
+            co_return;
+        }
         if (batch.largest >= large_message && !large_send_buffer_) {
             // Large messages leave a Unix socket in a few system calls with a larger buffer (the
             // kernel caps it at net.core.wmem_max); streams of small ones keep the default, so that

@@ -77,6 +77,10 @@ public:
     void release_all() { lent_.clear(); }
     /// Shared-memory messages sent and not yet released.
     std::size_t lent() const { return lent_.size(); }
+    /// More unreleased than this and the peer is cut off: a client releases what each read brings,
+    /// so only a broken one gets here, and each entry holds a slot of some writer's region. A
+    /// reader that does not read at all stops at what its socket buffer takes, far below.
+    static constexpr std::size_t max_lent = 1u << 18;
     /// The region is gone: a later region is sent again even if it had the same id.
     void forget_region(std::uint64_t id) { regions_sent_.erase(id); }
 

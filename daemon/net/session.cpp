@@ -15,10 +15,6 @@ namespace {
 constexpr std::size_t max_requests_in_flight = 64;
 /// Reply bytes the peer has not taken yet beyond which no further request is read.
 constexpr std::size_t max_unread_replies = 4u * 1024u * 1024u;
-/// Shared-memory messages a client may hold unreleased: a client that never releases them is
-/// broken, and each one holds a slot of some writer's region.
-constexpr std::size_t max_unreleased_shm = 1u << 16;
-
 bool is_data(proto::FrameType type) {
     return type == proto::FrameType::data || type == proto::FrameType::data_batch ||
            type == proto::FrameType::data_shm;

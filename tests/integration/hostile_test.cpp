@@ -21,6 +21,7 @@
 #include <ostream>
 #include <random>
 #include <stdexcept>
+#include <thread>
 
 #include "harness.hpp"
 #include "plexus/client.hpp"
@@ -1091,6 +1092,49 @@ TEST(Hostile_test, SharedMemoryFramesThatLieAreRefusedAndOthersAreUnharmed) {
     EXPECT_TRUE(daemon.process().running());
     EXPECT_EQ(good.stats()["daemon"]["shm_regions"], 0) << "a region outlived the session that lied";
     expect_everyone_still_served(daemon);
+}
+
+TEST(Hostile_test, AReaderThatNeverReleasesSharedMemoryIsCutOffAndTheSlotsComeBack) {
+    TempDir dir;
+    Daemon daemon(dir, "solo");
+    Client good({daemon.socket()});
+    // The reader maps regions, reads every frame and never releases one.
+    auto reader = Stream::open(daemon, Listener::daemon_unix);
+    ASSERT_TRUE(reader.send(concat(hello_frame("client"),
+                                   concat(request_frame(1, {{"op", "shm"}}),
+                                          request_frame(2, {{"op", "open"}, {"port", "/lent/sink"}})))));
+    ASSERT_TRUE(reader.reply_to(2).has_value());
+    // The writer names the same slot again and again: the daemon does not track the writer's use of
+    // its own region, so only the reader's bound stops the references piling up.
+    auto writer = Stream::open(daemon, Listener::daemon_unix);
+    ASSERT_TRUE(writer.send(
+        concat(hello_frame("client"), request_frame(1, {{"op", "open"}, {"port", "/lent/source"}}))));
+    auto opened = writer.reply_to(1);
+    ASSERT_TRUE(opened.has_value());
+    const auto handle = opened->body["handle"].get<std::uint64_t>();
+    ASSERT_EQ(good.connect("/lent/source", "/lent/sink"), "local");
+    ASSERT_TRUE(writer.send(request_frame(2, {{"op", "shm"}, {"handle", handle}})));
+    auto given = writer.reply_to(2);
+    ASSERT_TRUE(given.has_value());
+    const auto region = given->body["region"].get<std::uint64_t>();
+
+    std::thread reading([&] { reader.frames_until_closed(Clock::now() + 120s); });
+    const Bytes one = shm_frame(handle, {region, 0, 10}, "/lent/source");
+    Bytes many;
+    for (int i = 0; i < 4096; ++i)
+        many.insert(many.end(), one.begin(), one.end());
+    const std::size_t rounds = (std::size_t{1} << 18) / 4096 + 2;
+    for (std::size_t i = 0; i < rounds; ++i) {
+        if (!writer.send(many, Clock::now() + 60s))
+            break;
+    }
+    reading.join();
+
+    EXPECT_NE(reader.end(), End::timeout) << "the reader holding every slot reference was not cut off";
+    writer.close();
+    EXPECT_TRUE(eventually([&] { return good.stats()["daemon"]["shm_slots"] == 0; }))
+        << "slot references outlived the reader that held them";
+    EXPECT_TRUE(daemon.process().running());
 }
 
 TEST(Hostile_test, SharedMemoryIsOnlyForClientsOnTheUnixSocket) {

@@ -56,9 +56,14 @@ TEST(Shm_test, ALargeBlobTravelsThroughSharedMemoryAndArrivesIntact) {
     auto sink = reader.open("/shm/sink");
     ASSERT_EQ(writer.connect("/shm/source", "/shm/sink"), "local");
 
-    for (std::uint32_t i = 0; i < 20; ++i)
-        source.write(blob(mib, i));
-    expect_blobs(sink, 20, mib);
+    // Five at a time, fewer than the region holds; the writer learns its slots are free again
+    // before its stats reply (the daemon's frees come first on its connection).
+    for (std::uint32_t round = 0; round < 4; ++round) {
+        for (std::uint32_t i = 0; i < 5; ++i)
+            source.write(blob(mib, round * 5 + i));
+        expect_blobs(sink, 5, mib, round * 5);
+        ASSERT_TRUE(eventually([&] { return daemon_counter(writer, "shm_slots") == 0; }));
+    }
 
     EXPECT_EQ(daemon_counter(writer, "shm_passed"), 20u);
     EXPECT_EQ(daemon_counter(writer, "shm_copied"), 0u);
@@ -127,7 +132,7 @@ TEST(Shm_test, WhenOneConnectionIsRemoteTheDaemonCopiesThePayloadOutForAll) {
 
 TEST(Shm_test, AFullRegionHoldsTheWriterOrSendsThroughTheSocketAndNothingIsLostOrReordered) {
     TempDir dir;
-    // The smallest region: two 400 KiB payloads fill it.
+    // The smallest region for 400 KiB payloads: four times one, rounded up to 2 MiB, holds five.
     Daemon daemon(dir, "solo", "", {"--config", config_file(dir, {{"shm_region_bytes", mib}})});
     Client writer({daemon.socket()});
     Client reader({daemon.socket()});
@@ -136,18 +141,19 @@ TEST(Shm_test, AFullRegionHoldsTheWriterOrSendsThroughTheSocketAndNothingIsLostO
     writer.connect("/full/source", "/full/sink");
     constexpr std::size_t size = 400 * 1024;
 
-    // Nobody reads the first five: the region fills after two, the third waits in vain and takes
-    // the socket, and so do the next until a slot comes free.
-    for (std::uint32_t i = 0; i < 5; ++i)
+    // Nobody reads the first eight: the region fills after five, the sixth waits in vain and
+    // takes the socket, and so do the next until a slot comes free.
+    for (std::uint32_t i = 0; i < 8; ++i)
         source.write(blob(size, i));
     std::thread reading([&] { expect_blobs(sink, 60, size); });
-    for (std::uint32_t i = 5; i < 60; ++i)
+    for (std::uint32_t i = 8; i < 60; ++i)
         source.write(blob(size, i));
     reading.join();
 
     const auto passed = daemon_counter(writer, "shm_passed");
-    EXPECT_GE(passed, 2u);
-    EXPECT_LT(passed, 60u) << "the region cannot have held the three unread messages at once";
+    EXPECT_GE(passed, 5u);
+    EXPECT_LT(passed, 60u) << "the region cannot have held the eight unread messages at once";
+    EXPECT_EQ(daemon_counter(writer, "shm_bytes"), 2 * mib);
 }
 
 TEST(Shm_test, AReaderThatLeavesWithoutReadingGivesItsSlotsBack) {
@@ -166,10 +172,11 @@ TEST(Shm_test, AReaderThatLeavesWithoutReadingGivesItsSlotsBack) {
             source.write(blob(mib, i));
         expect_blobs(kept, 3, mib);
     }  // leaves without reading or releasing: three of the region's four slots are held for it
+    // (five MiB: four 1 MiB payloads, rounded up)
 
     ASSERT_TRUE(eventually([&] { return daemon_counter(writer, "shm_slots") == 0; }))
         << "the slots of the reader that left are still held";
-    // Nobody reads now: the three fit only if every slot came back to the writer.
+    // Nobody reads now: the three fit only if the slots held for the reader that left came back.
     for (std::uint32_t i = 3; i < 6; ++i)
         source.write(blob(mib, i));
     EXPECT_EQ(daemon_counter(writer, "shm_passed"), 6u);
