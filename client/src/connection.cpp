@@ -864,6 +864,8 @@ void Connection::receive_shm_data(proto::ByteView fields) {
 }
 
 void Connection::append_releases_locked() {
+    if (unreleased_.load(std::memory_order_relaxed) == 0)
+        return;  // every write comes here: a load, not a read-modify-write, when there is nothing
     const std::uint64_t count = unreleased_.exchange(0, std::memory_order_relaxed);
     if (count == 0)
         return;
