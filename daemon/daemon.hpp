@@ -54,7 +54,7 @@ struct DaemonCounters {
     std::uint64_t protocol_errors = 0;       ///< peers cut off for breaking the protocol
     std::uint64_t dropped_unknown_port = 0;  ///< data frames for a handle that is not open
     std::uint64_t dropped_link_down = 0;     ///< messages queued to another daemon when the link died
-    std::uint64_t shm_passed = 0;  ///< messages whose payload went to readers in shared memory
+    std::uint64_t shm_passed = 0;            ///< messages whose payload went to readers in shared memory
     std::uint64_t shm_copied = 0;  ///< written in shared memory, copied out for readers that needed it
 };
 

@@ -121,8 +121,8 @@ Task<proto::Reply> Daemon::shm(std::shared_ptr<Session> session, const proto::Re
         // the frame limit, which the copy-out path needs), and never less than the configured size.
         constexpr std::size_t payloads_per_region = 4;
         constexpr std::size_t granule = 1024 * 1024;
-        const std::size_t payload = std::min<std::uint64_t>(request.body.value("bytes", std::uint64_t{0}),
-                                                            config_.max_frame);
+        const std::size_t payload =
+            std::min<std::uint64_t>(request.body.value("bytes", std::uint64_t{0}), config_.max_frame);
         const std::size_t wanted = (payload * payloads_per_region + granule - 1) / granule * granule;
         const std::size_t size = std::max(config_.shm_region_bytes, wanted);
         if (shm_usage_->bytes + size > config_.shm_total_bytes) {
@@ -133,7 +133,8 @@ Task<proto::Reply> Daemon::shm(std::shared_ptr<Session> session, const proto::Re
         auto created = ShmRegion::create(next_region_++, size, session, shm_usage_);
         if (!created) {
             session->shm_regions.erase(handle);
-            spdlog::warn("no shared-memory region for {}: {}", session->description(), created.error().message);
+            spdlog::warn("no shared-memory region for {}: {}", session->description(),
+                         created.error().message);
             co_return refuse("no shared-memory region: " + created.error().message);
         }
         region = *created;

@@ -362,8 +362,8 @@ Connection::WriterRegion* Connection::writer_region(std::uint64_t handle, std::s
     }
     // The first large write on this port asks for its region. The region's frame (and its
     // descriptor) comes before the reply, so it is here once the reply is.
-    const proto::Reply reply =
-        request({{"op", "shm"}, {"handle", handle}, {"bytes", payload_size}}, std::chrono::milliseconds(5000));
+    const proto::Reply reply = request({{"op", "shm"}, {"handle", handle}, {"bytes", payload_size}},
+                                       std::chrono::milliseconds(5000));
     std::lock_guard lock(shm_mutex_);
     auto& known = port_regions_[handle];
     known.reset();
@@ -811,7 +811,8 @@ void Connection::on_shm_frame(proto::FrameType type, proto::ByteView fields) {
         auto& entry = reader_regions_[region->region];
         if (entry.data)
             ::munmap(const_cast<std::uint8_t*>(entry.data), entry.size);
-        entry = ReaderRegion{static_cast<const std::uint8_t*>(mapped), static_cast<std::size_t>(region->size)};
+        entry =
+            ReaderRegion{static_cast<const std::uint8_t*>(mapped), static_cast<std::size_t>(region->size)};
         return;
     }
     std::lock_guard lock(shm_mutex_);

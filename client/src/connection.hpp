@@ -15,10 +15,10 @@
 #include <thread>
 
 #include "large_payload.hpp"
-#include "shm_slots.hpp"
 #include "plexus/client.hpp"
 #include "plexus/proto/control.hpp"
 #include "plexus/proto/frame.hpp"
+#include "shm_slots.hpp"
 
 namespace plexus::detail {
 
@@ -200,7 +200,7 @@ private:
     bool shm_ = false;
     std::mutex shm_mutex_;
     std::map<std::uint64_t, std::unique_ptr<WriterRegion>> writer_regions_;  ///< by region id
-    std::map<std::uint64_t, std::optional<std::uint64_t>> port_regions_;    ///< handle -> region id
+    std::map<std::uint64_t, std::optional<std::uint64_t>> port_regions_;     ///< handle -> region id
     /// data_shm frames received and not yet released (sent back in shm_release frames).
     std::atomic<std::uint64_t> unreleased_{0};
 };

@@ -27,8 +27,8 @@ struct LargePayloadFrame {
 
 /// The head of an untagged CBOR byte string of definite length at the start of `bytes`.
 struct ByteStringHead {
-    std::uint64_t length = 0;     ///< of the content
-    std::size_t head_size = 0;    ///< bytes of the head before the content
+    std::uint64_t length = 0;   ///< of the content
+    std::size_t head_size = 0;  ///< bytes of the head before the content
 };
 std::optional<ByteStringHead> parse_byte_string_head(proto::ByteView bytes);
 

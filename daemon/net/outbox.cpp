@@ -99,8 +99,8 @@ void Outbox::fill(Batch& batch, std::size_t budget) {
         control_.pop_front();
     }
     bool progress = true;
-    while (progress && batch.bytes < budget && pieces.size() + 2 <= max_buffers && batch.fds.size() < max_fds &&
-           !sources_.empty()) {
+    while (progress && batch.bytes < budget && pieces.size() + 2 <= max_buffers &&
+           batch.fds.size() < max_fds && !sources_.empty()) {
         progress = false;
         for (std::size_t step = 0; step < sources_.size(); ++step) {
             auto& source = sources_[(next_source_ + step) % sources_.size()];

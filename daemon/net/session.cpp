@@ -147,12 +147,13 @@ std::optional<Session::Incoming> Session::decode_shm(InFrame& frame) {
                  std::to_string(region->second->size()) + " bytes");
             return std::nullopt;
         }
-        if (!check_sources(Message{frame.storage, data->head}, port->second->name(), "written on the handle of"))
+        if (!check_sources(Message{frame.storage, data->head}, port->second->name(),
+                           "written on the handle of"))
             return std::nullopt;
         // The slot is held from here on: whatever becomes of the message, its end frees the slot.
-        frame.resolved = Message{frame.storage, data->place_and_head, 0, 0,
-                                 std::make_shared<const ShmSlot>(region->second, data->place.offset,
-                                                                 data->place.length)};
+        frame.resolved =
+            Message{frame.storage, data->place_and_head, 0, 0,
+                    std::make_shared<const ShmSlot>(region->second, data->place.offset, data->place.length)};
     }
     // Judged again at every try: connections may change while the frame waits for room.
     if (frame.resolved->shm && !passes_shm(*port->second)) {

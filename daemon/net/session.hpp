@@ -6,8 +6,8 @@
 
 #include "../core/inlet.hpp"
 #include "framed_connection.hpp"
-#include "shm_region.hpp"
 #include "plexus/proto/control.hpp"
+#include "shm_region.hpp"
 
 namespace plexus::daemon {
 

@@ -20,8 +20,8 @@ std::string system_error(const char* what) {
 }  // namespace
 
 proto::Result<std::shared_ptr<ShmRegion>> ShmRegion::create(std::uint64_t id, std::size_t size,
-                                                           std::weak_ptr<FramedConnection> writer,
-                                                           std::shared_ptr<ShmUsage> usage) {
+                                                            std::weak_ptr<FramedConnection> writer,
+                                                            std::shared_ptr<ShmUsage> usage) {
     std::shared_ptr<ShmRegion> region(new ShmRegion(id, size, std::move(writer), std::move(usage)));
     region->writer_fd_ = ::memfd_create("plexus-shm", MFD_CLOEXEC | MFD_ALLOW_SEALING);
     if (region->writer_fd_ < 0)

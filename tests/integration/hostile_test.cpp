@@ -1042,23 +1042,35 @@ TEST(Hostile_test, SharedMemoryFramesThatLieAreRefusedAndOthersAreUnharmed) {
     };
     const std::vector<Lie> lies = {
         {"data_shm without a region", false,
-         [](auto h, auto, auto) { return shm_frame(h, {1, 0, 10}, "/shm/evil"); }, "not the region of handle"},
+         [](auto h, auto, auto) {
+             return shm_frame(h, {1, 0, 10}, "/shm/evil");
+         },
+         "not the region of handle"},
         {"data_shm naming a region that is not its own", true,
-         [](auto h, auto region, auto) { return shm_frame(h, {region + 1000, 0, 10}, "/shm/evil"); },
+         [](auto h, auto region, auto) {
+             return shm_frame(h, {region + 1000, 0, 10}, "/shm/evil");
+         },
          "not the region of handle"},
         {"a place running past the region's end", true,
-         [](auto h, auto region, auto size) { return shm_frame(h, {region, size - 5, 10}, "/shm/evil"); },
+         [](auto h, auto region, auto size) {
+             return shm_frame(h, {region, size - 5, 10}, "/shm/evil");
+         },
          "outside its region"},
         {"an offset near 2^64", true,
-         [](auto h, auto region, auto) { return shm_frame(h, {region, ~std::uint64_t{0} - 3, 10}, "/shm/evil"); },
+         [](auto h, auto region, auto) {
+             return shm_frame(h, {region, ~std::uint64_t{0} - 3, 10}, "/shm/evil");
+         },
          "outside its region"},
         {"a record head from another port", true,
-         [](auto h, auto region, auto) { return shm_frame(h, {region, 0, 10}, "/shm/sink"); }, "message from port"},
+         [](auto h, auto region, auto) {
+             return shm_frame(h, {region, 0, 10}, "/shm/sink");
+         },
+         "message from port"},
         {"a release of messages never sent", false,
          [](auto, auto, auto) { return proto::make_shm_number_frame(FrameType::shm_release, 1); },
          "shm_release of 1 messages, but 0 were sent"},
-        {"a daemon's own shm_free frame", false, [](auto, auto, auto) { return proto::make_shm_free_frame(1, 0); },
-         "unexpected shm_free frame"},
+        {"a daemon's own shm_free frame", false,
+         [](auto, auto, auto) { return proto::make_shm_free_frame(1, 0); }, "unexpected shm_free frame"},
     };
     for (const auto& lie : lies) {
         SCOPED_TRACE(lie.what);
@@ -1100,9 +1112,9 @@ TEST(Hostile_test, AReaderThatNeverReleasesSharedMemoryIsCutOffAndTheSlotsComeBa
     Client good({daemon.socket()});
     // The reader maps regions, reads every frame and never releases one.
     auto reader = Stream::open(daemon, Listener::daemon_unix);
-    ASSERT_TRUE(reader.send(concat(hello_frame("client"),
-                                   concat(request_frame(1, {{"op", "shm"}}),
-                                          request_frame(2, {{"op", "open"}, {"port", "/lent/sink"}})))));
+    ASSERT_TRUE(reader.send(
+        concat(hello_frame("client"), concat(request_frame(1, {{"op", "shm"}}),
+                                             request_frame(2, {{"op", "open"}, {"port", "/lent/sink"}})))));
     ASSERT_TRUE(reader.reply_to(2).has_value());
     // The writer names the same slot again and again: the daemon does not track the writer's use of
     // its own region, so only the reader's bound stops the references piling up.
@@ -1145,7 +1157,8 @@ TEST(Hostile_test, SharedMemoryIsOnlyForClientsOnTheUnixSocket) {
     auto reply = remote.reply_to(1);
     ASSERT_TRUE(reply.has_value());
     EXPECT_EQ(reply->code, proto::ReplyCode::refused);
-    EXPECT_NE(reply->body.value("error", std::string()).find("Unix socket"), std::string::npos) << reply->body.dump();
+    EXPECT_NE(reply->body.value("error", std::string()).find("Unix socket"), std::string::npos)
+        << reply->body.dump();
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -73,9 +73,11 @@ int main(int argc, char** argv) {
     memory->callback([&] { status = run_memory(options); });
 
     auto* memcpy_command = app.add_subcommand(
-        "memcpy", "this machine's memcpy rate for the payload size, warm and cold: the yardstick for large messages");
+        "memcpy",
+        "this machine's memcpy rate for the payload size, warm and cold: the yardstick for large messages");
     memcpy_command->add_option("--size", options.size, "bytes per copy")->capture_default_str();
-    memcpy_command->add_option("--repeat", options.repeat, "runs; medians are reported")->capture_default_str();
+    memcpy_command->add_option("--repeat", options.repeat, "runs; medians are reported")
+        ->capture_default_str();
     memcpy_command->add_flag("--json", options.json, "one JSON object");
     memcpy_command->callback([&] { status = run_memcpy(options); });
 

@@ -47,8 +47,8 @@ int run_memcpy(const Options& options) {
         cold.push_back(copy_rate(size, cold_slots, copies));
     }
     if (options.json) {
-        std::printf("{\"scenario\":\"memcpy\",\"size\":%zu,\"warm_gb_per_s\":%.2f,\"cold_gb_per_s\":%.2f}\n", size,
-                    median(warm), median(cold));
+        std::printf("{\"scenario\":\"memcpy\",\"size\":%zu,\"warm_gb_per_s\":%.2f,\"cold_gb_per_s\":%.2f}\n",
+                    size, median(warm), median(cold));
         return 0;
     }
     std::printf("memcpy, %zu B per copy, one thread: median of %d runs of %zu copies\n", size, options.repeat,

@@ -29,7 +29,8 @@ TEST(ShmSlots_test, TheLowestGapLargeEnoughIsTakenFirst) {
     const auto third = slots.allocate(mib);
     ASSERT_TRUE(first && second && third);
     EXPECT_TRUE(slots.free(*second));  // released out of order: a reader that was faster
-    EXPECT_EQ(slots.allocate(2 * mib), std::nullopt) << "no gap of 2 MiB: the last MiB and the freed one are apart";
+    EXPECT_EQ(slots.allocate(2 * mib), std::nullopt)
+        << "no gap of 2 MiB: the last MiB and the freed one are apart";
     EXPECT_EQ(slots.allocate(mib), *second) << "the freed slot comes before the free end";
     EXPECT_TRUE(slots.free(*first));
     EXPECT_TRUE(slots.free(*second));
@@ -64,7 +65,8 @@ TEST(ShmSlots_test, RandomAllocationsAndFreesNeverOverlap) {
             continue;
         ASSERT_LE(*offset + length, 8 * mib);
         for (const auto& [other, other_length] : held)
-            ASSERT_TRUE(*offset + length <= other || other + other_length <= *offset) << "overlap at step " << step;
+            ASSERT_TRUE(*offset + length <= other || other + other_length <= *offset)
+                << "overlap at step " << step;
         held.emplace_back(*offset, length);
     }
 }

@@ -47,10 +47,12 @@ TEST(ShmFrames_test, ADataShmFrameWithPayloadBytesAfterTheHeadOrCutShortIsRefuse
     fields.insert(fields.end(), with_payload.begin(), with_payload.end());
     const auto refused = decode_shm_data(fields);
     ASSERT_FALSE(refused.ok());
-    EXPECT_NE(refused.error().message.find("followed by 1 bytes"), std::string::npos) << refused.error().message;
+    EXPECT_NE(refused.error().message.find("followed by 1 bytes"), std::string::npos)
+        << refused.error().message;
     for (std::size_t cut = 0; cut < place.size(); ++cut) {
         Bytes short_fields{0x05};
-        short_fields.insert(short_fields.end(), place.begin(), place.begin() + static_cast<std::ptrdiff_t>(cut));
+        short_fields.insert(short_fields.end(), place.begin(),
+                            place.begin() + static_cast<std::ptrdiff_t>(cut));
         EXPECT_FALSE(decode_shm_data(short_fields).ok()) << "cut at " << cut;
     }
 }
@@ -65,7 +67,8 @@ TEST(ShmFrames_test, RegionFreeReleaseAndGoneFramesRoundTrip) {
     ASSERT_TRUE(freed.ok());
     EXPECT_EQ(freed->first, 7u);
     EXPECT_EQ(freed->second, 65536u);
-    const auto released = decode_shm_number(fields_of(make_shm_number_frame(FrameType::shm_release, 300)), "count");
+    const auto released =
+        decode_shm_number(fields_of(make_shm_number_frame(FrameType::shm_release, 300)), "count");
     ASSERT_TRUE(released.ok());
     EXPECT_EQ(*released, 300u);
     EXPECT_EQ(frame_type_name(static_cast<std::uint8_t>(FrameType::shm_region_gone)), "shm_region_gone");

@@ -22,11 +22,11 @@ enum class FrameType : std::uint8_t {
     data_batch = 6,  ///< varint handle | varint count | count x (varint length | record)
     // Shared memory between a client and its local daemon (see shm.hpp): large payloads are
     // written once into a region and only their place travels in the socket.
-    data_shm = 7,         ///< varint handle | varint region | varint offset | varint length | record head
-    shm_region = 8,       ///< daemon -> client: varint region | varint size | u8 writable; carries an fd
-    shm_release = 9,      ///< client -> daemon: varint count (the oldest data_shm frames it was sent)
-    shm_free = 10,        ///< daemon -> writer: varint region | varint offset (a slot is free again)
-    shm_region_gone = 11, ///< daemon -> reader: varint region (no more messages from it: unmap, close)
+    data_shm = 7,          ///< varint handle | varint region | varint offset | varint length | record head
+    shm_region = 8,        ///< daemon -> client: varint region | varint size | u8 writable; carries an fd
+    shm_release = 9,       ///< client -> daemon: varint count (the oldest data_shm frames it was sent)
+    shm_free = 10,         ///< daemon -> writer: varint region | varint offset (a slot is free again)
+    shm_region_gone = 11,  ///< daemon -> reader: varint region (no more messages from it: unmap, close)
 };
 
 /// Default largest body accepted: 64 MiB, enough for large blobs, far below what a lie could ask for.
