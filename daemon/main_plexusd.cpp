@@ -1,5 +1,6 @@
 // plexusd: the node daemon. Parses the command line and config, then runs the daemon.
 #include <malloc.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <fstream>
@@ -134,6 +135,14 @@ int main(int argc, char** argv) {
     // the queues' byte limits; what is kept is at most the peak in use.
     ::mallopt(M_MMAP_THRESHOLD, static_cast<int>(config.max_frame + 4096));
     ::mallopt(M_TRIM_THRESHOLD, 256 * 1024 * 1024);
+    // Every client is a descriptor, and so is every shared-memory region; region descriptors sent
+    // to clients and not yet read count against this limit too. The soft limit is often 1,024:
+    // raise it to the hard limit, as servers do.
+    rlimit files{};
+    if (::getrlimit(RLIMIT_NOFILE, &files) == 0 && files.rlim_cur < files.rlim_max) {
+        files.rlim_cur = files.rlim_max;
+        ::setrlimit(RLIMIT_NOFILE, &files);
+    }
     boost::asio::io_context io(1);
     plexus::daemon::Daemon daemon(io, config);
     return daemon.run();

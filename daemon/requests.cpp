@@ -113,35 +113,32 @@ Task<proto::Reply> Daemon::shm(std::shared_ptr<Session> session, const proto::Re
     if (!request.body.contains("handle"))
         co_return ok();
     const std::uint64_t handle = request.body.value("handle", std::uint64_t{0});
+    const std::uint64_t payload = request.body.value("bytes", std::uint64_t{0});  // before any change
     if (!session->ports.contains(handle))
         co_return refuse("no open port with handle " + std::to_string(handle));
-    auto& region = session->shm_regions[handle];
-    if (!region) {
-        // Room for a few of the payload the client is about to write, however large it is (up to
-        // the frame limit, which the copy-out path needs), and never less than the configured size.
-        constexpr std::size_t payloads_per_region = 4;
-        constexpr std::size_t granule = 1024 * 1024;
-        const std::size_t payload =
-            std::min<std::uint64_t>(request.body.value("bytes", std::uint64_t{0}), config_.max_frame);
-        const std::size_t wanted = (payload * payloads_per_region + granule - 1) / granule * granule;
-        const std::size_t size = std::max(config_.shm_region_bytes, wanted);
-        if (shm_usage_->bytes + size > config_.shm_total_bytes) {
-            session->shm_regions.erase(handle);
-            co_return refuse("the daemon's shared memory is used up (shm_total_bytes " +
-                             std::to_string(config_.shm_total_bytes) + ")");
-        }
-        auto created = ShmRegion::create(next_region_++, size, session, shm_usage_);
-        if (!created) {
-            session->shm_regions.erase(handle);
-            spdlog::warn("no shared-memory region for {}: {}", session->description(),
-                         created.error().message);
-            co_return refuse("no shared-memory region: " + created.error().message);
-        }
-        region = *created;
-        // Before the reply, so the client has the region when it learns its id.
-        session->outbox().push_writer_region(region);
-        session->wake();
+    if (const auto known = session->shm_regions.find(handle); known != session->shm_regions.end())
+        co_return ok({{"region", known->second->id()}, {"size", known->second->size()}});
+    // Room for a few of the payload the client is about to write, however large it is (up to the
+    // frame limit, which the copy-out path needs), and never less than the configured size.
+    constexpr std::size_t payloads_per_region = 4;
+    constexpr std::size_t granule = 1024 * 1024;
+    const std::size_t capped = std::min<std::uint64_t>(payload, config_.max_frame);
+    const std::size_t wanted = (capped * payloads_per_region + granule - 1) / granule * granule;
+    const std::size_t size = std::max(config_.shm_region_bytes, wanted);
+    if (shm_usage_->bytes + size > config_.shm_total_bytes) {
+        co_return refuse("the daemon's shared memory is used up (shm_total_bytes " +
+                         std::to_string(config_.shm_total_bytes) + ")");
     }
+    auto created = ShmRegion::create(next_region_++, size, session, shm_usage_);
+    if (!created) {
+        spdlog::warn("no shared-memory region for {}: {}", session->description(), created.error().message);
+        co_return refuse("no shared-memory region: " + created.error().message);
+    }
+    const auto region = *created;
+    session->shm_regions.emplace(handle, region);
+    // Before the reply, so the client has the region when it learns its id.
+    session->outbox().push_writer_region(region);
+    session->wake();
     co_return ok({{"region", region->id()}, {"size", region->size()}});
 }
 

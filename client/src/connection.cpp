@@ -279,7 +279,6 @@ void Connection::write(std::uint64_t handle, const std::string& source, std::uin
     if (payload_size >= shm_threshold && write_through_shm(handle, source, seq, time_ns, payload, tail))
         return;
     std::lock_guard lock(send_mutex_);
-    append_releases_locked();
     if (!flush && payload_size < gather_threshold) {
         if (batch_count_ > 0 && batch_handle_ != handle)
             close_batch_locked();
@@ -292,7 +291,8 @@ void Connection::write(std::uint64_t handle, const std::string& source, std::uin
         throw_if_broken();
         return;
     }
-    close_batch_locked();  // what was buffered goes first
+    close_batch_locked();      // what was buffered goes first
+    append_releases_locked();  // here, not for buffered writes: those do not send out_ now
     proto::append_data_frame_prefix(out_, handle, proto::record_size(source, seq, time_ns, payload_size));
     if (payload_size >= gather_threshold) {
         enlarge_send_buffer_locked();
@@ -326,9 +326,11 @@ void Connection::send_now_or_backlog_locked() {
 bool Connection::write_through_shm(std::uint64_t handle, const std::string& source, std::uint64_t seq,
                                    std::uint64_t time_ns, proto::ByteView payload, proto::ByteView tail) {
     const std::size_t length = payload.size() + tail.size();
+    if (length > proto::default_max_frame)
+        return false;  // the daemon takes no payload larger than a frame, however it comes
     WriterRegion* region = writer_region(handle, length);
-    if (!region)
-        return false;
+    if (!region || length > region->size)
+        return false;  // no region, or one sized for smaller payloads than this one
     const auto offset = allocate_slot(*region, length);
     if (!offset)
         return false;

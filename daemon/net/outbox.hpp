@@ -60,6 +60,8 @@ public:
     void push_writer_region(std::shared_ptr<const ShmRegion> region);
     /// Bytes of control frames (replies, errors) not yet handed to the socket.
     std::size_t control_bytes() const { return control_bytes_; }
+    /// Control frames not yet handed to the socket (a tiny frame costs a heap block of its own).
+    std::size_t control_frames() const { return control_.size(); }
     void add_source(OutSource source) { sources_.push_back(std::move(source)); }
     void remove_source(std::uint64_t handle);
     bool empty() const;
@@ -83,6 +85,13 @@ public:
     static constexpr std::size_t max_lent = 1u << 18;
     /// The region is gone: a later region is sent again even if it had the same id.
     void forget_region(std::uint64_t id) { regions_sent_.erase(id); }
+    /// True when the region was sent on this connection (and is not gone).
+    bool has_region(std::uint64_t id) const { return regions_sent_.contains(id); }
+    /// Regions sent on this connection and not gone: each holds a descriptor in the peer.
+    std::size_t regions_held() const { return regions_sent_.size(); }
+    /// At most this many regions are sent to one peer; messages of further regions are copied
+    /// out. Descriptors a peer has not read yet count against the daemon's own descriptor limit.
+    static constexpr std::size_t max_regions = 64;
 
 private:
     struct ControlFrame {

@@ -134,7 +134,8 @@ std::optional<Session::Incoming> Session::decode_shm(InFrame& frame) {
     }
     if (!frame.resolved) {
         const auto region = shm_regions.find(data->handle);
-        if (link_port_ || region == shm_regions.end() || region->second->id() != data->place.region) {
+        if (link_port_ || region == shm_regions.end() || !region->second ||
+            region->second->id() != data->place.region) {
             ++daemon_.counters().protocol_errors;
             fail("data_shm for region " + std::to_string(data->place.region) +
                  ", which is not the region of handle " + std::to_string(data->handle));
@@ -147,6 +148,13 @@ std::optional<Session::Incoming> Session::decode_shm(InFrame& frame) {
                  std::to_string(region->second->size()) + " bytes");
             return std::nullopt;
         }
+        if (data->head.size() + data->place.length > daemon_.config().max_frame) {
+            // Copied out, it would be a data frame no reader or link takes: refused as on the socket.
+            ++daemon_.counters().protocol_errors;
+            fail("data_shm payload of " + std::to_string(data->place.length) +
+                 " bytes exceeds the frame limit " + std::to_string(daemon_.config().max_frame));
+            return std::nullopt;
+        }
         if (!check_sources(Message{frame.storage, data->head}, port->second->name(),
                            "written on the handle of"))
             return std::nullopt;
@@ -156,14 +164,15 @@ std::optional<Session::Incoming> Session::decode_shm(InFrame& frame) {
                     std::make_shared<const ShmSlot>(region->second, data->place.offset, data->place.length)};
     }
     // Judged again at every try: connections may change while the frame waits for room.
-    if (frame.resolved->shm && !passes_shm(*port->second)) {
+    if (frame.resolved->shm && (!passes_shm(*port->second, *frame.resolved->shm->region) ||
+                                !frame.resolved->shm->region->seal_for_readers())) {
         frame.resolved = copy_out_of_shm(*frame.resolved);
         ++daemon_.counters().shm_copied;
     }
     return Incoming{data->handle, *frame.resolved};
 }
 
-bool Session::passes_shm(const Port& port) const {
+bool Session::passes_shm(const Port& port, const ShmRegion& region) const {
     for (const auto& connection : port.outgoing) {
         if (connection->remote || connection->send_chain)
             return false;
@@ -172,6 +181,9 @@ bool Session::passes_shm(const Port& port) const {
             return false;
         const auto reader = daemon_.session(inlet->port()->owner());
         if (!reader || !reader->maps_shm)
+            return false;
+        auto& sent = reader->outbox();
+        if (!sent.has_region(region.id()) && sent.regions_held() >= Outbox::max_regions)
             return false;
     }
     return true;
@@ -258,6 +270,8 @@ Session::DataOutcome Session::deliver_within(InFrame& frame, const Message& mess
 }
 
 Session::DataOutcome Session::try_deliver(InFrame& frame) {
+    if (frame.type == proto::FrameType::data_shm && frees_pile_up())
+        return DataOutcome::blocked;
     auto incoming = decode_incoming(frame);
     if (!incoming)
         return DataOutcome::stop;
@@ -285,6 +299,14 @@ Session::DataOutcome Session::try_deliver(InFrame& frame) {
     if (outcome == DataOutcome::delivered && message.shm)
         ++daemon_.counters().shm_passed;
     return outcome;
+}
+
+bool Session::frees_pile_up() {
+    // Every data_shm message, once done with, queues a shm_free frame for this session. A client
+    // that writes them without reading its socket would make those frames pile up without bound:
+    // it is not read any more until it has taken them, as for replies.
+    constexpr std::size_t max_unread_frees = 1u << 16;  // a writer has at most a few hundred slots
+    return outbox().control_bytes() > max_unread_replies || outbox().control_frames() > max_unread_frees;
 }
 
 FramedConnection::FrameAction Session::on_frame_now(InFrame& frame) {

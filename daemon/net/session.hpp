@@ -55,10 +55,13 @@ private:
     /// port can take it from there, else copied out of it now. Fails the session if malformed.
     std::optional<Incoming> decode_shm(InFrame& frame);
     /// True when every connection out of `port` goes, unwatched and unarbitrated, to a local client
-    /// that maps regions: only then may a message keep its payload in shared memory.
-    bool passes_shm(const Port& port) const;
+    /// that maps regions and may be sent `region`: only then may a message keep its payload in
+    /// shared memory.
+    bool passes_shm(const Port& port, const ShmRegion& region) const;
     /// The message with its payload copied out of shared memory into a record of its own.
     static Message copy_out_of_shm(const Message& message);
+    /// True while this client leaves so many shm_free frames unread that its data_shm frames must wait.
+    bool frees_pile_up();
     /// A shm_release frame: the client is done with its oldest data_shm messages.
     bool on_release(const InFrame& frame);
     /// True if every record is well formed and written by `expected`; else fails the session with

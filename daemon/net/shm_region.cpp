@@ -11,6 +11,10 @@
 #include "framed_connection.hpp"
 #include "plexus/proto/shm.hpp"
 
+#ifndef F_SEAL_FUTURE_WRITE
+#define F_SEAL_FUTURE_WRITE 0x0010  // Linux 5.1; older C library headers lack it
+#endif
+
 namespace plexus::daemon {
 
 namespace {
@@ -29,8 +33,9 @@ proto::Result<std::shared_ptr<ShmRegion>> ShmRegion::create(std::uint64_t id, st
     if (::ftruncate(region->writer_fd_, static_cast<off_t>(size)) != 0)
         return proto::Error{system_error("ftruncate")};
     // Sealed before anyone else has it: a client that could shrink the file would make every
-    // mapping of the cut pages fault (SIGBUS), the daemon's included.
-    if (::fcntl(region->writer_fd_, F_ADD_SEALS, F_SEAL_SHRINK | F_SEAL_GROW | F_SEAL_SEAL) != 0)
+    // mapping of the cut pages fault (SIGBUS), the daemon's included. Not yet F_SEAL_SEAL: future
+    // writes are sealed once the writer has mapped it (seal_for_readers).
+    if (::fcntl(region->writer_fd_, F_ADD_SEALS, F_SEAL_SHRINK | F_SEAL_GROW) != 0)
         return proto::Error{system_error("sealing the region")};
     // A second open file description, read-only: what readers get and what the daemon maps.
     const std::string path = "/proc/self/fd/" + std::to_string(region->writer_fd_);
@@ -62,6 +67,24 @@ ShmRegion::~ShmRegion() {
         ::close(reader_fd_);
     if (writer_fd_ >= 0)
         ::close(writer_fd_);
+}
+
+void ShmRegion::add_reader(std::weak_ptr<FramedConnection> reader) {
+    std::erase_if(readers_, [](const std::weak_ptr<FramedConnection>& r) { return r.expired(); });
+    readers_.push_back(std::move(reader));
+}
+
+bool ShmRegion::seal_for_readers() {
+    if (reader_seal_ == ReaderSeal::unknown) {
+        // The writer maps the region when it gets it, before its first data_shm frame; its mapping
+        // keeps working after this seal, which only refuses new writable mappings and write()s.
+        const int seals = ::fcntl(writer_fd_, F_GET_SEALS);
+        const bool sealed = seals >= 0 && (seals & F_SEAL_FUTURE_WRITE) != 0 && (seals & F_SEAL_SHRINK) != 0;
+        const bool now = !sealed && seals >= 0 && (seals & F_SEAL_SEAL) == 0 &&
+                         ::fcntl(writer_fd_, F_ADD_SEALS, F_SEAL_FUTURE_WRITE | F_SEAL_SEAL) == 0;
+        reader_seal_ = sealed || now ? ReaderSeal::sealed : ReaderSeal::impossible;
+    }
+    return reader_seal_ == ReaderSeal::sealed;
 }
 
 void ShmRegion::free(std::uint64_t offset) {

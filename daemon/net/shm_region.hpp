@@ -53,8 +53,14 @@ public:
         return offset <= size_ && length <= size_ - offset;
     }
 
-    /// Remembers a connection the region was sent to, to tell it when the region is gone.
-    void add_reader(std::weak_ptr<FramedConnection> reader) { readers_.push_back(std::move(reader)); }
+    /// Remembers a connection the region was sent to, to tell it when the region is gone (and
+    /// forgets those already gone, so that a long-lived region does not collect them).
+    void add_reader(std::weak_ptr<FramedConnection> reader);
+    /// Makes sure no one can write into the region but through the writer's mapping, which it made
+    /// when it got the region: seals future writes (F_SEAL_FUTURE_WRITE) the first time. Without
+    /// it a reader could reopen its descriptor read-write through /proc. False if that cannot be
+    /// done (the writer sealed the seals first): then payloads are copied out, never shared.
+    bool seal_for_readers();
     /// Counts a slot held by a message (see ShmSlot).
     void hold() { ++usage_->slots; }
     /// The slot at `offset` is no longer held: tells the writer it is free again.
@@ -73,6 +79,7 @@ private:
     std::weak_ptr<FramedConnection> writer_;
     std::shared_ptr<ShmUsage> usage_;
     std::vector<std::weak_ptr<FramedConnection>> readers_;
+    enum class ReaderSeal { unknown, sealed, impossible } reader_seal_ = ReaderSeal::unknown;
 };
 
 /// A payload in a region, held while any message refers to it; frees its slot when the last goes.

@@ -17,6 +17,7 @@
 #include <array>
 #include <cerrno>
 #include <cstring>
+#include <fstream>
 #include <functional>
 #include <ostream>
 #include <random>
@@ -1147,6 +1148,81 @@ TEST(Hostile_test, AReaderThatNeverReleasesSharedMemoryIsCutOffAndTheSlotsComeBa
     EXPECT_TRUE(eventually([&] { return good.stats()["daemon"]["shm_slots"] == 0; }))
         << "slot references outlived the reader that held them";
     EXPECT_TRUE(daemon.process().running());
+}
+
+TEST(Hostile_test, AMalformedShmRequestLeavesNoHalfMadeRegionBehind) {
+    TempDir dir;
+    Daemon daemon(dir, "solo");
+    auto hostile = Stream::open(daemon, Listener::daemon_unix);
+    ASSERT_TRUE(hostile.send(
+        concat(hello_frame("client"), request_frame(1, {{"op", "open"}, {"port", "/half/evil"}}))));
+    auto opened = hostile.reply_to(1);
+    ASSERT_TRUE(opened.has_value());
+    const auto handle = opened->body["handle"].get<std::uint64_t>();
+    ASSERT_TRUE(hostile.send(request_frame(2, {{"op", "shm"}, {"handle", handle}, {"bytes", "many"}})));
+    auto refused = hostile.reply_to(2);
+    ASSERT_TRUE(refused.has_value());
+    EXPECT_NE(refused->code, proto::ReplyCode::ok);
+
+    ASSERT_TRUE(hostile.send(shm_frame(handle, {1, 0, 10}, "/half/evil")));
+    const auto reason = error_reason(hostile.frames_until_closed());
+
+    ASSERT_TRUE(reason.has_value());
+    EXPECT_NE(reason->find("not the region of handle"), std::string::npos) << *reason;
+    EXPECT_TRUE(daemon.process().running());
+    expect_everyone_still_served(daemon);
+}
+
+TEST(Hostile_test, APayloadInSharedMemoryLargerThanAFrameIsRefused) {
+    TempDir dir;
+    const auto config = dir.file("plexusd.json");
+    std::ofstream(config) << R"({"max_frame": 1048576})";
+    Daemon daemon(dir, "solo", "", {"--config", config});
+    auto hostile = Stream::open(daemon, Listener::daemon_unix);
+    ASSERT_TRUE(hostile.send(
+        concat(hello_frame("client"), request_frame(1, {{"op", "open"}, {"port", "/big/evil"}}))));
+    auto opened = hostile.reply_to(1);
+    ASSERT_TRUE(opened.has_value());
+    const auto handle = opened->body["handle"].get<std::uint64_t>();
+    ASSERT_TRUE(hostile.send(request_frame(2, {{"op", "shm"}, {"handle", handle}, {"bytes", 1048576}})));
+    auto given = hostile.reply_to(2);
+    ASSERT_TRUE(given.has_value());
+    ASSERT_EQ(given->code, proto::ReplyCode::ok);
+    EXPECT_GE(given->body["size"].get<std::uint64_t>(), 4u * 1048576u);
+
+    ASSERT_TRUE(hostile.send(shm_frame(handle, {given->body["region"], 0, 2 * 1048576}, "/big/evil")));
+    const auto reason = error_reason(hostile.frames_until_closed());
+
+    ASSERT_TRUE(reason.has_value());
+    EXPECT_NE(reason->find("exceeds the frame limit"), std::string::npos) << *reason;
+}
+
+TEST(Hostile_test, AWriterThatNeverReadsItsFreesIsHeldBack) {
+    TempDir dir;
+    Daemon daemon(dir, "solo");
+    auto writer = Stream::open(daemon, Listener::daemon_unix);
+    ASSERT_TRUE(writer.send(
+        concat(hello_frame("client"), request_frame(1, {{"op", "open"}, {"port", "/frees/evil"}}))));
+    auto opened = writer.reply_to(1);
+    ASSERT_TRUE(opened.has_value());
+    const auto handle = opened->body["handle"].get<std::uint64_t>();
+    ASSERT_TRUE(writer.send(request_frame(2, {{"op", "shm"}, {"handle", handle}})));
+    auto given = writer.reply_to(2);
+    ASSERT_TRUE(given.has_value());
+    const Bytes one = shm_frame(handle, {given->body["region"], 0, 10}, "/frees/evil");
+    Bytes many;
+    for (int i = 0; i < 4096; ++i)
+        many.insert(many.end(), one.begin(), one.end());
+
+    // Each message goes to nobody and is done with at once: a shm_free frame for the writer, who
+    // never reads. Unbounded, 1,000 rounds would queue four million of them in the daemon.
+    int rounds = 0;
+    while (rounds < 1000 && writer.send(many, Clock::now() + 2s))
+        ++rounds;
+
+    EXPECT_LT(rounds, 1000) << "the daemon kept reading a writer that leaves its frees unread";
+    EXPECT_TRUE(daemon.process().running());
+    expect_everyone_still_served(daemon);
 }
 
 TEST(Hostile_test, SharedMemoryIsOnlyForClientsOnTheUnixSocket) {

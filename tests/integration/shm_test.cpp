@@ -183,6 +183,27 @@ TEST(Shm_test, AReaderThatLeavesWithoutReadingGivesItsSlotsBack) {
     expect_blobs(kept, 3, mib, 3);
 }
 
+TEST(Shm_test, APayloadLargerThanThePortsRegionTakesTheSocket) {
+    TempDir dir;
+    Daemon daemon(dir, "solo", "", {"--config", config_file(dir, {{"shm_region_bytes", mib}})});
+    Client writer({daemon.socket()});
+    Client reader({daemon.socket()});
+    auto source = writer.open("/grow/source");
+    auto sink = reader.open("/grow/sink");
+    writer.connect("/grow/source", "/grow/sink");
+
+    source.write(blob(100 * 1024, 0));  // the region is made for this size: 1 MiB
+    source.write(blob(3 * mib, 1));     // does not fit in it at all
+
+    auto first = sink.read(20s);
+    auto second = sink.read(20s);
+    ASSERT_TRUE(first && second);
+    EXPECT_TRUE(first->data == blob(100 * 1024, 0));
+    EXPECT_TRUE(second->data == blob(3 * mib, 1));
+    EXPECT_EQ(daemon_counter(writer, "shm_passed"), 1u);
+    EXPECT_EQ(daemon_counter(writer, "shm_bytes"), mib);
+}
+
 TEST(Shm_test, ARegionGoesOnceItsPortIsClosedAndItsMessagesAreRead) {
     TempDir dir;
     Daemon daemon(dir, "solo");
