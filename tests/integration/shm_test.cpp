@@ -68,6 +68,12 @@ TEST(Shm_test, ALargeBlobTravelsThroughSharedMemoryAndArrivesIntact) {
     EXPECT_EQ(daemon_counter(writer, "shm_passed"), 20u);
     EXPECT_EQ(daemon_counter(writer, "shm_copied"), 0u);
     EXPECT_EQ(daemon_counter(writer, "shm_regions"), 1u);
+    const auto shown = run_cli(dir, daemon, {"stats"});
+    ASSERT_EQ(shown.status, 0) << shown.err;
+    EXPECT_NE(
+        shown.out.find("shared memory: 1 regions (8 MiB), 0 payloads held, 20 passed in place, 0 copied out"),
+        std::string::npos)
+        << shown.out;
 }
 
 TEST(Shm_test, EveryReaderOfAFanOutGetsTheSamePayload) {

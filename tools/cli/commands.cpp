@@ -266,6 +266,10 @@ int stats(const Common& common, const std::string& port, bool json) {
     std::cout << "daemon: " << d.value("sessions", 0) << " sessions, " << d.value("protocol_errors", 0)
               << " protocol errors, " << d.value("dropped_unknown_port", 0) << " dropped (port closed), "
               << d.value("dropped_link_down", 0) << " dropped (link down)\n";
+    std::cout << "shared memory: " << d.value("shm_regions", 0) << " regions ("
+              << d.value("shm_bytes", std::uint64_t{0}) / (1024 * 1024) << " MiB), "
+              << d.value("shm_slots", 0) << " payloads held, " << d.value("shm_passed", 0)
+              << " passed in place, " << d.value("shm_copied", 0) << " copied out\n";
     return 0;
 }
 
