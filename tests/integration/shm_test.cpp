@@ -3,6 +3,7 @@
 // counters), and that regions and slots are given back.
 #include <gtest/gtest.h>
 
+#include <csignal>
 #include <cstdlib>
 #include <fstream>
 #include <thread>
@@ -227,6 +228,23 @@ TEST(Shm_test, ARegionGoesOnceItsPortIsClosedAndItsMessagesAreRead) {
     EXPECT_TRUE(eventually([&] { return daemon_counter(reader, "shm_regions") == 0; }))
         << "the region outlived its port and its messages";
     EXPECT_EQ(daemon_counter(reader, "shm_bytes"), 0u);
+}
+
+TEST(Shm_test, TheDaemonStopsCleanlyWithRegionsAndSlotsInUse) {
+    TempDir dir;
+    Daemon daemon(dir, "solo");
+    Client writer({daemon.socket()});
+    Client reader({daemon.socket()});
+    auto source = writer.open("/stop/source");
+    auto sink = reader.open("/stop/sink");
+    writer.connect("/stop/source", "/stop/sink");
+    for (std::uint32_t i = 0; i < 4; ++i)
+        source.write(blob(mib, i));
+    ASSERT_TRUE(eventually([&] { return daemon_counter(writer, "shm_slots") == 4; }));  // none read
+
+    daemon.process().signal(SIGTERM);
+
+    EXPECT_EQ(daemon.process().wait(10s), 0) << daemon.process().err();
 }
 
 TEST(Shm_test, PlexusShmZeroKeepsEveryPayloadInTheSocket) {
