@@ -960,6 +960,21 @@ TEST(Hostile_test, ALinkThatSendsABrokenRecordIsCutOffAndTheReaderIsUnharmed) {
     EXPECT_TRUE(daemon.process().running());
 }
 
+/// Says hello as a client on `stream` and opens `port`: its handle, or nullopt (and a test
+/// failure) if that did not work.
+std::optional<std::uint64_t> open_raw_port(Stream& stream, const std::string& port) {
+    if (!stream.send(concat(hello_frame("client"), request_frame(1, {{"op", "open"}, {"port", port}})))) {
+        ADD_FAILURE() << "could not ask to open " << port;
+        return std::nullopt;
+    }
+    const auto opened = stream.reply_to(1);
+    if (!opened || opened->code != proto::ReplyCode::ok) {
+        ADD_FAILURE() << "open " << port << " failed: " << (opened ? opened->body.dump() : "no reply");
+        return std::nullopt;
+    }
+    return opened->body["handle"].get<std::uint64_t>();
+}
+
 /// A data_batch frame for `handle` holding one record per source, then `extra` raw bytes appended
 /// to the records (and `count` declared: by default the number of sources).
 Bytes batch_frame(std::uint64_t handle, const std::vector<std::string>& sources, const Bytes& extra = {},
@@ -1000,13 +1015,11 @@ TEST(Hostile_test, ABrokenBatchIsRefusedWholeAndTheReaderSeesNoneOfIt) {
     for (const auto& [what, make] : broken_batches) {
         SCOPED_TRACE(what);
         auto hostile = Stream::open(daemon, Listener::daemon_unix);
-        ASSERT_TRUE(hostile.send(
-            concat(hello_frame("client"), request_frame(1, {{"op", "open"}, {"port", "/batch/evil"}}))));
-        auto opened = hostile.reply_to(1);
+        const auto opened = open_raw_port(hostile, "/batch/evil");
         ASSERT_TRUE(opened.has_value());
-        ASSERT_EQ(opened->code, proto::ReplyCode::ok) << opened->body.dump();
+        const auto handle = *opened;
         ASSERT_EQ(good.connect("/batch/evil", "/batch/sink"), "local");
-        ASSERT_TRUE(hostile.send(make(opened->body["handle"].get<std::uint64_t>())));
+        ASSERT_TRUE(hostile.send(make(handle)));
         const auto frames = hostile.frames_until_closed();
         EXPECT_EQ(hostile.end(), End::eof) << end_name(hostile.end());
         EXPECT_TRUE(error_reason(frames).has_value()) << "no error frame for " << what;
@@ -1076,12 +1089,9 @@ TEST(Hostile_test, SharedMemoryFramesThatLieAreRefusedAndOthersAreUnharmed) {
     for (const auto& lie : lies) {
         SCOPED_TRACE(lie.what);
         auto hostile = Stream::open(daemon, Listener::daemon_unix);
-        ASSERT_TRUE(hostile.send(
-            concat(hello_frame("client"), request_frame(1, {{"op", "open"}, {"port", "/shm/evil"}}))));
-        auto opened = hostile.reply_to(1);
+        const auto opened = open_raw_port(hostile, "/shm/evil");
         ASSERT_TRUE(opened.has_value());
-        ASSERT_EQ(opened->code, proto::ReplyCode::ok) << opened->body.dump();
-        const auto handle = opened->body["handle"].get<std::uint64_t>();
+        const auto handle = *opened;
         ASSERT_EQ(good.connect("/shm/evil", "/shm/sink"), "local");
         std::uint64_t region = 0;
         std::uint64_t size = 0;
@@ -1120,11 +1130,9 @@ TEST(Hostile_test, AReaderThatNeverReleasesSharedMemoryIsCutOffAndTheSlotsComeBa
     // The writer names the same slot again and again: the daemon does not track the writer's use of
     // its own region, so only the reader's bound stops the references piling up.
     auto writer = Stream::open(daemon, Listener::daemon_unix);
-    ASSERT_TRUE(writer.send(
-        concat(hello_frame("client"), request_frame(1, {{"op", "open"}, {"port", "/lent/source"}}))));
-    auto opened = writer.reply_to(1);
+    const auto opened = open_raw_port(writer, "/lent/source");
     ASSERT_TRUE(opened.has_value());
-    const auto handle = opened->body["handle"].get<std::uint64_t>();
+    const auto handle = *opened;
     ASSERT_EQ(good.connect("/lent/source", "/lent/sink"), "local");
     ASSERT_TRUE(writer.send(request_frame(2, {{"op", "shm"}, {"handle", handle}})));
     auto given = writer.reply_to(2);
@@ -1154,11 +1162,9 @@ TEST(Hostile_test, AMalformedShmRequestLeavesNoHalfMadeRegionBehind) {
     TempDir dir;
     Daemon daemon(dir, "solo");
     auto hostile = Stream::open(daemon, Listener::daemon_unix);
-    ASSERT_TRUE(hostile.send(
-        concat(hello_frame("client"), request_frame(1, {{"op", "open"}, {"port", "/half/evil"}}))));
-    auto opened = hostile.reply_to(1);
+    const auto opened = open_raw_port(hostile, "/half/evil");
     ASSERT_TRUE(opened.has_value());
-    const auto handle = opened->body["handle"].get<std::uint64_t>();
+    const auto handle = *opened;
     ASSERT_TRUE(hostile.send(request_frame(2, {{"op", "shm"}, {"handle", handle}, {"bytes", "many"}})));
     auto refused = hostile.reply_to(2);
     ASSERT_TRUE(refused.has_value());
@@ -1179,11 +1185,9 @@ TEST(Hostile_test, APayloadInSharedMemoryLargerThanAFrameIsRefused) {
     std::ofstream(config) << R"({"max_frame": 1048576})";
     Daemon daemon(dir, "solo", "", {"--config", config});
     auto hostile = Stream::open(daemon, Listener::daemon_unix);
-    ASSERT_TRUE(hostile.send(
-        concat(hello_frame("client"), request_frame(1, {{"op", "open"}, {"port", "/big/evil"}}))));
-    auto opened = hostile.reply_to(1);
+    const auto opened = open_raw_port(hostile, "/big/evil");
     ASSERT_TRUE(opened.has_value());
-    const auto handle = opened->body["handle"].get<std::uint64_t>();
+    const auto handle = *opened;
     ASSERT_TRUE(hostile.send(request_frame(2, {{"op", "shm"}, {"handle", handle}, {"bytes", 1048576}})));
     auto given = hostile.reply_to(2);
     ASSERT_TRUE(given.has_value());
@@ -1201,11 +1205,9 @@ TEST(Hostile_test, AWriterThatNeverReadsItsFreesIsHeldBack) {
     TempDir dir;
     Daemon daemon(dir, "solo");
     auto writer = Stream::open(daemon, Listener::daemon_unix);
-    ASSERT_TRUE(writer.send(
-        concat(hello_frame("client"), request_frame(1, {{"op", "open"}, {"port", "/frees/evil"}}))));
-    auto opened = writer.reply_to(1);
+    const auto opened = open_raw_port(writer, "/frees/evil");
     ASSERT_TRUE(opened.has_value());
-    const auto handle = opened->body["handle"].get<std::uint64_t>();
+    const auto handle = *opened;
     ASSERT_TRUE(writer.send(request_frame(2, {{"op", "shm"}, {"handle", handle}})));
     auto given = writer.reply_to(2);
     ASSERT_TRUE(given.has_value());

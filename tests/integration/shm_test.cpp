@@ -48,14 +48,26 @@ std::string config_file(const TempDir& dir, const nlohmann::json& config) {
     return path;
 }
 
+/// A writer and a reader, each a client of its own, with NAME/source connected to NAME/sink.
+struct Pair {
+    Pair(const Daemon& daemon, const std::string& name)
+        : writer(Client::Options{daemon.socket()}),
+          reader(Client::Options{daemon.socket()}),
+          source(writer.open(name + "/source")),
+          sink(reader.open(name + "/sink")) {
+        writer.connect(source.name(), sink.name());
+    }
+    Client writer;
+    Client reader;
+    Port source;
+    Port sink;
+};
+
 TEST(Shm_test, ALargeBlobTravelsThroughSharedMemoryAndArrivesIntact) {
     TempDir dir;
     Daemon daemon(dir, "solo");
-    Client writer({daemon.socket()});
-    Client reader({daemon.socket()});
-    auto source = writer.open("/shm/source");
-    auto sink = reader.open("/shm/sink");
-    ASSERT_EQ(writer.connect("/shm/source", "/shm/sink"), "local");
+    Pair pair(daemon, "/shm");
+    auto& [writer, reader, source, sink] = pair;
 
     // Five at a time, fewer than the region holds; the writer learns its slots are free again
     // before its stats reply (the daemon's frees come first on its connection).
@@ -101,11 +113,8 @@ TEST(Shm_test, EveryReaderOfAFanOutGetsTheSamePayload) {
 TEST(Shm_test, APayloadThatIsNotAByteStringIsRebuiltAsItsRecord) {
     TempDir dir;
     Daemon daemon(dir, "solo");
-    Client writer({daemon.socket()});
-    Client reader({daemon.socket()});
-    auto source = writer.open("/map/source");
-    auto sink = reader.open("/map/sink");
-    writer.connect("/map/source", "/map/sink");
+    Pair pair(daemon, "/map");
+    auto& [writer, reader, source, sink] = pair;
     const Value map = {{"scan", std::string(200000, 'r')}, {"points", std::vector<int>(20000, 7)}};
 
     source.write(map);
@@ -141,11 +150,8 @@ TEST(Shm_test, AFullRegionHoldsTheWriterOrSendsThroughTheSocketAndNothingIsLostO
     TempDir dir;
     // The smallest region for 400 KiB payloads: four times one, rounded up to 2 MiB, holds five.
     Daemon daemon(dir, "solo", "", {"--config", config_file(dir, {{"shm_region_bytes", mib}})});
-    Client writer({daemon.socket()});
-    Client reader({daemon.socket()});
-    auto source = writer.open("/full/source");
-    auto sink = reader.open("/full/sink");
-    writer.connect("/full/source", "/full/sink");
+    Pair pair(daemon, "/full");
+    auto& [writer, reader, source, sink] = pair;
     constexpr std::size_t size = 400 * 1024;
 
     // Nobody reads the first eight: the region fills after five, the sixth waits in vain and
@@ -193,11 +199,8 @@ TEST(Shm_test, AReaderThatLeavesWithoutReadingGivesItsSlotsBack) {
 TEST(Shm_test, APayloadLargerThanThePortsRegionTakesTheSocket) {
     TempDir dir;
     Daemon daemon(dir, "solo", "", {"--config", config_file(dir, {{"shm_region_bytes", mib}})});
-    Client writer({daemon.socket()});
-    Client reader({daemon.socket()});
-    auto source = writer.open("/grow/source");
-    auto sink = reader.open("/grow/sink");
-    writer.connect("/grow/source", "/grow/sink");
+    Pair pair(daemon, "/grow");
+    auto& [writer, reader, source, sink] = pair;
 
     source.write(blob(100 * 1024, 0));  // the region is made for this size: 1 MiB
     source.write(blob(3 * mib, 1));     // does not fit in it at all
@@ -233,11 +236,8 @@ TEST(Shm_test, ARegionGoesOnceItsPortIsClosedAndItsMessagesAreRead) {
 TEST(Shm_test, TheDaemonStopsCleanlyWithRegionsAndSlotsInUse) {
     TempDir dir;
     Daemon daemon(dir, "solo");
-    Client writer({daemon.socket()});
-    Client reader({daemon.socket()});
-    auto source = writer.open("/stop/source");
-    auto sink = reader.open("/stop/sink");
-    writer.connect("/stop/source", "/stop/sink");
+    Pair pair(daemon, "/stop");
+    auto& [writer, reader, source, sink] = pair;
     for (std::uint32_t i = 0; i < 4; ++i)
         source.write(blob(mib, i));
     ASSERT_TRUE(eventually([&] { return daemon_counter(writer, "shm_slots") == 4; }));  // none read
@@ -269,11 +269,8 @@ TEST(Shm_test, PlexusShmZeroKeepsEveryPayloadInTheSocket) {
 TEST(Shm_test, ADaemonWithSharedMemoryOffStillCarriesLargeBlobs) {
     TempDir dir;
     Daemon daemon(dir, "solo", "", {"--config", config_file(dir, {{"shm_region_bytes", 0}})});
-    Client writer({daemon.socket()});
-    Client reader({daemon.socket()});
-    auto source = writer.open("/noshm/source");
-    auto sink = reader.open("/noshm/sink");
-    writer.connect("/noshm/source", "/noshm/sink");
+    Pair pair(daemon, "/noshm");
+    auto& [writer, reader, source, sink] = pair;
 
     for (std::uint32_t i = 0; i < 3; ++i)
         source.write(blob(mib, i));
