@@ -214,6 +214,40 @@ TEST(Shm_test, APayloadLargerThanThePortsRegionTakesTheSocket) {
     EXPECT_EQ(daemon_counter(writer, "shm_bytes"), mib);
 }
 
+TEST(Shm_test, OneClientWritingAndReadingItsOwnLargeMessagesOnTwoThreadsNeverStalls) {
+    TempDir dir;
+    Daemon daemon(dir, "solo");
+    Client both({daemon.socket()});
+    auto source = both.open("/self/source");
+    auto sink = both.open("/self/sink", {QueuePolicy::strict, 4});
+    both.connect("/self/source", "/self/sink");
+    constexpr std::uint32_t count = 200;
+
+    // The writer waits for slots while the other thread is the connection's reader, and the
+    // reader releases slots while the writer may be sending: neither may wait for the other.
+    std::thread reading([&] { expect_blobs(sink, count, 300 * 1024); });
+    for (std::uint32_t i = 0; i < count; ++i)
+        source.write(blob(300 * 1024, i));
+    reading.join();
+
+    EXPECT_GT(daemon_counter(both, "shm_passed"), 0u);
+}
+
+TEST(Shm_test, OneThreadWritingIntoItsOwnFullPortBeforeReadingNeverStalls) {
+    TempDir dir;
+    Daemon daemon(dir, "solo");
+    Client both({daemon.socket()});
+    auto source = both.open("/alone/source");
+    auto sink = both.open("/alone/sink", {QueuePolicy::strict, 4});
+    both.connect("/alone/source", "/alone/sink");
+
+    // More than the region holds and far more than the queue: the writer must read its own
+    // messages (and so release their slots) while it waits, or it would wait for itself.
+    for (std::uint32_t i = 0; i < 60; ++i)
+        source.write(blob(300 * 1024, i));
+    expect_blobs(sink, 60, 300 * 1024);
+}
+
 TEST(Shm_test, ARegionGoesOnceItsPortIsClosedAndItsMessagesAreRead) {
     TempDir dir;
     Daemon daemon(dir, "solo");
