@@ -1,9 +1,27 @@
 #include "plexus/proto/shm.hpp"
 
+#include <initializer_list>
+#include <optional>
+
 #include "plexus/proto/message.hpp"
 #include "plexus/proto/varint.hpp"
 
 namespace plexus::proto {
+
+namespace {
+/// A frame whose fields are varints, optionally followed by one byte.
+Bytes frame_of(FrameType type, std::initializer_list<std::uint64_t> numbers,
+               std::optional<std::uint8_t> last = {}) {
+    Bytes fields;
+    for (const auto number : numbers)
+        append_varint(fields, number);
+    if (last)
+        fields.push_back(*last);
+    Bytes frame;
+    append_frame(frame, type, fields);
+    return frame;
+}
+}  // namespace
 
 void append_shm_place(Bytes& out, const ShmPlace& place, std::string_view source, std::uint64_t seq,
                       std::uint64_t time_ns) {
@@ -46,13 +64,7 @@ Result<ShmPlaceView> decode_shm_place(ByteView place_and_head) {
 }
 
 Bytes make_shm_region_frame(const ShmRegionView& region) {
-    Bytes fields;
-    append_varint(fields, region.region);
-    append_varint(fields, region.size);
-    fields.push_back(region.writable ? 1 : 0);
-    Bytes frame;
-    append_frame(frame, FrameType::shm_region, fields);
-    return frame;
+    return frame_of(FrameType::shm_region, {region.region, region.size}, region.writable ? 1 : 0);
 }
 
 Result<ShmRegionView> decode_shm_region(ByteView fields) {
@@ -66,11 +78,7 @@ Result<ShmRegionView> decode_shm_region(ByteView fields) {
 }
 
 Bytes make_shm_number_frame(FrameType type, std::uint64_t number) {
-    Bytes fields;
-    append_varint(fields, number);
-    Bytes frame;
-    append_frame(frame, type, fields);
-    return frame;
+    return frame_of(type, {number});
 }
 
 Result<std::uint64_t> decode_shm_number(ByteView fields, std::string_view what) {
@@ -82,12 +90,7 @@ Result<std::uint64_t> decode_shm_number(ByteView fields, std::string_view what) 
 }
 
 Bytes make_shm_free_frame(std::uint64_t region, std::uint64_t offset) {
-    Bytes fields;
-    append_varint(fields, region);
-    append_varint(fields, offset);
-    Bytes frame;
-    append_frame(frame, FrameType::shm_free, fields);
-    return frame;
+    return frame_of(FrameType::shm_free, {region, offset});
 }
 
 Result<std::pair<std::uint64_t, std::uint64_t>> decode_shm_free(ByteView fields) {
