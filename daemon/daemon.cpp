@@ -122,8 +122,8 @@ int Daemon::run() {
             names.push_back(name);
         return names;
     };
-    names_->on_persistent = [this](const nlohmann::json& persistent) {
-        asio::co_spawn(io_, restore_persistent(persistent), asio::detached);
+    names_->on_persistent = [this](std::vector<names::ConnectionEntry> persistent) {
+        asio::co_spawn(io_, restore_persistent(std::move(persistent)), asio::detached);
     };
     names_->start();
     asio::co_spawn(io_, announce_ready(), asio::detached);
@@ -243,12 +243,10 @@ proto::Result<std::shared_ptr<Port>> Daemon::open_hosted_port(const std::string&
     if (!names_)
         return opened;
     auto tell = [](names::NameClient* names, Daemon* daemon, std::shared_ptr<Port> port) -> Task<void> {
-        nlohmann::json body = {{"op", "register_port"}, {"port", port->name()}};
-        auto registered = co_await names->request(body);
-        if (!registered || registered->code != proto::ReplyCode::ok) {
+        auto registered = co_await names->register_port(port->name());
+        if (!registered) {
             spdlog::warn("port {} published by a monitor could not be registered: {}", port->name(),
-                         registered ? registered->body.value("error", std::string("refused"))
-                                    : registered.error().message);
+                         registered.error().message);
             if (!port->closed())
                 daemon->forget_port(port);
         }
@@ -264,20 +262,10 @@ void Daemon::forget_port(std::shared_ptr<Port> port) {
     spdlog::info("port {} closed", name);
     if (stopping_ || !names_)
         return;
-    auto names = names_.get();
-    // Tell the name server without holding anyone up; it also drops the port after a grace period
-    // if this never arrives.
-    auto tell = [](names::NameClient* names, std::string port_name,
-                   std::vector<std::shared_ptr<Connection>> connections) -> Task<void> {
-        for (const auto& c : connections) {
-            nlohmann::json body1 = {
-                {"op", "remove_connection"}, {"source", c->source}, {"destination", c->destination}};
-            co_await names->request(body1);
-        }
-        nlohmann::json body2 = {{"op", "unregister_port"}, {"port", port_name}};
-        co_await names->request(body2);
-    };
-    asio::co_spawn(io_, tell(names, name, std::move(removed)), asio::detached);
+    std::vector<names::ConnectionEntry> gone;
+    for (const auto& c : removed)
+        gone.push_back({c->source, c->destination, c->carrier, false});
+    names_->notify_port_closed(name, std::move(gone));
 }
 
 Task<void> Daemon::shutdown() {
@@ -288,9 +276,8 @@ Task<void> Daemon::shutdown() {
     unix_acceptor_.close(ignored);
     // Unregister first, then close: readers elsewhere see the ports go away cleanly.
     for (const auto& [name, port] : router_.ports()) {
-        nlohmann::json body3 = {{"op", "unregister_port"}, {"port", name}};
         if (names_ && names_->connected())
-            co_await names_->request(body3);
+            co_await names_->unregister_port(name);
     }
     stopping_ = true;
     std::vector<std::shared_ptr<Port>> ports;

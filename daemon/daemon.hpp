@@ -129,7 +129,7 @@ private:
     Task<proto::Reply> forward(const proto::Request& request, const std::string& port);
     void forget_port(std::shared_ptr<Port> port);
     /// Makes the remembered connections of a port that just registered.
-    Task<void> restore_persistent(nlohmann::json persistent);
+    Task<void> restore_persistent(std::vector<names::ConnectionEntry> persistent);
     nlohmann::json stats_json(const std::string& only_port) const;
     std::string address() const;
     // GCC 12 miscompiles braced temporaries and lambdas inside co_await expressions: build them

@@ -67,13 +67,12 @@ Task<proto::Reply> Daemon::open_port(std::shared_ptr<Session> session, const pro
     if (!opened)
         co_return refuse(opened.error().message);
     auto port = *opened;
-    nlohmann::json body1 = {{"op", "register_port"}, {"port", name}};
-    auto registered = co_await names_->request(body1);
-    if (!registered || registered->code != ReplyCode::ok || session->closed()) {
+    auto registered = co_await names_->register_port(name);
+    if (!registered || session->closed()) {
         router_.close(name);
         if (!registered)
             co_return refuse("cannot register " + name + ": " + registered.error().message);
-        co_return refuse(registered->body.value("error", std::string("the name server refused ") + name));
+        co_return refuse("the client went away while " + name + " was being registered");
     }
     const std::uint64_t handle = session->next_handle++;
     session->ports[handle] = port;
@@ -86,8 +85,7 @@ Task<proto::Reply> Daemon::open_port(std::shared_ptr<Session> session, const pro
     spdlog::info("port {} opened ({} queue of {})", name, queue_policy_name(*policy), capacity);
     // Restore remembered connections before answering, so the client's first write already
     // flows along them.
-    const nlohmann::json persistent = registered->body.value("persistent", nlohmann::json::array());
-    co_await restore_persistent(persistent);
+    co_await restore_persistent(std::move(*registered));
     co_return ok({{"handle", handle}, {"node", config_.node}});
 }
 
@@ -198,12 +196,9 @@ Task<proto::Reply> Daemon::connect(const proto::Request& request) {
                       [](const std::weak_ptr<Inlet>& entry) { return entry.expired(); });
         local_destination->inbound.push_back(inlet);
         local_destination->arbiter->join(**member);
-        nlohmann::json body2 = {{"op", "add_connection"},
-                                {"source", source},
-                                {"destination", destination},
-                                {"carrier", connection->carrier},
-                                {"persistent", request.body.value("persist", false)}};
-        co_await names_->request(body2);
+        names::ConnectionEntry entry{source, destination, connection->carrier,
+                                     request.body.value("persist", false)};
+        co_await names_->add_connection(std::move(entry));
         spdlog::info("connected {} -> {} ({})", source, destination, connection->carrier);
         co_return ok({{"carrier", connection->carrier}, {"warnings", *warnings}});
     }
@@ -215,13 +210,10 @@ Task<proto::Reply> Daemon::connect(const proto::Request& request) {
     if (local_destination) {
         where = address();
     } else {
-        nlohmann::json body3 = {{"op", "lookup"}, {"port", destination}};
-        auto found = co_await names_->request(body3);
+        auto found = co_await names_->lookup(destination);
         if (!found)
             co_return refuse(found.error().message);
-        if (found->code != ReplyCode::ok)
-            co_return refuse("port " + destination + " does not exist");
-        where = text(found->body, "address");
+        where = found->address;
     }
     std::string chosen = carrier_text;
     if (automatic)
@@ -291,21 +283,12 @@ Task<proto::Reply> Daemon::connect_remote(const proto::Request& request, std::sh
         if (router_.remove(c)) {
             spdlog::info("connection {} -> {} went down: {}", c->source, c->destination, reason);
             notify_space();
-            if (!stopping_) {
-                auto tell = [](names::NameClient* names, std::string s, std::string d) -> Task<void> {
-                    nlohmann::json body5 = {{"op", "remove_connection"}, {"source", s}, {"destination", d}};
-                    co_await names->request(body5);
-                };
-                asio::co_spawn(io_, tell(names_.get(), c->source, c->destination), asio::detached);
-            }
+            if (!stopping_)
+                names_->notify_connection_down(c->source, c->destination);
         }
     };
-    nlohmann::json body6 = {{"op", "add_connection"},
-                            {"source", source},
-                            {"destination", destination},
-                            {"carrier", carrier},
-                            {"persistent", request.body.value("persist", false)}};
-    co_await names_->request(body6);
+    names::ConnectionEntry entry{source, destination, carrier, request.body.value("persist", false)};
+    co_await names_->add_connection(std::move(entry));
     spdlog::info("connected {} -> {} ({} to {})", source, destination, carrier, address);
     co_return ok(
         {{"carrier", carrier}, {"warnings", attached->body.value("warnings", nlohmann::json::array())}});
@@ -359,9 +342,7 @@ Task<proto::Reply> Daemon::disconnect(const proto::Request& request) {
     if (!removed)
         co_return refuse("ports " + source + " and " + destination + " are not connected", ReplyCode::no);
     notify_space();
-    nlohmann::json body7 = {
-        {"op", "remove_connection"}, {"source", source}, {"destination", destination}, {"forget", true}};
-    co_await names_->request(body7);
+    co_await names_->remove_connection(source, destination, true);
     spdlog::info("disconnected {} -> {}", source, destination);
     co_return ok();
 }
@@ -383,13 +364,10 @@ Task<proto::Reply> Daemon::ping(const proto::Request& request) {
 Task<proto::Reply> Daemon::forward(const proto::Request& request, const std::string& port) {
     if (request.body.value("forwarded", false))
         co_return refuse("port " + port + " is not on node '" + config_.node + "'");
-    nlohmann::json body8 = {{"op", "lookup"}, {"port", port}};
-    auto found = co_await names_->request(body8);
+    auto found = co_await names_->lookup(port);
     if (!found)
         co_return refuse(found.error().message);
-    if (found->code != ReplyCode::ok)
-        co_return refuse("port " + port + " does not exist");
-    const std::string where = text(found->body, "address");
+    const std::string where = found->address;
     auto endpoint = proto::parse_endpoint(where);
     if (!endpoint)
         co_return refuse("the name server gave a bad address for " + port + ": " + where);
@@ -405,13 +383,13 @@ Task<proto::Reply> Daemon::forward(const proto::Request& request, const std::str
     co_return relay(reply);
 }
 
-Task<void> Daemon::restore_persistent(nlohmann::json persistent) {
+Task<void> Daemon::restore_persistent(std::vector<names::ConnectionEntry> persistent) {
     for (const auto& entry : persistent) {
         proto::Request request;
         request.body = {{"op", "connect"},
-                        {"source", entry.value("source", "")},
-                        {"destination", entry.value("destination", "")},
-                        {"carrier", entry.value("carrier", "")}};
+                        {"source", entry.source},
+                        {"destination", entry.destination},
+                        {"carrier", entry.carrier}};
         // Either end may come up first; the one that comes second makes the connection, so a
         // failure here (the other end is not there yet) is expected and only logged.
         auto reply = co_await connect(request);

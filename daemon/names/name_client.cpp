@@ -9,7 +9,25 @@ constexpr auto request_timeout = std::chrono::seconds(5);
 constexpr auto first_retry = std::chrono::milliseconds(100);
 constexpr auto longest_retry = std::chrono::seconds(2);
 constexpr auto reconnect_patience = std::chrono::seconds(3);
+
+std::vector<ConnectionEntry> persistent_from_json(const nlohmann::json& list) {
+    std::vector<ConnectionEntry> entries;
+    for (const auto& c : list) {
+        entries.push_back({c.value("source", std::string{}), c.value("destination", std::string{}),
+                           c.value("carrier", std::string{}), true});
+    }
+    return entries;
+}
+
+// GCC 12 miscompiles braced temporaries inside co_await expressions: built here instead.
+nlohmann::json register_port_body(const std::string& port) {
+    return {{"op", op::register_port}, {"port", port}};
+}
 }  // namespace
+
+nlohmann::json NameClient::register_node_body() const {
+    return {{"op", op::register_node}, {"node", node_}, {"address", address_}};
+}
 
 NameClient::NameClient(asio::io_context& io, proto::Endpoint names, std::string node, std::string address,
                        std::size_t max_frame)
@@ -56,6 +74,79 @@ Task<proto::Result<proto::Reply>> NameClient::request(nlohmann::json body) {
     co_return co_await peer->request(std::move(body), request_timeout);
 }
 
+Task<proto::Result<proto::Reply>> NameClient::ask(nlohmann::json body) {
+    using Outcome = proto::Result<proto::Reply>;
+    const std::string what = body.value("op", std::string{});
+    auto reply = co_await request(std::move(body));
+    if (!reply)
+        co_return reply;
+    if (reply->code != proto::ReplyCode::ok)
+        co_return Outcome(proto::Error{reply->body.value("error", "the name server refused " + what)});
+    co_return reply;
+}
+
+Task<proto::Result<std::vector<ConnectionEntry>>> NameClient::register_port(std::string port) {
+    using Outcome = proto::Result<std::vector<ConnectionEntry>>;
+    nlohmann::json body = {{"op", op::register_port}, {"port", port}};
+    auto reply = co_await ask(std::move(body));
+    if (!reply)
+        co_return Outcome(reply.error());
+    co_return persistent_from_json(reply->body.value("persistent", nlohmann::json::array()));
+}
+
+Task<proto::Status> NameClient::unregister_port(std::string port) {
+    nlohmann::json body = {{"op", op::unregister_port}, {"port", port}};
+    auto reply = co_await ask(std::move(body));
+    co_return reply ? proto::Status(proto::Ok{}) : proto::Status(reply.error());
+}
+
+Task<proto::Result<PortEntry>> NameClient::lookup(std::string port) {
+    using Outcome = proto::Result<PortEntry>;
+    nlohmann::json body = {{"op", op::lookup}, {"port", port}};
+    auto reply = co_await request(std::move(body));
+    if (!reply)
+        co_return Outcome(reply.error());
+    if (reply->code != proto::ReplyCode::ok)
+        co_return Outcome(proto::Error{"port " + port + " does not exist"});
+    co_return PortEntry{port, reply->body.value("node", std::string{}),
+                        reply->body.value("address", std::string{})};
+}
+
+Task<proto::Status> NameClient::add_connection(ConnectionEntry connection) {
+    nlohmann::json body = {{"op", op::add_connection},
+                           {"source", connection.source},
+                           {"destination", connection.destination},
+                           {"carrier", connection.carrier},
+                           {"persistent", connection.persistent}};
+    auto reply = co_await ask(std::move(body));
+    co_return reply ? proto::Status(proto::Ok{}) : proto::Status(reply.error());
+}
+
+Task<proto::Status> NameClient::remove_connection(std::string source, std::string destination, bool forget) {
+    nlohmann::json body = {
+        {"op", op::remove_connection}, {"source", source}, {"destination", destination}, {"forget", forget}};
+    auto reply = co_await ask(std::move(body));
+    co_return reply ? proto::Status(proto::Ok{}) : proto::Status(reply.error());
+}
+
+void NameClient::notify_port_closed(std::string port, std::vector<ConnectionEntry> connections_removed) {
+    asio::co_spawn(io_, tell_port_closed(std::move(port), std::move(connections_removed)), asio::detached);
+}
+
+void NameClient::notify_connection_down(std::string source, std::string destination) {
+    asio::co_spawn(io_, tell_connection_down(std::move(source), std::move(destination)), asio::detached);
+}
+
+Task<void> NameClient::tell_port_closed(std::string port, std::vector<ConnectionEntry> connections_removed) {
+    for (const auto& c : connections_removed)
+        co_await remove_connection(c.source, c.destination, false);
+    co_await unregister_port(port);
+}
+
+Task<void> NameClient::tell_connection_down(std::string source, std::string destination) {
+    co_await remove_connection(std::move(source), std::move(destination), false);
+}
+
 Task<void> NameClient::run() {
     auto delay = std::chrono::steady_clock::duration(first_retry);
     bool warned = false;
@@ -78,8 +169,7 @@ Task<void> NameClient::run() {
         }
         auto peer = *connected_peer;
         peer->set_description("name server " + names_.text());
-        nlohmann::json body1 = {{"op", "register_node"}, {"node", node_}, {"address", address_}};
-        auto hello = co_await peer->request(body1, request_timeout);
+        auto hello = co_await peer->request(register_node_body(), request_timeout);
         if (!hello || hello->code != proto::ReplyCode::ok) {
             std::string why = hello.ok() ? std::string("refused") : hello.error().message;
             if (hello.ok() && hello->body.contains("error"))
@@ -94,13 +184,12 @@ Task<void> NameClient::run() {
         if (ports_to_register)
             ports = ports_to_register();
         for (const auto& port : ports) {
-            nlohmann::json body2 = {{"op", "register_port"}, {"port", port}};
-            auto reply = co_await peer->request(body2, request_timeout);
+            auto reply = co_await peer->request(register_port_body(port), request_timeout);
             if (!reply || reply->code != proto::ReplyCode::ok) {
                 spdlog::error("name server: cannot register {} again: {}", port,
                               reply ? reply->body.dump() : reply.error().message);
             } else if (on_persistent) {
-                on_persistent(reply->body.value("persistent", nlohmann::json::array()));
+                on_persistent(persistent_from_json(reply->body.value("persistent", nlohmann::json::array())));
             }
         }
         peer_ = peer;

@@ -8,6 +8,7 @@
 
 #include "../net/peer.hpp"
 #include "../net/signal.hpp"
+#include "name_protocol.hpp"
 
 namespace plexus::daemon::names {
 
@@ -25,15 +26,35 @@ public:
     Task<bool> wait_connected(std::chrono::steady_clock::duration timeout);
     /// Sends a request; an Error when the name server cannot be reached.
     Task<proto::Result<proto::Reply>> request(nlohmann::json body);
+
+    // Typed calls. Each answers an Error with the name server's reason when it refuses.
+    /// Registers a port of this node; answers the persistent connections that name it.
+    Task<proto::Result<std::vector<ConnectionEntry>>> register_port(std::string port);
+    Task<proto::Status> unregister_port(std::string port);
+    /// Where a port lives; an Error "port X does not exist" when it is not registered.
+    Task<proto::Result<PortEntry>> lookup(std::string port);
+    Task<proto::Status> add_connection(ConnectionEntry connection);
+    /// `forget`: also forget a persistent connection (a disconnect), not only mark it down.
+    Task<proto::Status> remove_connection(std::string source, std::string destination, bool forget);
+
+    // Fire and forget: for callers that must not wait (a port closing, a link going down). The
+    // name server also drops a gone node's ports after its grace period if these never arrive.
+    void notify_port_closed(std::string port, std::vector<ConnectionEntry> connections_removed);
+    void notify_connection_down(std::string source, std::string destination);
     const proto::Endpoint& endpoint() const { return names_; }
 
     /// Lists the ports to register again after a reconnect.
     std::function<std::vector<std::string>()> ports_to_register;
     /// Receives the persistent connections the name server knows for a port just registered.
-    std::function<void(const nlohmann::json& persistent)> on_persistent;
+    std::function<void(std::vector<ConnectionEntry> persistent)> on_persistent;
 
 private:
     Task<void> run();
+    /// The request's reply if it was ok, else an Error with the refusal's reason.
+    Task<proto::Result<proto::Reply>> ask(nlohmann::json body);
+    nlohmann::json register_node_body() const;
+    Task<void> tell_port_closed(std::string port, std::vector<ConnectionEntry> connections_removed);
+    Task<void> tell_connection_down(std::string source, std::string destination);
 
     asio::io_context& io_;
     proto::Endpoint names_;

@@ -6,6 +6,7 @@
 #include <spdlog/spdlog.h>
 
 #include "../net/framed_connection.hpp"
+#include "name_protocol.hpp"
 #include "plexus/proto/frame.hpp"
 
 namespace plexus::daemon::names {
@@ -181,7 +182,7 @@ proto::Reply NameServer::answer(const proto::Request& request, std::uint64_t ses
 
 proto::Reply NameServer::handle(const proto::Request& request, std::uint64_t session) {
     const auto& body = request.body;
-    const std::string op = body["op"];
+    const std::string asked = body["op"];
     auto ok = [&](nlohmann::json out = nlohmann::json::object()) {
         return proto::Reply{request.id, ReplyCode::ok, out};
     };
@@ -192,26 +193,26 @@ proto::Reply NameServer::handle(const proto::Request& request, std::uint64_t ses
         return status ? ok() : refuse(status.error().message);
     };
 
-    if (op == "ping")
+    if (asked == op::ping)
         return ok({{"names", endpoint().text()}});
-    if (op == "lookup") {
+    if (asked == op::lookup) {
         auto entry = registry_.lookup(text_field(body, "port"));
         if (!entry)
             return refuse("port " + text_field(body, "port") + " is not registered", ReplyCode::no);
         return ok({{"port", entry->name}, {"node", entry->node}, {"address", entry->address}});
     }
-    if (op == "list")
+    if (asked == op::list)
         return ok(registry_.list());
     if (session == 0)
-        return refuse("'" + op + "' is not available over UDP; use TCP", ReplyCode::usage);
+        return refuse("'" + asked + "' is not available over UDP; use TCP", ReplyCode::usage);
 
-    if (op == "register_node") {
+    if (asked == op::register_node) {
         auto status = registry_.register_node(text_field(body, "node"), text_field(body, "address"), session);
         if (status)
             spdlog::info("names: node '{}' at {}", text_field(body, "node"), text_field(body, "address"));
         return status_reply(status);
     }
-    if (op == "register_port") {
+    if (asked == op::register_port) {
         const std::string port = text_field(body, "port");
         auto status = registry_.register_port(port, session);
         if (!status)
@@ -223,9 +224,9 @@ proto::Reply NameServer::handle(const proto::Request& request, std::uint64_t ses
         }
         return ok({{"persistent", persistent}});
     }
-    if (op == "unregister_port")
+    if (asked == op::unregister_port)
         return status_reply(registry_.unregister_port(text_field(body, "port"), session));
-    if (op == "add_connection") {
+    if (asked == op::add_connection) {
         const bool persistent = body.value("persistent", false);
         auto status = registry_.add_connection({text_field(body, "source"), text_field(body, "destination"),
                                                 text_field(body, "carrier"), persistent},
@@ -234,7 +235,7 @@ proto::Reply NameServer::handle(const proto::Request& request, std::uint64_t ses
             save_state();
         return status_reply(status);
     }
-    if (op == "remove_connection") {
+    if (asked == op::remove_connection) {
         const bool forget = body.value("forget", false);
         if (!forget) {
             // A connection that merely went down stays known when it is persistent.
@@ -251,7 +252,7 @@ proto::Reply NameServer::handle(const proto::Request& request, std::uint64_t ses
             save_state();
         return status_reply(status);
     }
-    return refuse("unknown request '" + op + "'", ReplyCode::usage);
+    return refuse("unknown request '" + asked + "'", ReplyCode::usage);
 }
 
 void NameServer::session_closed(std::uint64_t session) {

@@ -10,24 +10,12 @@
 
 #include <nlohmann/json.hpp>
 
+#include "name_protocol.hpp"
 #include "plexus/proto/bytes.hpp"
 
 namespace plexus::daemon::names {
 
 using Clock = std::chrono::steady_clock;
-
-struct PortEntry {
-    std::string name;
-    std::string node;
-    std::string address;  ///< the node daemon's TCP address, HOST:PORT
-};
-
-struct ConnectionEntry {
-    std::string source;
-    std::string destination;
-    std::string carrier;
-    bool persistent = false;
-};
 
 /// The name server's state: nodes (daemons) tied to their sessions, their ports, and connections.
 /// When a node's session ends its ports stay for a grace period, so a daemon that reconnects (or a
