@@ -14,6 +14,8 @@
 #include <stdexcept>
 #include <thread>
 
+#include "netns.hpp"
+
 namespace plexus::test {
 
 std::string plexusd_path() {
@@ -132,19 +134,54 @@ std::string Process::err() const {
     return read_file(err_path_);
 }
 
+namespace {
+
+/// argv as it runs in `host`: inside its namespace, or as it is on this machine's loopback.
+std::vector<std::string> placed(const Host* host, const std::vector<std::string>& argv) {
+    return host ? host->wrap(argv) : argv;
+}
+
+/// Where a server in `host` listens: on the host's address there, on loopback here.
+std::string any_port(const Host* host) {
+    return (host ? host->address() : "127.0.0.1") + ":0";
+}
+
+}  // namespace
+
+const std::vector<std::string>& beyond_loopback_flags() {
+    // One place for what a server needs before it may listen on a host's address (an
+    // --insecure or --secret-file once the daemon asks for one), so every multi-host test follows.
+    static const std::vector<std::string> flags{};
+    return flags;
+}
+
 Daemon::Daemon(const TempDir& dir, const std::string& node, const std::string& names,
                const std::vector<std::string>& extra)
     : socket_(dir.file(node + ".sock")) {
+    start(dir, node, names, extra);
+}
+
+Daemon::Daemon(const TempDir& dir, const Host& host, const std::string& node, const std::string& names,
+               const std::vector<std::string>& extra)
+    : host_(&host), socket_(dir.file(node + ".sock")) {
+    std::vector<std::string> all = beyond_loopback_flags();
+    all.insert(all.end(), extra.begin(), extra.end());
+    start(dir, node, names, all);
+}
+
+void Daemon::start(const TempDir& dir, const std::string& node, const std::string& names,
+                   const std::vector<std::string>& extra) {
     const std::string ready = dir.file(node + ".ready");
-    std::vector<std::string> argv{plexusd_path(), "--node",       node,  "--socket",    socket_, "--listen",
-                                  "127.0.0.1:0",  "--ready-file", ready, "--log-level", "debug"};
+    std::vector<std::string> argv{plexusd_path(),  "--node",       node,  "--socket",    socket_, "--listen",
+                                  any_port(host_), "--ready-file", ready, "--log-level", "debug"};
     if (names.empty()) {
-        argv.insert(argv.end(), {"--embedded-names", "--names", "127.0.0.1:0"});
+        argv.insert(argv.end(), {"--embedded-names", "--names", any_port(host_)});
     } else {
         argv.insert(argv.end(), {"--names", names});
     }
     argv.insert(argv.end(), extra.begin(), extra.end());
-    process_ = std::make_unique<Process>(argv, std::map<std::string, std::string>{}, dir.file(node));
+    process_ =
+        std::make_unique<Process>(placed(host_, argv), std::map<std::string, std::string>{}, dir.file(node));
     if (!eventually([&] { return std::filesystem::exists(ready) || !process_->running(); }, 20s) ||
         !std::filesystem::exists(ready)) {
         throw std::runtime_error("plexusd " + node + " did not become ready: " + process_->err());
@@ -168,6 +205,33 @@ std::map<std::string, std::string> Daemon::env() const {
     return {{"PLEXUS_SOCKET", socket_}, {"PLEXUS_NAMES", names_}};
 }
 
+NameServerProcess::NameServerProcess(const TempDir& dir, const std::vector<std::string>& extra) {
+    start(dir, extra);
+}
+
+NameServerProcess::NameServerProcess(const TempDir& dir, const Host& host,
+                                     const std::vector<std::string>& extra)
+    : host_(&host) {
+    std::vector<std::string> all = beyond_loopback_flags();
+    all.insert(all.end(), extra.begin(), extra.end());
+    start(dir, all);
+}
+
+void NameServerProcess::start(const TempDir& dir, const std::vector<std::string>& extra) {
+    static std::atomic<int> counter{0};
+    const std::string name = "names" + std::to_string(counter++);
+    const std::string ready = dir.file(name + ".ready");
+    std::vector<std::string> argv{names_path(), "--listen", any_port(host_), "--ready-file", ready};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    process_ =
+        std::make_unique<Process>(placed(host_, argv), std::map<std::string, std::string>{}, dir.file(name));
+    if (!eventually([&] { return std::filesystem::exists(ready) || !process_->running(); }, 20s) ||
+        !std::filesystem::exists(ready)) {
+        throw std::runtime_error("plexus-names did not become ready: " + process_->err());
+    }
+    address_ = nlohmann::json::parse(read_file(ready)).at("names");
+}
+
 CliResult run_cli(const TempDir& dir, const Daemon& daemon, const std::vector<std::string>& args,
                   const std::string& input, std::chrono::milliseconds timeout) {
     static std::atomic<int> counter{0};
@@ -179,7 +243,7 @@ CliResult run_cli(const TempDir& dir, const Daemon& daemon, const std::vector<st
     }
     std::vector<std::string> argv{plexus_path()};
     argv.insert(argv.end(), args.begin(), args.end());
-    Process process(argv, daemon.env(), dir.file(name), input_file);
+    Process process(placed(daemon.host(), argv), daemon.env(), dir.file(name), input_file);
     auto status = process.wait(timeout);
     return {status.value_or(-1), process.out(), process.err()};
 }
@@ -188,7 +252,7 @@ std::unique_ptr<Process> start_cli(const TempDir& dir, const Daemon& daemon,
                                    const std::vector<std::string>& args, const std::string& name) {
     std::vector<std::string> argv{plexus_path()};
     argv.insert(argv.end(), args.begin(), args.end());
-    return std::make_unique<Process>(argv, daemon.env(), dir.file(name));
+    return std::make_unique<Process>(placed(daemon.host(), argv), daemon.env(), dir.file(name));
 }
 
 CliWriter::CliWriter(const TempDir& dir, const Daemon& daemon, const std::string& port,
@@ -196,7 +260,7 @@ CliWriter::CliWriter(const TempDir& dir, const Daemon& daemon, const std::string
     const std::string fifo = dir.file(name + ".fifo");
     if (::mkfifo(fifo.c_str(), 0600) != 0)
         throw std::runtime_error("mkfifo " + fifo + " failed");
-    process_ = std::make_unique<Process>(std::vector<std::string>{plexus_path(), "write", port}, daemon.env(),
+    process_ = std::make_unique<Process>(placed(daemon.host(), {plexus_path(), "write", port}), daemon.env(),
                                          dir.file(name), fifo);
     // Blocks until the child opens its end, which it does right after fork.
     fd_ = ::open(fifo.c_str(), O_WRONLY | O_CLOEXEC);  // later children must not hold it open

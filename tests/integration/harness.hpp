@@ -1,5 +1,6 @@
 #pragma once
-// Helpers for tests that start real plexusd / plexus-names / plexus processes on loopback.
+// Helpers for tests that start real plexusd / plexus-names / plexus processes on loopback, or
+// inside the hosts of a netns.hpp Network.
 // Every process started here is killed when its handle goes out of scope, also when a test fails.
 // Nothing here sleeps for a fixed time: waits poll a condition against a deadline.
 
@@ -17,6 +18,8 @@
 namespace plexus::test {
 
 using namespace std::chrono_literals;
+
+class Host;  // netns.hpp
 
 /// Paths of the built programs (set by CMake).
 std::string plexusd_path();
@@ -67,12 +70,21 @@ private:
     std::string err_path_;
 };
 
+/// Flags a plexusd or plexus-names needs to listen beyond loopback (empty while none is needed).
+const std::vector<std::string>& beyond_loopback_flags();
+
 /// A plexusd, by default with its own embedded name server on a free port.
 class Daemon {
 public:
     /// names: "" to embed a name server on a free port; else the HOST:PORT of one to use.
     Daemon(const TempDir& dir, const std::string& node, const std::string& names = "",
            const std::vector<std::string>& extra = {});
+    /// The same inside `host`, listening on its address (names "" embeds one there). The CLI
+    /// helpers below run inside the daemon's host, as a component on that host would.
+    Daemon(const TempDir& dir, const Host& host, const std::string& node, const std::string& names,
+           const std::vector<std::string>& extra = {});
+    /// The host it runs in; nullptr for this machine's loopback.
+    const Host* host() const { return host_; }
     const std::string& socket() const { return socket_; }
     const std::string& names() const { return names_; }
     const std::string& address() const { return address_; }
@@ -83,8 +95,29 @@ public:
     std::map<std::string, std::string> env() const;
 
 private:
+    void start(const TempDir& dir, const std::string& node, const std::string& names,
+               const std::vector<std::string>& extra);
+
+    const Host* host_ = nullptr;
     std::string socket_;
     std::string names_;
+    std::string address_;
+    std::unique_ptr<Process> process_;
+};
+
+/// A plexus-names on a free port, on loopback or inside a host; killed on destruction.
+class NameServerProcess {
+public:
+    explicit NameServerProcess(const TempDir& dir, const std::vector<std::string>& extra = {});
+    NameServerProcess(const TempDir& dir, const Host& host, const std::vector<std::string>& extra = {});
+    /// The HOST:PORT it serves on: what `--names` and PLEXUS_NAMES take.
+    const std::string& address() const { return address_; }
+    Process& process() { return *process_; }
+
+private:
+    void start(const TempDir& dir, const std::vector<std::string>& extra);
+
+    const Host* host_ = nullptr;
     std::string address_;
     std::unique_ptr<Process> process_;
 };
