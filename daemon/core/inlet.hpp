@@ -8,6 +8,7 @@
 #include "../arbitration/arbiter.hpp"
 #include "connection.hpp"
 #include "port.hpp"
+#include "reassembly.hpp"
 
 namespace plexus::daemon {
 
@@ -50,6 +51,10 @@ public:
     std::uint64_t accepted = 0;           ///< passed the monitors, on to the arbitration
     std::uint64_t dropped_by_queue = 0;   ///< older messages a `latest` queue dropped to make room for these
     std::uint64_t delivered = 0;          ///< handed to the port's reader queue
+    /// udp/mcast only: arrived while a strict queue was full (a datagram writer cannot be held back).
+    std::uint64_t dropped_full = 0;
+    /// udp/mcast only: the datagram stream feeding this inlet (lost, late), for stats.
+    std::shared_ptr<const DatagramStream> datagrams;
 
 private:
     /// A batch passes whole when nothing here looks at single messages; else record by record.
