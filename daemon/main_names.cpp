@@ -10,6 +10,7 @@
 
 #include "names/name_server.hpp"
 #include "plexus/proto/defaults.hpp"
+#include "plexus/proto/discovery.hpp"
 
 int main(int argc, char** argv) {
     CLI::App app{
@@ -20,12 +21,18 @@ int main(int argc, char** argv) {
     std::string log_level = "info";
     int grace_ms = 2000;
     std::string ready_file;
+    std::string discovery;
     app.add_option("--listen", listen, "HOST:PORT to serve on, TCP and UDP (env PLEXUS_NAMES)")
         ->capture_default_str();
     app.add_option("--state", state, "file that keeps persistent connections across restarts");
     app.add_option("--grace-ms", grace_ms, "how long a vanished daemon's ports stay registered")
         ->capture_default_str();
     app.add_option("--ready-file", ready_file, "write {\"names\": HOST:PORT, \"pid\"} here once serving");
+    app.add_option("--discovery", discovery,
+                   "multicast GROUP:PORT to answer discovery queries on, or off (env PLEXUS_DISCOVERY; "
+                   "default " +
+                       std::string(plexus::proto::default_discovery_group) +
+                       "; only when listening beyond loopback)");
     app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
     try {
         app.parse(argc, argv);
@@ -37,9 +44,18 @@ int main(int argc, char** argv) {
         std::cerr << "plexus-names: --listen: " << endpoint.error().message << '\n';
         return 2;
     }
+    if (!discovery.empty())
+        ::setenv("PLEXUS_DISCOVERY", discovery.c_str(), 1);  // one place reads it: discovery_group()
+    auto group = plexus::proto::discovery_group();
+    if (!group) {
+        std::cerr << "plexus-names: --discovery: " << group.error().message << '\n';
+        return 2;
+    }
     spdlog::set_level(spdlog::level::from_str(log_level));
     boost::asio::io_context io(1);
-    plexus::daemon::names::NameServer server(io, {*endpoint, state, std::chrono::milliseconds(grace_ms)});
+    plexus::daemon::names::NameServerConfig config{*endpoint, state, std::chrono::milliseconds(grace_ms)};
+    config.discovery = *group;
+    plexus::daemon::names::NameServer server(io, config);
     if (auto started = server.start(); !started) {
         std::cerr << "plexus-names: " << started.error().message << '\n';
         return 4;

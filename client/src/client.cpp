@@ -4,6 +4,7 @@
 #include "plexus/client.hpp"
 #include "plexus/proto/cbor.hpp"
 #include "plexus/proto/defaults.hpp"
+#include "plexus/proto/discovery.hpp"
 #include "plexus/proto/message.hpp"
 
 namespace plexus {
@@ -147,6 +148,13 @@ Subscription::Subscription(Port& port, std::function<void(const Received&)> call
       }) {}
 
 Subscription::~Subscription() = default;
+
+NamesLocation find_names(const std::optional<std::string>& flag) {
+    auto found = proto::find_names(flag);
+    if (!found)
+        throw Error(ErrorCode::usage, found.error().message);
+    return {found->address, found->how()};
+}
 
 // --- Client ---
 

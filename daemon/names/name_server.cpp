@@ -7,6 +7,7 @@
 
 #include "../net/framed_connection.hpp"
 #include "name_protocol.hpp"
+#include "plexus/proto/discovery.hpp"
 #include "plexus/proto/frame.hpp"
 
 namespace plexus::daemon::names {
@@ -55,7 +56,12 @@ std::string text_field(const nlohmann::json& body, const char* key) {
 }  // namespace
 
 NameServer::NameServer(asio::io_context& io, NameServerConfig config)
-    : io_(io), config_(std::move(config)), registry_(config_.grace), acceptor_(io), udp_(io) {}
+    : io_(io),
+      config_(std::move(config)),
+      registry_(config_.grace),
+      acceptor_(io),
+      udp_(io),
+      discovery_(io) {}
 
 NameServer::~NameServer() {
     stop();
@@ -100,10 +106,69 @@ proto::Status NameServer::start() {
     if (ec)
         return proto::Error{"name server cannot listen on UDP port " + std::to_string(bound_port) + ": " +
                             ec.message()};
+    if (auto discovery = start_discovery(); !discovery)
+        return discovery;
     asio::co_spawn(io_, accept_loop(), asio::detached);
     asio::co_spawn(io_, udp_loop(), asio::detached);
     spdlog::info("names: serving on {} (TCP and UDP)", endpoint().text());
     return proto::Ok{};
+}
+
+proto::Status NameServer::start_discovery() {
+    if (!config_.discovery)
+        return proto::Ok{};
+    boost::system::error_code ec;
+    const auto listen = asio::ip::make_address(config_.listen.host, ec);
+    if (!ec && listen.is_loopback()) {
+        spdlog::info("names: listening on loopback only: not answering discovery queries on {}",
+                     config_.discovery->text());
+        return proto::Ok{};
+    }
+    const auto group = asio::ip::make_address(config_.discovery->host, ec);
+    if (ec || !group.is_v4() || !group.is_multicast())
+        return proto::Error{"discovery group " + config_.discovery->text() +
+                            " is not an IPv4 multicast address"};
+    const asio::ip::udp::endpoint bound(group, config_.discovery->port);
+    discovery_.open(bound.protocol(), ec);
+    if (!ec)
+        discovery_.set_option(asio::socket_base::reuse_address(true), ec);
+    if (!ec)
+        discovery_.bind(bound, ec);  // bound to the group: only datagrams sent to it arrive
+    if (!ec) {
+        // On the interface of the listening address; any interface when it listens on all.
+        if (listen.is_v4() && !listen.is_unspecified())
+            discovery_.set_option(asio::ip::multicast::join_group(group.to_v4(), listen.to_v4()), ec);
+        else
+            discovery_.set_option(asio::ip::multicast::join_group(group), ec);
+    }
+    if (ec)
+        return proto::Error{"cannot answer discovery on " + config_.discovery->text() + ": " + ec.message()};
+    asio::co_spawn(io_, discovery_loop(), asio::detached);
+    spdlog::info("names: answering discovery queries on {}", config_.discovery->text());
+    return proto::Ok{};
+}
+
+Task<void> NameServer::discovery_loop() {
+    std::vector<std::uint8_t> buffer(2048);
+    proto::FrameDecoder decoder(buffer.size());
+    while (!stopped_) {
+        asio::ip::udp::endpoint from;
+        auto [ec, n] = co_await discovery_.async_receive_from(asio::buffer(buffer), from, use_nothrow);
+        if (ec) {
+            if (stopped_ || ec == asio::error::operation_aborted)
+                co_return;
+            continue;
+        }
+        const auto decoded = decoder.decode({buffer.data(), n});
+        if (decoded.status != proto::DecodeStatus::frame || decoded.type != proto::FrameType::request)
+            continue;  // not a query: no answer, so a stray datagram cannot make us send anything
+        auto request = proto::decode_request(decoded.fields);
+        if (!request || request->body.value("op", std::string{}) != op::discover)
+            continue;
+        spdlog::debug("names: discovery query from {}", from.address().to_string());
+        const auto answer = proto::discovery_reply(request->id, endpoint());
+        co_await discovery_.async_send_to(asio::buffer(answer), from, use_nothrow);
+    }
 }
 
 void NameServer::stop() {
@@ -113,6 +178,7 @@ void NameServer::stop() {
     boost::system::error_code ignored;
     acceptor_.close(ignored);
     udp_.close(ignored);
+    discovery_.close(ignored);
 }
 
 proto::Endpoint NameServer::endpoint() const {

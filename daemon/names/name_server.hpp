@@ -2,6 +2,7 @@
 // Threading: runs on the io_context it is given, one thread; no locking.
 
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "../net/asio.hpp"
@@ -16,6 +17,9 @@ struct NameServerConfig {
     std::string state_file;  ///< where persistent connections are kept; empty = not kept
     std::chrono::milliseconds grace{2000};
     std::size_t max_frame = 1024 * 1024;
+    /// The multicast group it answers discovery queries on; none = no discovery. Only joined when
+    /// it listens beyond loopback (a query never reaches a loopback-only name server anyway).
+    std::optional<proto::Endpoint> discovery;
 };
 
 /// The name server: ports and daemons over TCP; the same port number over UDP answers the
@@ -41,6 +45,9 @@ public:
 private:
     Task<void> accept_loop();
     Task<void> udp_loop();
+    /// Joins the discovery group, if any; an Error says why it could not.
+    proto::Status start_discovery();
+    Task<void> discovery_loop();
     void save_state();
     proto::Reply handle(const proto::Request& request, std::uint64_t session);
 
@@ -49,6 +56,7 @@ private:
     Registry registry_;
     asio::ip::tcp::acceptor acceptor_;
     asio::ip::udp::socket udp_;
+    asio::ip::udp::socket discovery_;
     std::uint64_t next_session_ = 1;
     bool stopped_ = false;
 };

@@ -53,8 +53,20 @@ void print_monitors(const Value& connection) {
 
 }  // namespace
 
+const NamesLocation& Common::names_choice() const {
+    if (!found_)
+        found_ = find_names(names_flag);
+    return *found_;
+}
+
+int where(const Common& common) {
+    const auto& found = common.names_choice();
+    std::cout << found.address << " (" << found.how << ")\n";
+    return 0;
+}
+
 int list(const Common& common, bool json) {
-    auto answer = Client::ask_names(common.names, {{"op", "list"}}).value_or(Value::object());
+    auto answer = Client::ask_names(common.names(), {{"op", "list"}}).value_or(Value::object());
     if (json) {
         std::cout << answer.dump() << '\n';
         return 0;
@@ -176,9 +188,9 @@ int read(const Common& common, const ReadOptions& options) {
 int exists(const Common& common, const std::string& port, const std::string& destination) {
     require_port_name(port);
     if (destination.empty())
-        return Client::ask_names(common.names, {{"op", "lookup"}, {"port", port}}) ? 0 : 1;
+        return Client::ask_names(common.names(), {{"op", "lookup"}, {"port", port}}) ? 0 : 1;
     require_port_name(destination);
-    auto answer = Client::ask_names(common.names, {{"op", "list"}}).value_or(Value::object());
+    auto answer = Client::ask_names(common.names(), {{"op", "list"}}).value_or(Value::object());
     for (const auto& c : answer.value("connections", Value::array())) {
         if (c.value("source", "") == port && c.value("destination", "") == destination &&
             c.value("live", false)) {
@@ -194,7 +206,7 @@ int wait(const Common& common, const std::string& port, double timeout) {
     auto pause = std::chrono::milliseconds(10);
     for (;;) {
         try {
-            if (Client::ask_names(common.names, {{"op", "lookup"}, {"port", port}}))
+            if (Client::ask_names(common.names(), {{"op", "lookup"}, {"port", port}}))
                 return 0;
         } catch (const Error& e) {
             // The name server may not be up yet: waiting for it is part of waiting for the port.

@@ -6,11 +6,21 @@
 #include <string>
 #include <vector>
 
+#include "plexus/client.hpp"
+
 namespace plexus::cli {
 
 struct Common {
-    std::string names;   ///< name server HOST:PORT
-    std::string socket;  ///< local daemon socket
+    explicit Common(std::string socket_path) : socket(std::move(socket_path)) {}
+    std::optional<std::string> names_flag;  ///< --names, when given
+    std::string socket;                     ///< local daemon socket
+    /// The name server's HOST:PORT, looked for on first use (flag, PLEXUS_NAMES, config file,
+    /// multicast discovery, default): commands that never need it never wait for discovery.
+    const std::string& names() const { return names_choice().address; }
+    const NamesLocation& names_choice() const;
+
+private:
+    mutable std::optional<NamesLocation> found_;
 };
 
 struct ReadOptions {
@@ -34,6 +44,8 @@ struct EventsOptions {
 };
 
 int list(const Common& common, bool json);
+/// `plexus where`: the name server's address and how it was found.
+int where(const Common& common);
 int connect(const Common& common, const std::string& source, const std::string& destination,
             const std::string& carrier, bool persist, bool strict);
 int disconnect(const Common& common, const std::string& source, const std::string& destination);

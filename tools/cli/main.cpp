@@ -13,14 +13,19 @@ int main(int argc, char** argv) {
         "plexus: connect Plexus ports, read and write them, inspect the live system.\n"
         "Exit status: 0 success, 1 a \"no\" answer, 2 usage error, 3 timeout, 4 refused."};
     app.require_subcommand(1);
-    Common common{plexus::proto::default_names(), plexus::proto::default_socket()};
-    app.add_option("--names", common.names, "name server HOST:PORT (env PLEXUS_NAMES)")
-        ->capture_default_str();
+    Common common(plexus::proto::default_socket());
+    app.add_option("--names", common.names_flag,
+                   "name server HOST:PORT (else env PLEXUS_NAMES, the config file's \"names\", multicast "
+                   "discovery, 127.0.0.1:10100; see `plexus where`)");
     app.add_option("--socket", common.socket, "local daemon socket (env PLEXUS_SOCKET)")
         ->capture_default_str();
     int status = 0;
 
     bool json = false;
+    auto* where_cmd = app.add_subcommand(
+        "where", "the name server's address and how it was found (flag, env, config, discovery, default)");
+    where_cmd->callback([&] { status = where(common); });
+
     auto* list_cmd = app.add_subcommand("list", "ports (with their node) and connections");
     list_cmd->add_flag("--json", json, "print JSON");
     list_cmd->callback([&] { status = list(common, json); });

@@ -35,6 +35,19 @@ private:
     ErrorCode code_;
 };
 
+/// Where the name server is, and how that was found.
+struct NamesLocation {
+    std::string address;  ///< HOST:PORT
+    std::string how;      ///< "from --names", "found by multicast discovery on GROUP:PORT", ...
+};
+
+/// Finds the name server in the contract's order: `flag` (a --names option) if given, else
+/// $PLEXUS_NAMES, else the "names" key of the config file ($PLEXUS_CONFIG, else
+/// ~/.config/plexus/config.json, else /etc/plexus/config.json), else a multicast query that the
+/// name server answers (group $PLEXUS_DISCOVERY, default 239.255.80.88:10101, "off" to skip; up to
+/// 0.6 s), else 127.0.0.1:10100. Throws Error (usage) for a malformed config file or group.
+NamesLocation find_names(const std::optional<std::string>& flag = std::nullopt);
+
 /// The envelope of a received message.
 struct Envelope {
     std::string source;         ///< the port that wrote it
