@@ -12,6 +12,7 @@
 
 #include "daemon.hpp"
 #include "plexus/proto/defaults.hpp"
+#include "plexus/proto/discovery.hpp"
 
 namespace {
 
@@ -35,7 +36,8 @@ void apply_config_file(const std::string& path, plexus::daemon::DaemonConfig& co
     if (!in)
         throw std::runtime_error("cannot open config file " + path);
     auto json = nlohmann::json::parse(in, nullptr, true, true);
-    static const std::set<std::string> known{"max_frame",
+    static const std::set<std::string> known{"names",
+                                             "max_frame",
                                              "default_capacity",
                                              "link_capacity",
                                              "queue_bytes",
@@ -85,7 +87,7 @@ int main(int argc, char** argv) {
     CLI::App app{
         "plexusd: the Plexus node daemon. Hosts the ports of local components, connects them "
         "to each other and to other daemons, and moves their data."};
-    std::string names = plexus::proto::default_names();
+    std::optional<std::string> names;
     std::string listen = "127.0.0.1:0";
     std::string socket = plexus::proto::default_socket();
     std::string node = host_name();
@@ -94,7 +96,9 @@ int main(int argc, char** argv) {
     std::string log_level = "info";
     bool embedded = false;
     plexus::daemon::DaemonConfig config;
-    app.add_option("--names", names, "name server HOST:PORT (env PLEXUS_NAMES)")->capture_default_str();
+    app.add_option("--names", names,
+                   "name server HOST:PORT (else env PLEXUS_NAMES, the config file's \"names\", multicast "
+                   "discovery, 127.0.0.1:10100; with --embedded-names: where to serve it, no discovery)");
     app.add_flag("--embedded-names", embedded, "also serve the name server, at the --names address");
     app.add_option("--names-state", names_state,
                    "with --embedded-names: file keeping persistent connections");
@@ -119,7 +123,12 @@ int main(int argc, char** argv) {
         spdlog::set_level(spdlog::level::from_str(log_level));
         if (!config_file.empty())
             apply_config_file(config_file, config);
-        config.names = endpoint_or_throw(names, "--names");
+        auto found = embedded ? plexus::proto::choose_names(names, config_file, [] { return std::nullopt; })
+                              : plexus::proto::find_names(names, config_file);
+        if (!found)
+            throw std::runtime_error(found.error().message);
+        config.names = endpoint_or_throw(found->address, "--names");
+        spdlog::info("name server {} ({})", found->address, found->how());
         config.listen = endpoint_or_throw(listen, "--listen");
         config.embedded_names = embedded;
         if (!names_state.empty())
