@@ -1,0 +1,112 @@
+#include "plexus/proto/auth.hpp"
+
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <fstream>
+#include <iterator>
+#include <stdexcept>
+
+#include <openssl/crypto.h>
+#include <openssl/evp.h>
+#include <openssl/hmac.h>
+#include <openssl/rand.h>
+
+namespace plexus::proto {
+
+namespace {
+constexpr std::string_view proof_label = "plexus-auth-v1";
+constexpr std::string_view datagram_label = "plexus-datagram-v1";
+
+Proof hmac(ByteView key, std::initializer_list<ByteView> parts) {
+    // One HMAC over the concatenation; the parts are short, so joining them costs nothing.
+    Bytes message;
+    for (const auto& part : parts)
+        message.insert(message.end(), part.begin(), part.end());
+    Proof out{};
+    unsigned int size = 0;
+    ::HMAC(EVP_sha256(), key.data(), static_cast<int>(key.size()), message.data(), message.size(), out.data(),
+           &size);
+    return out;
+}
+
+Bytes length_prefixed(std::string_view text) {
+    Bytes out;
+    out.push_back(static_cast<std::uint8_t>(text.size() >> 8));
+    out.push_back(static_cast<std::uint8_t>(text.size()));
+    out.insert(out.end(), text.begin(), text.end());
+    return out;
+}
+}  // namespace
+
+struct Secret::Keys {
+    Bytes proof_key;     ///< the secret itself: proofs are HMACs keyed by it
+    Proof datagram_key;  ///< HMAC(secret, datagram label): datagrams never use the secret directly
+};
+
+Result<Secret> Secret::from_bytes(std::string_view bytes) {
+    if (bytes.size() < min_secret_size) {
+        return Error{"the secret is " + std::to_string(bytes.size()) + " bytes; at least " +
+                     std::to_string(min_secret_size) +
+                     " are needed (e.g. `head -c 32 /dev/urandom | base64`)"};
+    }
+    auto keys = std::make_shared<Keys>();
+    keys->proof_key.assign(bytes.begin(), bytes.end());
+    keys->datagram_key = hmac(keys->proof_key, {as_bytes(datagram_label)});
+    Secret secret;
+    secret.keys_ = std::move(keys);
+    return secret;
+}
+
+Result<Secret> Secret::load(const std::string& path) {
+    struct stat info {};
+    if (::stat(path.c_str(), &info) != 0)
+        return Error{"cannot read the secret file " + path};
+    if ((info.st_mode & (S_IRWXG | S_IRWXO)) != 0)
+        return Error{"the secret file " + path + " is readable by others: chmod 600 " + path};
+    std::ifstream in(path, std::ios::binary);
+    if (!in)
+        return Error{"cannot read the secret file " + path};
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (!bytes.empty() && bytes.back() == '\n')
+        bytes.pop_back();
+    auto secret = from_bytes(bytes);
+    if (!secret)
+        return Error{"secret file " + path + ": " + secret.error().message};
+    return secret;
+}
+
+Proof Secret::prove(const Nonce& challenge, const Nonce& own, std::string_view role,
+                    std::string_view node) const {
+    return hmac(keys_->proof_key,
+                {as_bytes(proof_label), challenge, own, length_prefixed(role), length_prefixed(node)});
+}
+
+void Secret::datagram_mac(ByteView signed_part, std::uint8_t* out16) const {
+    Proof full{};
+    unsigned int size = 0;
+    ::HMAC(EVP_sha256(), keys_->datagram_key.data(), static_cast<int>(keys_->datagram_key.size()),
+           signed_part.data(), signed_part.size(), full.data(), &size);
+    std::copy_n(full.begin(), 16, out16);
+}
+
+bool Secret::datagram_mac_ok(ByteView signed_part, ByteView mac) const {
+    if (mac.size() != 16)
+        return false;
+    std::uint8_t expected[16];
+    datagram_mac(signed_part, expected);
+    return ::CRYPTO_memcmp(expected, mac.data(), 16) == 0;
+}
+
+Nonce random_nonce() {
+    Nonce nonce{};
+    if (::RAND_bytes(nonce.data(), static_cast<int>(nonce.size())) != 1)
+        throw std::runtime_error("no random numbers from the kernel (RAND_bytes failed)");
+    return nonce;
+}
+
+bool same_proof(const Proof& a, ByteView b) {
+    return b.size() == a.size() && ::CRYPTO_memcmp(a.data(), b.data(), a.size()) == 0;
+}
+
+}  // namespace plexus::proto

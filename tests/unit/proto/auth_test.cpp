@@ -1,0 +1,75 @@
+#include "plexus/proto/auth.hpp"
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <fstream>
+
+namespace plexus::proto {
+namespace {
+
+Secret secret_of(std::string_view bytes) {
+    auto secret = Secret::from_bytes(bytes);
+    EXPECT_TRUE(secret) << secret.error().message;
+    return *secret;
+}
+
+TEST(Auth_test, AProofHoldsOnlyForItsNoncesRoleNodeAndSecret) {
+    const auto secret = secret_of("0123456789abcdef-secret");
+    const auto a = random_nonce();
+    const auto b = random_nonce();
+    EXPECT_NE(a, b);
+    const auto proof = secret.prove(a, b, "daemon", "arm");
+    EXPECT_TRUE(same_proof(proof, secret.prove(a, b, "daemon", "arm")));
+    EXPECT_FALSE(same_proof(proof, secret.prove(b, a, "daemon", "arm")));
+    EXPECT_FALSE(same_proof(proof, secret.prove(a, b, "link", "arm")));
+    EXPECT_FALSE(same_proof(proof, secret.prove(a, b, "daemon", "head")));
+    EXPECT_FALSE(same_proof(proof, secret_of("another-secret-of-16").prove(a, b, "daemon", "arm")));
+    // Role and node are length-prefixed: moving a byte from one to the other changes the proof.
+    EXPECT_FALSE(same_proof(secret.prove(a, b, "ab", "c"), secret.prove(a, b, "a", "bc")));
+    EXPECT_FALSE(same_proof(proof, ByteView(proof).first(31)));
+}
+
+TEST(Auth_test, ADatagramMacFailsOnAnyChangedByte) {
+    const auto secret = secret_of("0123456789abcdef-secret");
+    Bytes datagram(100, 7);
+    std::uint8_t mac[16];
+    secret.datagram_mac(datagram, mac);
+    EXPECT_TRUE(secret.datagram_mac_ok(datagram, {mac, 16}));
+    for (std::size_t i = 0; i < datagram.size(); i += 13) {
+        auto changed = datagram;
+        changed[i] ^= 1;
+        EXPECT_FALSE(secret.datagram_mac_ok(changed, {mac, 16})) << i;
+    }
+    EXPECT_FALSE(secret_of("another-secret-of-16").datagram_mac_ok(datagram, {mac, 16}));
+    EXPECT_FALSE(secret.datagram_mac_ok(datagram, {mac, 15}));
+}
+
+TEST(Auth_test, ShortSecretsAndOpenFilesAreRefused) {
+    EXPECT_FALSE(Secret::from_bytes("short"));
+    char path[] = "/tmp/plexus-secret-XXXXXX";
+    const int fd = ::mkstemp(path);
+    ASSERT_GE(fd, 0);
+    const std::string text = "a-secret-long-enough-for-this\n";
+    ASSERT_EQ(::write(fd, text.data(), text.size()), static_cast<ssize_t>(text.size()));
+    ::close(fd);
+    ::chmod(path, 0600);
+    auto loaded = Secret::load(path);
+    ASSERT_TRUE(loaded) << loaded.error().message;
+    // The trailing newline is not part of the secret.
+    const auto n = random_nonce();
+    EXPECT_TRUE(same_proof(loaded->prove(n, n, "r", "n"),
+                           secret_of("a-secret-long-enough-for-this").prove(n, n, "r", "n")));
+    ::chmod(path, 0644);
+    auto open = Secret::load(path);
+    ASSERT_FALSE(open);
+    EXPECT_NE(open.error().message.find("readable by others"), std::string::npos) << open.error().message;
+    std::remove(path);
+    EXPECT_FALSE(Secret::load(path));
+}
+
+}  // namespace
+}  // namespace plexus::proto
