@@ -11,7 +11,7 @@ namespace {
 
 bool is_known_type(std::uint8_t type) {
     return type >= static_cast<std::uint8_t>(FrameType::hello) &&
-           type <= static_cast<std::uint8_t>(FrameType::shm_region_gone);
+           type <= static_cast<std::uint8_t>(FrameType::auth);
 }
 
 FrameDecode need_more(std::size_t needed) {
@@ -128,6 +128,8 @@ std::string frame_type_name(std::uint8_t type) {
             return "shm_free";
         case static_cast<std::uint8_t>(FrameType::shm_region_gone):
             return "shm_region_gone";
+        case static_cast<std::uint8_t>(FrameType::auth):
+            return "auth";
         default:
             return "unknown(" + std::to_string(type) + ")";
     }

@@ -1,5 +1,6 @@
 #include "plexus/proto/hello.hpp"
 
+#include <algorithm>
 #include <limits>
 
 #include "plexus/proto/fields.hpp"
@@ -19,6 +20,8 @@ Bytes encode_hello(const Hello& hello) {
     append_varint(fields, hello.version);
     append_string(fields, hello.role);
     append_string(fields, hello.node);
+    fields.insert(fields.end(), hello.nonce.begin(), hello.nonce.end());
+    fields.push_back(hello.has_secret ? hello_flag_secret : 0);
     Bytes out;
     append_frame(out, FrameType::hello, fields);
     return out;
@@ -54,8 +57,28 @@ Result<Hello> decode_hello(ByteView fields) {
     }
     hello.role = std::string(*role);
     hello.node = std::string(*node);
+    if (!reader.rest().empty()) {
+        const auto nonce = reader.raw("hello nonce", hello.nonce.size());
+        const auto flags = reader.byte("hello flags");
+        if (!flags)
+            return Error{reader.error()};
+        std::copy(nonce->begin(), nonce->end(), hello.nonce.begin());
+        hello.has_secret = (*flags & hello_flag_secret) != 0;
+    }
     // Trailing bytes are ignored: a later version may append fields to its hello.
     return hello;
+}
+
+Bytes encode_auth(ByteView proof) {
+    Bytes out;
+    append_frame(out, FrameType::auth, proof);
+    return out;
+}
+
+Result<ByteView> decode_auth(ByteView fields) {
+    if (fields.size() != 32)
+        return Error{"auth frame of " + std::to_string(fields.size()) + " bytes, expected 32"};
+    return fields;
 }
 
 }  // namespace plexus::proto

@@ -37,7 +37,9 @@ TEST(Hello_test, RoundTrips) {
 
 TEST(Hello_test, HasDocumentedLayout) {
     const Bytes fields = fields_of(encode_hello({1, "cli", ""}));
-    EXPECT_EQ(fields, (Bytes{'P', 'L', 'X', 'S', 0x01, 0x03, 'c', 'l', 'i', 0x00}));
+    Bytes expected{'P', 'L', 'X', 'S', 0x01, 0x03, 'c', 'l', 'i', 0x00};
+    expected.resize(expected.size() + 32 + 1, 0);  // nonce, flags
+    EXPECT_EQ(fields, expected);
 }
 
 TEST(Hello_test, RoundTripsLimits) {
@@ -52,9 +54,12 @@ TEST(Hello_test, RoundTripsLimits) {
 
 TEST(Hello_test, RefusesEveryTruncation) {
     const Bytes fields = fields_of(encode_hello({protocol_version, "client", "n"}));
+    // A hello may end after its node (a sender with no secret, from before the nonce); any other
+    // cut is refused.
+    const std::size_t without_nonce = fields.size() - 32 - 1;
     for (std::size_t n = 0; n < fields.size(); ++n) {
         const auto hello = decode_hello(ByteView(fields).first(n));
-        EXPECT_FALSE(hello) << "cut at " << n;
+        EXPECT_EQ(hello.ok(), n == without_nonce) << "cut at " << n;
     }
 }
 
@@ -95,10 +100,44 @@ TEST(Hello_test, ReturnsOtherVersionEvenWhenRestDiffers) {
 
 TEST(Hello_test, IgnoresTrailingFields) {
     Bytes fields = hello_fields(protocol_version, "daemon", "x");
+    fields.resize(fields.size() + 32 + 1, 0);  // nonce, flags: then fields of a later version
     fields.push_back(0x42);
     const auto hello = decode_hello(fields);
     ASSERT_TRUE(hello);
     EXPECT_EQ(hello->node, "x");
+}
+
+}  // namespace
+}  // namespace plexus::proto
+
+namespace plexus::proto {
+namespace {
+
+TEST(HelloAuth_test, CarriesTheNonceAndWhetherTheSenderHoldsTheSecret) {
+    Hello hello{protocol_version, "daemon", "arm"};
+    hello.nonce[0] = 7;
+    hello.nonce[31] = 9;
+    hello.has_secret = true;
+    const Bytes frame = encode_hello(hello);
+    auto decoded = decode_hello(ByteView(frame).subspan(2));
+    ASSERT_TRUE(decoded) << decoded.error().message;
+    EXPECT_EQ(decoded->nonce, hello.nonce);
+    EXPECT_TRUE(decoded->has_secret);
+}
+
+TEST(HelloAuth_test, AHelloWithoutTheAppendedFieldsHasNoSecret) {
+    Bytes fields{'P', 'L', 'X', 'S', protocol_version, 1, 'c', 0};
+    auto decoded = decode_hello(fields);
+    ASSERT_TRUE(decoded) << decoded.error().message;
+    EXPECT_FALSE(decoded->has_secret);
+}
+
+TEST(HelloAuth_test, AnAuthFrameHoldsExactlyAProof) {
+    const Bytes proof(32, 5);
+    const Bytes frame = encode_auth(proof);
+    EXPECT_EQ(frame[1], static_cast<std::uint8_t>(FrameType::auth));
+    EXPECT_TRUE(decode_auth(ByteView(frame).subspan(2)));
+    EXPECT_FALSE(decode_auth(ByteView(proof).first(31)));
 }
 
 }  // namespace

@@ -27,6 +27,7 @@ enum class FrameType : std::uint8_t {
     shm_release = 9,       ///< client -> daemon: varint count (the oldest data_shm frames it was sent)
     shm_free = 10,         ///< daemon -> writer: varint region | varint offset (a slot is free again)
     shm_region_gone = 11,  ///< daemon -> reader: varint region (no more messages from it: unmap, close)
+    auth = 12,             ///< raw[32] proof of the deployment secret, right after the hello (TCP)
 };
 
 /// Default largest body accepted: 64 MiB, enough for large blobs, far below what a lie could ask for.

@@ -1,7 +1,11 @@
 #pragma once
 // The hello exchange: each side's first frame. Carries the protocol version from day one.
-//     fields = "PLXS" | varint version | string role | string node
+//     fields = "PLXS" | varint version | string role | string node [| raw[32] nonce | u8 flags]
+// The nonce and flags were appended within version 2 (a reader ignores what it does not know):
+// flags bit 0 says the sender holds the deployment secret and will prove it with an auth frame
+// (PROTOCOL.md, "Authentication"). A hello without them is one from a sender with no secret.
 
+#include <array>
 #include <cstdint>
 #include <string>
 
@@ -12,11 +16,20 @@ namespace plexus::proto {
 inline constexpr std::uint32_t protocol_version = 2;
 inline constexpr std::string_view hello_magic = "PLXS";
 
+inline constexpr std::uint8_t hello_flag_secret = 0x01;
+
 struct Hello {
     std::uint32_t version = protocol_version;
-    std::string role;  ///< "client", "daemon", "names", "cli" ...; at most 64 bytes
-    std::string node;  ///< sender's node name, may be empty; at most 255 bytes
+    std::string role;                      ///< "client", "daemon", "names", "cli" ...; at most 64 bytes
+    std::string node;                      ///< sender's node name, may be empty; at most 255 bytes
+    std::array<std::uint8_t, 32> nonce{};  ///< the challenge the other side must answer
+    bool has_secret = false;               ///< the sender will prove it holds the secret
 };
+
+/// A whole auth frame: the proof (32 bytes) that its sender holds the deployment secret.
+Bytes encode_auth(ByteView proof);
+/// The proof of an auth frame's fields; refused unless exactly 32 bytes.
+Result<ByteView> decode_auth(ByteView fields);
 
 /// A whole hello frame.
 Bytes encode_hello(const Hello& hello);
