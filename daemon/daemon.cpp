@@ -22,7 +22,8 @@ Daemon::Daemon(asio::io_context& io, DaemonConfig config)
       space_(io.get_executor()),
       tcp_acceptor_(io),
       unix_acceptor_(io),
-      signals_(io, SIGINT, SIGTERM) {
+      signals_(io, SIGINT, SIGTERM),
+      control_(io.get_executor(), *this) {
     scripts_ = std::make_unique<ScriptHost>(io_, *this);
 }
 
@@ -47,17 +48,6 @@ std::string Daemon::address() const {
     boost::system::error_code ec;
     auto local = tcp_acceptor_.local_endpoint(ec);
     return config_.listen.host + ":" + std::to_string(ec ? 0 : local.port());
-}
-
-proto::Hello Daemon::our_hello(const char* role) const {
-    proto::Hello hello;
-    hello.role = role;
-    hello.node = config_.node;
-    return hello;
-}
-
-std::function<void()> Daemon::space_notifier() {
-    return [this] { notify_space(); };
 }
 
 proto::Status Daemon::bind() {
@@ -123,7 +113,7 @@ int Daemon::run() {
         return names;
     };
     names_->on_persistent = [this](std::vector<names::ConnectionEntry> persistent) {
-        asio::co_spawn(io_, restore_persistent(std::move(persistent)), asio::detached);
+        asio::co_spawn(io_, control_.restore_persistent(std::move(persistent)), asio::detached);
     };
     names_->start();
     asio::co_spawn(io_, announce_ready(), asio::detached);
@@ -230,9 +220,8 @@ void Daemon::session_closed(Session& session) {
         std::erase_if(session.link_port()->inbound, [&](const std::weak_ptr<Inlet>& inlet) {
             return inlet.expired() || inlet.lock() == session.link();
         });
-    for (auto& [handle, port] : session.ports)
+    for (auto& port : session.take_ports())
         forget_port(port);
-    session.ports.clear();
 }
 
 proto::Result<std::shared_ptr<Port>> Daemon::open_hosted_port(const std::string& name) {

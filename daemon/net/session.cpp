@@ -35,6 +35,48 @@ proto::Status Session::on_hello(const proto::Hello& hello) {
     return proto::Ok{};
 }
 
+std::uint64_t Session::add_port(std::shared_ptr<Port> port) {
+    const std::uint64_t handle = next_handle_++;
+    ports_[handle] = port;
+    std::weak_ptr<FramedConnection> weak = weak_from_this();
+    port->on_readable = [weak] {
+        if (auto s = weak.lock())
+            s->wake();
+    };
+    outbox().add_source({handle, &port->queue(), &port->delivered, port});
+    return handle;
+}
+
+std::shared_ptr<Port> Session::take_port(std::uint64_t handle) {
+    auto it = ports_.find(handle);
+    if (it == ports_.end())
+        return nullptr;
+    auto port = std::move(it->second);
+    ports_.erase(it);
+    outbox().remove_source(handle);
+    shm_regions_.erase(handle);
+    return port;
+}
+
+std::vector<std::shared_ptr<Port>> Session::take_ports() {
+    std::vector<std::shared_ptr<Port>> ports;
+    for (auto& [handle, port] : ports_)
+        ports.push_back(std::move(port));
+    ports_.clear();
+    return ports;
+}
+
+std::shared_ptr<ShmRegion> Session::shm_region(std::uint64_t handle) const {
+    const auto it = shm_regions_.find(handle);
+    return it == shm_regions_.end() ? nullptr : it->second;
+}
+
+void Session::add_shm_region(std::uint64_t handle, std::shared_ptr<ShmRegion> region) {
+    shm_regions_.emplace(handle, region);
+    outbox().push_writer_region(region);
+    wake();
+}
+
 void Session::become_link(std::shared_ptr<Inlet> link) {
     link_port_ = link->port();
     link_ = std::move(link);
@@ -83,7 +125,7 @@ Task<void> Session::serve(proto::Request request) {
     const auto id = request.id;
     proto::Reply reply;
     try {
-        reply = co_await daemon_.handle(self, std::move(request));
+        reply = co_await daemon_.control().handle(self, std::move(request));
     } catch (const std::exception& e) {
         // A malformed field (wrong JSON type) must not take the daemon down: refuse the request.
         reply =
@@ -126,15 +168,15 @@ std::optional<Session::Incoming> Session::decode_shm(InFrame& frame) {
         fail("bad data_shm frame: " + data.error().message);
         return std::nullopt;
     }
-    auto port = ports.find(data->handle);
-    if (port == ports.end() && !link_port_) {
+    auto port = ports_.find(data->handle);
+    if (port == ports_.end() && !link_port_) {
         // Written while its port was closing: counted as dropped by try_deliver, like a data frame.
         // The writer's region went with the port, so its slot needs no freeing.
         return Incoming{data->handle, Message{frame.storage, {}, 0, 0}};
     }
     if (!frame.resolved) {
-        const auto region = shm_regions.find(data->handle);
-        if (link_port_ || region == shm_regions.end() || !region->second ||
+        const auto region = shm_regions_.find(data->handle);
+        if (link_port_ || region == shm_regions_.end() || !region->second ||
             region->second->id() != data->place.region) {
             ++daemon_.counters().protocol_errors;
             fail("data_shm for region " + std::to_string(data->place.region) +
@@ -180,7 +222,7 @@ bool Session::passes_shm(const Port& port, const ShmRegion& region) const {
         if (!inlet || inlet->chain || !inlet->member().trivial())
             return false;
         const auto reader = daemon_.session(inlet->port()->owner());
-        if (!reader || !reader->maps_shm)
+        if (!reader || !reader->maps_shm())
             return false;
         auto& sent = reader->outbox();
         if (!sent.has_region(region.id()) && sent.regions_held() >= Outbox::max_regions)
@@ -285,8 +327,8 @@ Session::DataOutcome Session::try_deliver(InFrame& frame) {
             return DataOutcome::stop;
         return deliver_within(frame, message, link_->room(), [&](const Message& m) { link_->deliver(m); });
     }
-    auto it = ports.find(incoming->handle);
-    if (it == ports.end() || it->second->closed()) {
+    auto it = ports_.find(incoming->handle);
+    if (it == ports_.end() || it->second->closed()) {
         // The client may write while its close is in flight; count it rather than cut it off.
         daemon_.counters().dropped_unknown_port += message.count();
         return DataOutcome::delivered;
@@ -353,7 +395,7 @@ Task<void> Session::wait_for_space() {
 
 void Session::on_closed(const std::string& reason) {
     spdlog::debug("{} closed: {}", description(), reason);
-    shm_regions.clear();
+    shm_regions_.clear();
     daemon_.session_closed(*this);
 }
 

@@ -3,6 +3,7 @@
 
 #include <map>
 #include <memory>
+#include <vector>
 
 #include "../core/inlet.hpp"
 #include "framed_connection.hpp"
@@ -25,14 +26,24 @@ public:
     const std::shared_ptr<Port>& link_port() const { return link_port_; }
     const std::shared_ptr<Inlet>& link() const { return link_; }
 
-    /// Ports this session opened, by the handle its data frames carry.
-    std::map<std::uint64_t, std::shared_ptr<Port>> ports;
-    std::uint64_t next_handle = 1;
+    // A client's ports and shared-memory regions. The control plane changes them only through
+    // these calls.
+    /// Takes a port this client opened: gives it the next handle, makes its queue a source of the
+    /// outbox and wakes the writer when it has something to read. Returns the handle.
+    std::uint64_t add_port(std::shared_ptr<Port> port);
+    /// The port of `handle`, forgotten with its outbox source and region; null if there is none.
+    std::shared_ptr<Port> take_port(std::uint64_t handle);
+    /// Every port still open, forgotten (the session is closing).
+    std::vector<std::shared_ptr<Port>> take_ports();
+    bool has_port(std::uint64_t handle) const { return ports_.contains(handle); }
 
-    /// True once the client said it maps shared-memory regions (it may then be sent data_shm frames).
-    bool maps_shm = false;
-    /// The shared-memory region of each port this client writes through one, by handle.
-    std::map<std::uint64_t, std::shared_ptr<ShmRegion>> shm_regions;
+    /// The client said it maps shared-memory regions: it may now be sent data_shm frames.
+    void enable_shm() { maps_shm_ = true; }
+    bool maps_shm() const { return maps_shm_; }
+    /// The region port `handle` writes its large payloads through; null if it has none.
+    std::shared_ptr<ShmRegion> shm_region(std::uint64_t handle) const;
+    /// Gives the client `region` for port `handle`; its frame goes out before any later reply.
+    void add_shm_region(std::uint64_t handle, std::shared_ptr<ShmRegion> region);
 
     /// Makes this session the receiving end of a connection into `port`.
     void become_link(std::shared_ptr<Inlet> link);
@@ -87,6 +98,12 @@ private:
     std::string role_;
     std::shared_ptr<Port> link_port_;
     std::shared_ptr<Inlet> link_;
+    /// Ports this session opened, by the handle its data frames carry.
+    std::map<std::uint64_t, std::shared_ptr<Port>> ports_;
+    std::uint64_t next_handle_ = 1;
+    bool maps_shm_ = false;
+    /// The shared-memory region of each port this client writes through one, by handle.
+    std::map<std::uint64_t, std::shared_ptr<ShmRegion>> shm_regions_;
 };
 
 }  // namespace plexus::daemon

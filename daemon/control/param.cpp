@@ -2,8 +2,9 @@
 // the daemon of DST for the recv-side ones (itself, when the connection is local).
 #include <spdlog/spdlog.h>
 
+#include "control_plane.hpp"
 #include "core/inlet.hpp"
-#include "daemon.hpp"
+#include "core/router.hpp"
 #include "monitor/chain.hpp"
 #include "request_fields.hpp"
 
@@ -43,13 +44,13 @@ proto::Reply answer(const nlohmann::json& results, bool any_setparam, const nloh
 
 }  // namespace
 
-Task<proto::Reply> Daemon::param(const proto::Request& request) {
+Task<proto::Reply> ControlPlane::param(std::shared_ptr<Session>, const proto::Request& request) {
     const std::string source = text(request.body, "source");
     const std::string destination = text(request.body, "destination");
     const std::string action = text(request.body, "action");
     if (action != "get" && action != "set")
         co_return proto::make_refusal(0, ReplyCode::usage, "param action must be get or set");
-    auto port = router_.find(source);
+    auto port = host_.router().find(source);
     if (!port)
         co_return co_await forward(request, source);
     std::shared_ptr<Connection> connection;
@@ -87,10 +88,10 @@ Task<proto::Reply> Daemon::param(const proto::Request& request) {
     co_return answer(results, any_setparam, request.body);
 }
 
-Task<proto::Reply> Daemon::param_recv(const proto::Request& request) {
+Task<proto::Reply> ControlPlane::param_recv(std::shared_ptr<Session>, const proto::Request& request) {
     const std::string source = text(request.body, "source");
     const std::string destination = text(request.body, "destination");
-    auto port = router_.find(destination);
+    auto port = host_.router().find(destination);
     if (!port)
         co_return proto::make_refusal(0, ReplyCode::refused,
                                       "port " + destination + " is not on this daemon");

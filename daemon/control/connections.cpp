@@ -1,0 +1,265 @@
+// Connections between ports: `connect` (both ends here, or the sending end of one to another
+// daemon), `attach` (the receiving end of one from another daemon), `disconnect`, and the
+// connections the name server remembers.
+#include <spdlog/spdlog.h>
+
+#include "control_plane.hpp"
+#include "core/router.hpp"
+#include "names/name_client.hpp"
+#include "net/link.hpp"
+#include "net/session.hpp"
+#include "plexus/proto/carrier.hpp"
+#include "plexus/proto/port_name.hpp"
+#include "request_fields.hpp"
+#include "script_host.hpp"
+#include "wire_inlet.hpp"
+
+namespace plexus::daemon {
+
+namespace {
+using proto::ReplyCode;
+}  // namespace
+
+Task<proto::Reply> ControlPlane::connect(std::shared_ptr<Session>, const proto::Request& request) {
+    const std::string source = text(request.body, "source");
+    const std::string destination = text(request.body, "destination");
+    std::string carrier_text = text(request.body, "carrier");
+    for (const auto& name : {source, destination}) {
+        if (auto error = proto::port_name_error(name))
+            co_return refuse(*error, ReplyCode::usage);
+    }
+    bool automatic = carrier_text.empty();
+    proto::Carrier carrier;
+    if (!automatic) {
+        auto parsed = proto::parse_carrier(carrier_text);
+        if (!parsed)
+            co_return refuse("bad carrier: " + parsed.error().message);
+        if (auto valid = proto::validate_carrier(*parsed); !valid)
+            co_return refuse(valid.error().message);
+        carrier = std::move(*parsed);
+        carrier_text = carrier.text();
+    }
+    auto& router = host_.router();
+    auto port = router.find(source);
+    if (!port)
+        co_return co_await forward(request, source);
+    // The send-side monitors run here whatever the destination; made first, so that a script
+    // that fails leaves nothing behind.
+    auto send_chain = host_.scripts().build_chain(carrier, proto::Side::send, source, destination);
+    if (!send_chain)
+        co_return refuse(send_chain.error().message);
+
+    auto local_destination = router.find(destination);
+    const bool wants_tcp = !automatic && carrier_text.rfind("tcp", 0) == 0;
+    const bool wants_local = !automatic && carrier_text.rfind("local", 0) == 0;
+    if (local_destination && !wants_tcp) {
+        auto connection = std::make_shared<Connection>();
+        connection->source = source;
+        connection->destination = destination;
+        connection->carrier = automatic ? "local" : carrier_text;
+        const InletSpec spec{local_destination, source, carrier, connection->carrier,
+                             request.body.value("strict", false)};
+        // The connection takes the inlet before the inlet joins its port: a pair already
+        // connected is refused with nothing joined.
+        const InletHandOver hand_over = [&](const std::shared_ptr<Inlet>& inlet) {
+            connection->sink = inlet;
+            connection->send_chain = std::move(*send_chain);
+            return router.add(port, connection);
+        };
+        auto wired = wire_inlet(host_.scripts(), host_.clock(), spec, hand_over);
+        if (!wired)
+            co_return refuse(wired.error().message);
+        names::ConnectionEntry entry{source, destination, connection->carrier,
+                                     request.body.value("persist", false)};
+        co_await host_.names().add_connection(std::move(entry));
+        spdlog::info("connected {} -> {} ({})", source, destination, connection->carrier);
+        co_return ok({{"carrier", connection->carrier}, {"warnings", wired->warnings}});
+    }
+    if (wants_local) {
+        co_return refuse("carrier 'local' needs both ports on one daemon, and " + destination +
+                         " is not on this one");
+    }
+    std::string where;
+    if (local_destination) {
+        where = host_.address();
+    } else {
+        auto found = co_await host_.names().lookup(destination);
+        if (!found)
+            co_return refuse(found.error().message);
+        where = found->address;
+    }
+    std::string chosen = carrier_text;
+    if (automatic)
+        chosen = "tcp";
+    std::shared_ptr<monitor::MonitorChain> chain = std::move(*send_chain);
+    co_return co_await connect_remote(request, port, destination, chosen, where, chain);
+}
+
+Task<proto::Reply> ControlPlane::connect_remote(const proto::Request& request, std::shared_ptr<Port> port,
+                                                std::string destination, std::string carrier,
+                                                std::string address,
+                                                std::shared_ptr<monitor::MonitorChain> send_chain) {
+    const std::string source = port->name();
+    for (const auto& existing : port->outgoing) {
+        if (existing->destination == destination)
+            co_return refuse("ports " + source + " and " + destination + " are already connected");
+    }
+    auto endpoint = proto::parse_endpoint(address);
+    if (!endpoint)
+        co_return refuse("the name server gave a bad address for " + destination + ": " + address);
+    const bool strict = request.body.value("strict", false);
+    auto end = co_await open_sending_end(port, destination, carrier, *endpoint, strict);
+    if (!end.peer)
+        co_return end.answer;
+    auto connection = std::make_shared<Connection>();
+    connection->source = source;
+    connection->destination = destination;
+    connection->carrier = carrier;
+    connection->remote = true;
+    connection->sink = end.sink;
+    connection->send_chain = std::move(send_chain);
+    if (auto added = host_.router().add(port, connection); !added) {
+        end.peer->close("duplicate");
+        co_return refuse(added.error().message);
+    }
+    host_.keep_link(end.peer);
+    watch_link(end, connection);
+    names::ConnectionEntry entry{source, destination, carrier, request.body.value("persist", false)};
+    co_await host_.names().add_connection(std::move(entry));
+    spdlog::info("connected {} -> {} ({} to {})", source, destination, carrier, address);
+    co_return ok(
+        {{"carrier", carrier}, {"warnings", end.answer.body.value("warnings", nlohmann::json::array())}});
+}
+
+Task<ControlPlane::SendingEnd> ControlPlane::open_sending_end(std::shared_ptr<Port> port,
+                                                              std::string destination, std::string carrier,
+                                                              proto::Endpoint endpoint, bool strict) {
+    const std::string source = port->name();
+    SendingEnd end;
+    const proto::Hello hello = our_hello("link");
+    auto peer = co_await Peer::connect(executor_, endpoint, hello, host_.config().max_frame, peer_timeout,
+                                       space_notifier());
+    if (!peer) {
+        end.answer = refuse("cannot reach the daemon of " + destination + ": " + peer.error().message);
+        co_return end;
+    }
+    auto link_peer = *peer;
+    link_peer->set_description("link " + source + " -> " + destination);
+    // The receiving daemon wires its end (monitors, arbitration) while it answers attach.
+    nlohmann::json attach_body = {{"op", "attach"},
+                                  {"source", source},
+                                  {"destination", destination},
+                                  {"carrier", carrier},
+                                  {"strict", strict}};
+    auto attached = co_await link_peer->request(attach_body, peer_timeout);
+    if (!attached || attached->code != ReplyCode::ok) {
+        link_peer->close("attach refused");
+        end.answer = attached ? *attached : refuse(attached.error().message);
+        co_return end;
+    }
+    if (port->closed()) {
+        link_peer->close("source closed");
+        end.answer = refuse("port " + source + " closed while connecting");
+        co_return end;
+    }
+    // tcp: messages wait in the link's strict queue and leave on its socket.
+    auto link = std::make_shared<Link>(link_peer, host_.config().link_capacity, host_.config().queue_bytes);
+    end.peer = link_peer;
+    end.sink = link;
+    end.queue = link->queue();
+    end.answer = *attached;
+    co_return end;
+}
+
+void ControlPlane::watch_link(const SendingEnd& end, const std::shared_ptr<Connection>& connection) {
+    std::weak_ptr<Connection> weak = connection;
+    // The queue is held here, not reached through the connection: after a disconnect the
+    // connection is gone while the link still drains, and what it could not send must be counted.
+    end.peer->closed_handler = [&host = host_, weak, queue = end.queue, source = connection->source,
+                                destination = connection->destination](const std::string& reason) {
+        if (queue && queue->depth() > 0) {
+            host.counters().dropped_link_down += queue->depth();
+            spdlog::warn("connection {} -> {} lost {} queued messages: {}", source, destination,
+                         queue->depth(), reason);
+        }
+        auto c = weak.lock();
+        if (!c)
+            return;
+        if (host.router().remove(c)) {
+            spdlog::info("connection {} -> {} went down: {}", c->source, c->destination, reason);
+            host.notify_space();
+            if (!host.stopping())
+                host.names().notify_connection_down(c->source, c->destination);
+        }
+    };
+}
+
+Task<proto::Reply> ControlPlane::attach(std::shared_ptr<Session> session, const proto::Request& request) {
+    const std::string destination = text(request.body, "destination");
+    auto port = host_.router().find(destination);
+    if (!port)
+        co_return refuse("port " + destination + " does not exist on node '" + host_.config().node + "'");
+    if (session->is_link())
+        co_return refuse("this link is already attached", ReplyCode::usage);
+    const std::string source = text(request.body, "source");
+    if (auto error = proto::port_name_error(source))
+        co_return refuse(*error, ReplyCode::usage);
+    auto carrier = proto::parse_carrier(text(request.body, "carrier"));
+    if (!carrier)
+        co_return refuse("bad carrier: " + carrier.error().message);
+    if (auto valid = proto::validate_carrier(*carrier); !valid)
+        co_return refuse(valid.error().message);
+    const InletSpec spec{port, source, *carrier, carrier->text(), request.body.value("strict", false)};
+    auto wired = wire_inlet(host_.scripts(), host_.clock(), spec);
+    if (!wired)
+        co_return refuse(wired.error().message);
+    // tcp: the link session itself feeds the inlet, with the data frames the sending daemon writes.
+    session->become_link(wired->inlet);
+    std::weak_ptr<Session> weak = session;
+    port->on_close(weak, [weak] {
+        if (auto s = weak.lock())
+            s->close("destination port closed");
+    });
+    session->set_description("link " + source + " -> " + destination);
+    co_return ok({{"warnings", wired->warnings}});
+}
+
+Task<proto::Reply> ControlPlane::disconnect(std::shared_ptr<Session>, const proto::Request& request) {
+    const std::string source = text(request.body, "source");
+    const std::string destination = text(request.body, "destination");
+    if (!host_.router().find(source))
+        co_return co_await forward(request, source);
+    auto removed = host_.router().remove(source, destination);
+    if (!removed)
+        co_return refuse("ports " + source + " and " + destination + " are not connected", ReplyCode::no);
+    host_.notify_space();
+    co_await host_.names().remove_connection(source, destination, true);
+    spdlog::info("disconnected {} -> {}", source, destination);
+    co_return ok();
+}
+
+Task<void> ControlPlane::restore_persistent(std::vector<names::ConnectionEntry> persistent) {
+    for (const auto& entry : persistent) {
+        proto::Request request;
+        request.body = {{"op", "connect"},
+                        {"source", entry.source},
+                        {"destination", entry.destination},
+                        {"carrier", entry.carrier}};
+        // Either end may come up first; the one that comes second makes the connection, so a
+        // failure here (the other end is not there yet) is expected and only logged. The daemon
+        // asks itself: there is no session.
+        const std::shared_ptr<Session> no_session;
+        auto reply = co_await connect(no_session, request);
+        if (reply.code == ReplyCode::ok) {
+            spdlog::info("restored persistent connection {} -> {}", request.body["source"].get<std::string>(),
+                         request.body["destination"].get<std::string>());
+        } else {
+            spdlog::debug("persistent connection {} -> {} not restored yet: {}",
+                          request.body["source"].get<std::string>(),
+                          request.body["destination"].get<std::string>(),
+                          reply.body.value("error", std::string{}));
+        }
+    }
+}
+
+}  // namespace plexus::daemon

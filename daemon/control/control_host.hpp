@@ -1,0 +1,50 @@
+#pragma once
+// Threading: the daemon's one thread.
+
+#include <cstddef>
+#include <memory>
+#include <string>
+
+#include "arbitration/clock.hpp"
+#include "daemon_config.hpp"
+
+namespace plexus::daemon {
+
+class Peer;
+class Port;
+class Router;
+class ScriptHost;
+namespace names {
+class NameClient;
+}
+
+/// What the control plane needs of the daemon, which implements it: the state the request handlers
+/// read and the few things they ask the daemon to do. Narrow on purpose (like monitor::MonitorHost):
+/// the handlers never see the daemon's listeners, its session table or its shutdown.
+class ControlHost {
+public:
+    virtual ~ControlHost() = default;
+
+    virtual const DaemonConfig& config() const = 0;
+    /// HOST:PORT of the daemon's TCP listener: where other daemons and the CLI reach it.
+    virtual std::string address() const = 0;
+    virtual Router& router() = 0;
+    virtual names::NameClient& names() = 0;
+    virtual ScriptHost& scripts() = 0;
+    /// Where arbitration reads the time (event lifetimes, stimulation decay).
+    virtual const arbitration::Clock& clock() const = 0;
+    virtual DaemonCounters& counters() = 0;
+    /// Sessions open now.
+    virtual std::size_t session_count() const = 0;
+    /// True once the daemon is shutting down: a link that goes then is not reported as down.
+    virtual bool stopping() const = 0;
+
+    /// Wakes writers held back by a full strict queue (a connection went, so room may have come).
+    virtual void notify_space() = 0;
+    /// Closes a port of this daemon: its connections go, and the name server is told.
+    virtual void forget_port(std::shared_ptr<Port> port) = 0;
+    /// Keeps the sending end of a link in view, so that shutdown waits for it to flush.
+    virtual void keep_link(std::weak_ptr<Peer> link) = 0;
+};
+
+}  // namespace plexus::daemon

@@ -1,0 +1,72 @@
+// The op table and its dispatch: which handler answers an op, and which sessions may send it.
+#include "control_plane.hpp"
+
+#include <algorithm>
+#include <iterator>
+
+#include "net/session.hpp"
+#include "request_fields.hpp"
+
+namespace plexus::daemon {
+
+// `open`, `close` and `shm` concern a client's own ports; `attach` turns a link session into the
+// receiving end of a connection; the rest are questions and commands anyone may send.
+const ControlPlane::Operation ControlPlane::operations_[] = {
+    {"open", Callers::client, &ControlPlane::open_port},
+    {"close", Callers::client, &ControlPlane::close_port},
+    {"shm", Callers::client, &ControlPlane::shm},
+    {"attach", Callers::link, &ControlPlane::attach},
+    {"connect", Callers::any, &ControlPlane::connect},
+    {"disconnect", Callers::any, &ControlPlane::disconnect},
+    {"stats", Callers::any, &ControlPlane::stats},
+    {"param", Callers::any, &ControlPlane::param},
+    {"param_recv", Callers::any, &ControlPlane::param_recv},
+    {"ping", Callers::any, &ControlPlane::ping},
+    {"events", Callers::any, &ControlPlane::events},
+    {"node", Callers::any, &ControlPlane::node},
+    {"lookup", Callers::any, &ControlPlane::ask_names},
+    {"list", Callers::any, &ControlPlane::ask_names},
+};
+
+const ControlPlane::Operation* ControlPlane::find_operation(const std::string& op, const std::string& role) {
+    const auto* row = std::find_if(std::begin(operations_), std::end(operations_),
+                                   [&](const Operation& candidate) { return op == candidate.op; });
+    if (row == std::end(operations_))
+        return nullptr;
+    switch (row->callers) {
+        case Callers::client:
+            return role == "client" ? row : nullptr;
+        case Callers::link:
+            return role == "link" ? row : nullptr;
+        case Callers::any:
+            break;
+    }
+    return row;
+}
+
+ControlPlane::ControlPlane(asio::any_io_executor executor, ControlHost& host)
+    : executor_(std::move(executor)), host_(host) {}
+
+Task<proto::Reply> ControlPlane::handle(std::shared_ptr<Session> session, proto::Request request) {
+    const std::string op = request.body["op"];
+    const Operation* found = find_operation(op, session->role());
+    if (!found) {
+        co_return refuse("unknown request '" + op + "' for a " + session->role() + " session",
+                         proto::ReplyCode::usage);
+    }
+    const Handler handler = found->handler;
+    co_return co_await (this->*handler)(session, request);
+}
+
+proto::Hello ControlPlane::our_hello(const char* role) const {
+    proto::Hello hello;
+    hello.role = role;
+    hello.node = host_.config().node;
+    return hello;
+}
+
+std::function<void()> ControlPlane::space_notifier() {
+    return [&host = host_] { host.notify_space(); };
+}
+
+}  // namespace plexus::daemon

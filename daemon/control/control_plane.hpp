@@ -1,0 +1,129 @@
+#pragma once
+// Threading: the daemon's one thread.
+
+#include <chrono>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "control_host.hpp"
+#include "names/name_protocol.hpp"
+#include "net/asio.hpp"
+#include "net/shm_region.hpp"
+#include "plexus/proto/control.hpp"
+#include "plexus/proto/endpoint.hpp"
+#include "plexus/proto/hello.hpp"
+
+namespace plexus::daemon {
+
+struct Connection;
+class MessageSink;
+class Peer;
+class ReaderQueue;
+class Session;
+namespace monitor {
+struct MonitorChain;
+}
+
+/// The daemon's answers to control requests (PROTOCOL.md, "Control operations"): a table from op
+/// name to handler, each with the session roles that may send it. Handlers live in files by
+/// subject: ports.cpp, connections.cpp, param.cpp, forward.cpp, stats_view.cpp, events_view.cpp.
+class ControlPlane {
+public:
+    ControlPlane(asio::any_io_executor executor, ControlHost& host);
+
+    /// Answers one request of `session`. An op the session's role may not send is answered as
+    /// an unknown one.
+    Task<proto::Reply> handle(std::shared_ptr<Session> session, proto::Request request);
+    /// Makes the remembered connections of a port that just registered.
+    Task<void> restore_persistent(std::vector<names::ConnectionEntry> persistent);
+
+private:
+    /// Every handler has this shape, whether or not it looks at the session. Coroutines must be
+    /// member (or free) functions: g++ 12 miscompiles capturing lambdas used as coroutines.
+    using Handler = Task<proto::Reply> (ControlPlane::*)(std::shared_ptr<Session> session,
+                                                         const proto::Request& request);
+    /// Which sessions may send an op, by the role their hello gave.
+    enum class Callers { any, client, link };
+    struct Operation {
+        const char* op;
+        Callers callers;
+        Handler handler;
+    };
+    /// The table (control_plane.cpp). To add an op: write its handler, add a row, list it in
+    /// PROTOCOL.md.
+    static const Operation operations_[];
+    /// The row of `op` if a session whose hello said `role` may send it; else null.
+    static const Operation* find_operation(const std::string& op, const std::string& role);
+
+    /// The sending end of a connection to another daemon, once that daemon has accepted it.
+    struct SendingEnd {
+        std::shared_ptr<Peer> peer;                ///< the link to the receiving daemon; null if refused
+        std::shared_ptr<MessageSink> sink;         ///< what the router hands messages to
+        std::shared_ptr<const ReaderQueue> queue;  ///< what waits to leave, counted if the link dies
+        proto::Reply answer;  ///< the receiving daemon's answer to attach, or why there is no end
+    };
+
+    // ports.cpp: a client's own ports.
+    Task<proto::Reply> open_port(std::shared_ptr<Session> session, const proto::Request& request);
+    Task<proto::Reply> close_port(std::shared_ptr<Session> session, const proto::Request& request);
+    /// `shm`: the client maps shared-memory regions; with a handle, it gets one for that port.
+    Task<proto::Reply> shm(std::shared_ptr<Session> session, const proto::Request& request);
+
+    // connections.cpp
+    /// Needs no session: restore_persistent calls it with none.
+    Task<proto::Reply> connect(std::shared_ptr<Session> session, const proto::Request& request);
+    Task<proto::Reply> connect_remote(const proto::Request& request, std::shared_ptr<Port> source,
+                                      std::string destination, std::string carrier, std::string address,
+                                      std::shared_ptr<monitor::MonitorChain> send_chain);
+    /// Connects to the daemon at `endpoint`, asks it to attach `destination` for this connection,
+    /// and makes the queue the router will hand messages to. The one place a carrier's sending end
+    /// across daemons is built.
+    Task<SendingEnd> open_sending_end(std::shared_ptr<Port> source, std::string destination,
+                                      std::string carrier, proto::Endpoint endpoint, bool strict);
+    /// When the link of `connection` closes: counts what it could not send, removes the connection.
+    void watch_link(const SendingEnd& end, const std::shared_ptr<Connection>& connection);
+    /// The receiving end of a connection from another daemon: the link session feeds an inlet.
+    Task<proto::Reply> attach(std::shared_ptr<Session> session, const proto::Request& request);
+    Task<proto::Reply> disconnect(std::shared_ptr<Session> session, const proto::Request& request);
+
+    // param.cpp
+    Task<proto::Reply> param(std::shared_ptr<Session> session, const proto::Request& request);
+    /// The recv half of `plexus param`: the monitors of the inlet source -> destination here.
+    Task<proto::Reply> param_recv(std::shared_ptr<Session> session, const proto::Request& request);
+
+    // forward.cpp: questions about this daemon, or for another one or the name server.
+    Task<proto::Reply> ping(std::shared_ptr<Session> session, const proto::Request& request);
+    Task<proto::Reply> node(std::shared_ptr<Session> session, const proto::Request& request);
+    /// `lookup` and `list`: asked of the name server, its answer relayed.
+    Task<proto::Reply> ask_names(std::shared_ptr<Session> session, const proto::Request& request);
+    /// Sends the request to the daemon that hosts `port` and relays its reply.
+    Task<proto::Reply> forward(const proto::Request& request, const std::string& port);
+
+    // stats_view.cpp
+    Task<proto::Reply> stats(std::shared_ptr<Session> session, const proto::Request& request);
+    nlohmann::json stats_json(const std::string& only_port) const;
+
+    // events_view.cpp
+    /// `plexus events PORT`: the port's event container and arbitration state.
+    Task<proto::Reply> events(std::shared_ptr<Session> session, const proto::Request& request);
+    nlohmann::json events_json(const Port& port, bool check) const;
+
+    // GCC 12 miscompiles braced temporaries and lambdas inside co_await expressions: build them
+    // in these plain functions instead.
+    proto::Hello our_hello(const char* role) const;
+    std::function<void()> space_notifier();
+
+    /// How long a connect to another daemon, and a request on it, may take.
+    static constexpr auto peer_timeout = std::chrono::seconds(5);
+
+    asio::any_io_executor executor_;
+    ControlHost& host_;
+    std::shared_ptr<ShmUsage> shm_usage_ = std::make_shared<ShmUsage>();
+    std::uint64_t next_region_ = 1;
+};
+
+}  // namespace plexus::daemon

@@ -1,0 +1,80 @@
+// `plexus events PORT`: the port's event container, the constraints and stimulation of the
+// connections into it, and their counters. (A connection's place in the arbitration is made in
+// wire_inlet.cpp.)
+#include "control_plane.hpp"
+#include "core/router.hpp"
+#include "inlet_counters.hpp"
+#include "overlap_text.hpp"
+#include "request_fields.hpp"
+
+namespace plexus::daemon {
+
+Task<proto::Reply> ControlPlane::events(std::shared_ptr<Session>, const proto::Request& request) {
+    const std::string name = text(request.body, "port");
+    auto port = host_.router().find(name);
+    if (!port)
+        co_return co_await forward(request, name);
+    co_return ok(events_json(*port, request.body.value("check", false)));
+}
+
+nlohmann::json ControlPlane::events_json(const Port& port, bool check) const {
+    const double now = host_.clock().now();
+    nlohmann::json body{{"port", port.name()}, {"node", host_.config().node}};
+    nlohmann::json events = nlohmann::json::array();
+    nlohmann::json connections = nlohmann::json::array();
+    nlohmann::json overlaps = nlohmann::json::array();
+    nlohmann::json winner = nullptr;
+    if (port.arbiter) {
+        auto& arbiter = *port.arbiter;
+        for (const auto& entry : arbiter.events().entries(now)) {
+            nlohmann::json left = nullptr;
+            if (entry.expires)
+                left = *entry.expires - now;
+            events.push_back({{"name", entry.name}, {"owner", entry.owner_label}, {"time_left", left}});
+        }
+        const auto state = arbiter.priority_state();
+        if (state.error)
+            body["inconsistent"] = *state.error;
+        if (state.winner)
+            winner = state.members[*state.winner]->source();
+        for (const auto& weak : port.inbound) {
+            auto inlet = weak.lock();
+            if (!inlet)
+                continue;
+            const auto& member = inlet->member();
+            nlohmann::json entry{{"source", inlet->source()},
+                                 {"carrier", inlet->carrier()},
+                                 {"aux", member.aux},
+                                 {"constraint", nullptr},
+                                 {"constraint_value", arbiter.constraint_value(member)},
+                                 {"priority", nullptr},
+                                 {"counters", inlet_counters(*inlet)}};
+            if (member.constraint)
+                entry["constraint"] = member.constraint->text();
+            for (std::size_t i = 0; i < state.members.size(); ++i) {
+                if (state.members[i] != &member)
+                    continue;
+                entry["priority"] = {{"S", state.level[i]},
+                                     {"x", state.active[i] ? 1 : 0},
+                                     {"y", state.output[i]},
+                                     {"winner", state.winner == i}};
+            }
+            connections.push_back(entry);
+        }
+        if (check) {
+            for (const auto& pair : arbiter.overlaps())
+                overlaps.push_back({{"first", pair.first},
+                                    {"second", pair.second},
+                                    {"witness", witness_json(pair.witness)},
+                                    {"explanation", describe_witness(pair.witness)}});
+        }
+    }
+    body["events"] = events;
+    body["connections"] = connections;
+    body["winner"] = winner;
+    if (check)
+        body["overlaps"] = overlaps;
+    return body;
+}
+
+}  // namespace plexus::daemon

@@ -1,0 +1,50 @@
+// Questions about this daemon (`ping`, `node`), questions for the name server (`lookup`, `list`),
+// and requests about a port that lives on another daemon, forwarded to it.
+#include "control_plane.hpp"
+#include "core/router.hpp"
+#include "names/name_client.hpp"
+#include "net/peer.hpp"
+#include "request_fields.hpp"
+
+namespace plexus::daemon {
+
+Task<proto::Reply> ControlPlane::ping(std::shared_ptr<Session>, const proto::Request& request) {
+    const std::string port = text(request.body, "port");
+    if (port.empty() || host_.router().find(port))
+        co_return ok({{"node", host_.config().node}, {"address", host_.address()}});
+    co_return co_await forward(request, port);
+}
+
+Task<proto::Reply> ControlPlane::node(std::shared_ptr<Session>, const proto::Request&) {
+    const auto& config = host_.config();
+    co_return ok({{"node", config.node}, {"address", host_.address()}, {"names", config.names.text()}});
+}
+
+Task<proto::Reply> ControlPlane::ask_names(std::shared_ptr<Session>, const proto::Request& request) {
+    nlohmann::json question = {{"op", text(request.body, "op")}, {"port", text(request.body, "port")}};
+    co_return relay(co_await host_.names().request(std::move(question)));
+}
+
+Task<proto::Reply> ControlPlane::forward(const proto::Request& request, const std::string& port) {
+    if (request.body.value("forwarded", false))
+        co_return refuse("port " + port + " is not on node '" + host_.config().node + "'");
+    auto found = co_await host_.names().lookup(port);
+    if (!found)
+        co_return refuse(found.error().message);
+    const std::string where = found->address;
+    auto endpoint = proto::parse_endpoint(where);
+    if (!endpoint)
+        co_return refuse("the name server gave a bad address for " + port + ": " + where);
+    const proto::Hello hello = our_hello("daemon");
+    auto peer = co_await Peer::connect(executor_, *endpoint, hello, host_.config().max_frame, peer_timeout,
+                                       std::function<void()>{});
+    if (!peer)
+        co_return refuse("cannot reach the daemon of " + port + ": " + peer.error().message);
+    auto body = request.body;
+    body["forwarded"] = true;
+    auto reply = co_await (*peer)->request(body, peer_timeout);
+    (*peer)->close_when_drained();
+    co_return relay(reply);
+}
+
+}  // namespace plexus::daemon

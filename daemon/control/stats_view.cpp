@@ -1,0 +1,83 @@
+// `plexus stats`: every port of this daemon (or one), its queue, its connections out and in,
+// and the daemon-wide counters.
+#include "control_plane.hpp"
+#include "core/router.hpp"
+#include "inlet_counters.hpp"
+#include "monitor/chain.hpp"
+#include "net/link.hpp"
+#include "request_fields.hpp"
+#include "script_host.hpp"
+
+namespace plexus::daemon {
+
+Task<proto::Reply> ControlPlane::stats(std::shared_ptr<Session>, const proto::Request& request) {
+    const std::string port = text(request.body, "port");
+    if (!port.empty() && !host_.router().find(port))
+        co_return co_await forward(request, port);
+    co_return ok(stats_json(port));
+}
+
+nlohmann::json ControlPlane::stats_json(const std::string& only_port) const {
+    nlohmann::json ports = nlohmann::json::array();
+    for (const auto& [name, port] : host_.router().ports()) {
+        if (!only_port.empty() && name != only_port)
+            continue;
+        nlohmann::json connections = nlohmann::json::array();
+        for (const auto& c : port->outgoing) {
+            nlohmann::json entry{{"destination", c->destination},
+                                 {"carrier", c->carrier},
+                                 {"sent", c->sent},
+                                 {"dropped_by_monitor", c->dropped_by_monitor}};
+            if (c->remote)
+                entry["queued"] = static_cast<const Link*>(c->sink.get())->queued();
+            if (c->send_chain)
+                entry["monitors"] = c->send_chain->stats();
+            connections.push_back(entry);
+        }
+        nlohmann::json inbound = nlohmann::json::array();
+        for (const auto& weak : port->inbound) {
+            auto inlet = weak.lock();
+            if (!inlet)
+                continue;
+            nlohmann::json entry = inlet_counters(*inlet);
+            entry["source"] = inlet->source();
+            entry["carrier"] = inlet->carrier();
+            if (inlet->chain)
+                entry["monitors"] = inlet->chain->stats();
+            inbound.push_back(entry);
+        }
+        const auto& queue = port->queue();
+        ports.push_back({{"name", name},
+                         {"policy", queue_policy_name(queue.policy())},
+                         {"capacity", queue.capacity()},
+                         {"bytes", queue.bytes()},
+                         {"depth", queue.depth()},
+                         {"written", port->written},
+                         {"received", port->received},
+                         {"delivered", port->delivered},
+                         {"dropped_queue", queue.dropped()},
+                         {"outgoing", connections},
+                         {"inbound", inbound}});
+    }
+    const auto& counters = host_.counters();
+    const auto& scripts = host_.scripts();
+    return {{"node", host_.config().node},
+            {"address", host_.address()},
+            {"ports", ports},
+            {"daemon",
+             {{"sessions", host_.session_count()},
+              {"sessions_accepted", counters.sessions_accepted},
+              {"accept_errors", counters.accept_errors},
+              {"protocol_errors", counters.protocol_errors},
+              {"dropped_unknown_port", counters.dropped_unknown_port},
+              {"dropped_link_down", counters.dropped_link_down},
+              {"shm_passed", counters.shm_passed},
+              {"shm_copied", counters.shm_copied},
+              {"shm_regions", shm_usage_->regions},
+              {"shm_bytes", shm_usage_->bytes},
+              {"shm_slots", shm_usage_->slots},
+              {"monitor_published", scripts.published()},
+              {"monitor_publish_dropped", scripts.publish_dropped()}}}};
+}
+
+}  // namespace plexus::daemon
