@@ -6,7 +6,7 @@
 
 namespace plexus::daemon::names {
 
-/// Op names of the name server's requests (PROTOCOL.md, "Name server").
+/// Op names of the name server's requests (PROTOCOL.md, "Control operations").
 namespace op {
 inline constexpr const char* ping = "ping";
 inline constexpr const char* lookup = "lookup";
