@@ -8,6 +8,7 @@
 #include <spdlog/spdlog.h>
 
 #include "net/session.hpp"
+#include "plexus/proto/discovery.hpp"
 #include "script_host.hpp"
 
 namespace plexus::daemon {
@@ -22,6 +23,7 @@ Daemon::Daemon(asio::io_context& io, DaemonConfig config)
       space_(io.get_executor()),
       tcp_acceptor_(io),
       unix_acceptor_(io),
+      udp_(io, config_.udp),
       signals_(io, SIGINT, SIGTERM),
       control_(io.get_executor(), *this) {
     scripts_ = std::make_unique<ScriptHost>(io_, *this);
@@ -56,6 +58,10 @@ proto::Status Daemon::bind() {
         names_config.listen = config_.names;
         names_config.state_file = config_.names_state;
         names_config.grace = config_.names_grace;
+        if (auto group = proto::discovery_group(); group)
+            names_config.discovery = *group;
+        else
+            return group.error();
         embedded_names_ = std::make_unique<names::NameServer>(io_, names_config);
         if (auto started = embedded_names_->start(); !started)
             return started;
@@ -76,6 +82,10 @@ proto::Status Daemon::bind() {
         tcp_acceptor_.listen(asio::socket_base::max_listen_connections, ec);
     if (ec)
         return proto::Error{"cannot listen on TCP " + config_.listen.text() + ": " + ec.message()};
+    // The udp carrier listens on the same address and port number, so one number opens a daemon
+    // to others in a firewall.
+    if (auto bound = udp_.bind(address, tcp_acceptor_.local_endpoint().port()); !bound)
+        return bound;
 
     const std::filesystem::path socket_path(config_.socket_path);
     std::error_code fs_error;
@@ -119,6 +129,7 @@ int Daemon::run() {
     asio::co_spawn(io_, announce_ready(), asio::detached);
     asio::co_spawn(io_, accept_tcp(), asio::detached);
     asio::co_spawn(io_, accept_unix(), asio::detached);
+    udp_.start();
     signals_.async_wait([this](boost::system::error_code ec, int signal) {
         if (ec)
             return;
@@ -263,6 +274,7 @@ Task<void> Daemon::shutdown() {
     boost::system::error_code ignored;
     tcp_acceptor_.close(ignored);
     unix_acceptor_.close(ignored);
+    udp_.stop();
     // Unregister first, then close: readers elsewhere see the ports go away cleanly.
     for (const auto& [name, port] : router_.ports()) {
         if (names_ && names_->connected())

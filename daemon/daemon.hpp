@@ -17,6 +17,7 @@
 #include "names/name_server.hpp"
 #include "net/asio.hpp"
 #include "net/signal.hpp"
+#include "net/udp_carrier.hpp"
 #include "plexus/proto/control.hpp"
 
 namespace plexus::daemon {
@@ -56,6 +57,7 @@ public:
     Router& router() override { return router_; }
     names::NameClient& names() override { return *names_; }
     ScriptHost& scripts() override { return *scripts_; }
+    UdpCarrier& udp() override { return udp_; }
     const arbitration::Clock& clock() const override { return clock_; }
     DaemonCounters& counters() override { return counters_; }
     std::size_t session_count() const override { return sessions_.size(); }
@@ -86,6 +88,7 @@ private:
     std::unique_ptr<names::NameClient> names_;
     asio::ip::tcp::acceptor tcp_acceptor_;
     asio::local::stream_protocol::acceptor unix_acceptor_;
+    UdpCarrier udp_;
     asio::signal_set signals_;
     std::map<std::uint64_t, std::weak_ptr<Session>> sessions_;
     std::vector<std::weak_ptr<Peer>> links_;  ///< sending ends of tcp connections, flushed at shutdown

@@ -10,6 +10,7 @@
 
 #include "core/reader_queue.hpp"
 #include "monitor/monitor.hpp"
+#include "net/udp_config.hpp"
 #include "plexus/proto/endpoint.hpp"
 #include "plexus/proto/frame.hpp"
 
@@ -38,6 +39,7 @@ struct DaemonConfig {
     std::size_t shm_region_bytes = 8u * 1024u * 1024u;
     /// Bound on the bytes of all regions together.
     std::size_t shm_total_bytes = 1024u * 1024u * 1024u;
+    UdpConfig udp;  ///< the udp carrier: datagram size, largest message, reassembly bounds
 };
 
 /// Daemon-wide counters that `plexus stats` shows.

@@ -8,6 +8,7 @@
 #include "names/name_client.hpp"
 #include "net/link.hpp"
 #include "net/session.hpp"
+#include "net/udp_carrier.hpp"
 #include "plexus/proto/carrier.hpp"
 #include "plexus/proto/port_name.hpp"
 #include "request_fields.hpp"
@@ -18,7 +19,31 @@ namespace plexus::daemon {
 
 namespace {
 using proto::ReplyCode;
+
+/// True for carriers whose data travels in datagrams beside the TCP link (udp).
+bool is_datagram_carrier(const std::string& carrier_text) {
+    return carrier_text == "udp" || carrier_text.rfind("udp+", 0) == 0;
+}
 }  // namespace
+
+proto::Result<std::shared_ptr<MessageSink>> ControlPlane::udp_sending_end(std::shared_ptr<Peer> link,
+                                                                          const proto::Endpoint& endpoint,
+                                                                          const proto::Reply& attached,
+                                                                          std::string description) {
+    const auto port = attached.body.value("udp_port", 0);
+    const auto stream = attached.body.value("stream", std::uint64_t{0});
+    boost::system::error_code ec;
+    const auto address = asio::ip::make_address(endpoint.host, ec);
+    if (port <= 0 || port > 65535 || stream == 0 || ec) {
+        return proto::Error{
+            "the daemon at " + endpoint.text() +
+            " gave no usable udp port and stream for this connection (udp needs IP addresses)"};
+    }
+    asio::ip::udp::endpoint to(address, static_cast<std::uint16_t>(port));
+    std::shared_ptr<MessageSink> sink =
+        std::make_shared<UdpLink>(host_.udp(), to, stream, std::move(link), std::move(description));
+    return sink;
+}
 
 Task<proto::Reply> ControlPlane::connect(std::shared_ptr<Session>, const proto::Request& request) {
     const std::string source = text(request.body, "source");
@@ -50,9 +75,11 @@ Task<proto::Reply> ControlPlane::connect(std::shared_ptr<Session>, const proto::
         co_return refuse(send_chain.error().message);
 
     auto local_destination = router.find(destination);
-    const bool wants_tcp = !automatic && carrier_text.rfind("tcp", 0) == 0;
-    const bool wants_local = !automatic && carrier_text.rfind("local", 0) == 0;
-    if (local_destination && !wants_tcp) {
+    // A network carrier named explicitly goes through the network even between ports of this
+    // daemon (over loopback); only `local`, or no carrier, stays in the daemon.
+    const bool wants_network = !automatic && carrier.base != "local";
+    const bool wants_local = !automatic && carrier.base == "local";
+    if (local_destination && !wants_network) {
         auto connection = std::make_shared<Connection>();
         connection->source = source;
         connection->destination = destination;
@@ -162,12 +189,26 @@ Task<ControlPlane::SendingEnd> ControlPlane::open_sending_end(std::shared_ptr<Po
         end.answer = refuse("port " + source + " closed while connecting");
         co_return end;
     }
+    end.answer = *attached;
+    if (is_datagram_carrier(carrier)) {
+        // udp: every message leaves at once as datagrams to the stream the receiver opened; the
+        // link stays open beside it, and its closing ends the connection.
+        auto sink =
+            udp_sending_end(link_peer, endpoint, *attached, "connection " + source + " -> " + destination);
+        if (!sink) {
+            link_peer->close("bad attach answer");
+            end.answer = refuse(sink.error().message);
+            co_return end;
+        }
+        end.peer = link_peer;
+        end.sink = *sink;
+        co_return end;
+    }
     // tcp: messages wait in the link's strict queue and leave on its socket.
     auto link = std::make_shared<Link>(link_peer, host_.config().link_capacity, host_.config().queue_bytes);
     end.peer = link_peer;
     end.sink = link;
     end.queue = link->queue();
-    end.answer = *attached;
     co_return end;
 }
 
@@ -213,6 +254,18 @@ Task<proto::Reply> ControlPlane::attach(std::shared_ptr<Session> session, const 
     auto wired = wire_inlet(host_.scripts(), host_.clock(), spec);
     if (!wired)
         co_return refuse(wired.error().message);
+    nlohmann::json answer = {{"warnings", wired->warnings}};
+    if (carrier->base == "udp") {
+        // udp: datagrams from the link's address, for a stream of its own, feed the inlet.
+        const auto sender = session->remote_ip();
+        if (!sender)
+            co_return refuse("the udp carrier needs a link over TCP (an IP address to take datagrams from)");
+        auto stream = host_.udp().open_stream(wired->inlet, *sender);
+        wired->inlet->datagrams = UdpCarrier::datagrams(*stream);
+        answer["udp_port"] = host_.udp().port();
+        answer["stream"] = UdpCarrier::id(*stream);
+        session->hold_while_linked(stream);
+    }
     // tcp: the link session itself feeds the inlet, with the data frames the sending daemon writes.
     session->become_link(wired->inlet);
     std::weak_ptr<Session> weak = session;
@@ -221,7 +274,7 @@ Task<proto::Reply> ControlPlane::attach(std::shared_ptr<Session> session, const 
             s->close("destination port closed");
     });
     session->set_description("link " + source + " -> " + destination);
-    co_return ok({{"warnings", wired->warnings}});
+    co_return ok(answer);
 }
 
 Task<proto::Reply> ControlPlane::disconnect(std::shared_ptr<Session>, const proto::Request& request) {

@@ -14,6 +14,7 @@ class Peer;
 class Port;
 class Router;
 class ScriptHost;
+class UdpCarrier;
 namespace names {
 class NameClient;
 }
@@ -31,6 +32,8 @@ public:
     virtual Router& router() = 0;
     virtual names::NameClient& names() = 0;
     virtual ScriptHost& scripts() = 0;
+    /// The daemon's UDP socket, for connections with the udp carrier.
+    virtual UdpCarrier& udp() = 0;
     /// Where arbitration reads the time (event lifetimes, stimulation decay).
     virtual const arbitration::Clock& clock() const = 0;
     virtual DaemonCounters& counters() = 0;

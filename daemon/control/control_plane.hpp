@@ -84,6 +84,12 @@ private:
     /// across daemons is built.
     Task<SendingEnd> open_sending_end(std::shared_ptr<Port> source, std::string destination,
                                       std::string carrier, proto::Endpoint endpoint, bool strict);
+    /// The sink of a udp connection: datagrams to the stream the receiving daemon opened in its
+    /// answer to attach (`udp_port`, `stream`).
+    proto::Result<std::shared_ptr<MessageSink>> udp_sending_end(std::shared_ptr<Peer> link,
+                                                                const proto::Endpoint& endpoint,
+                                                                const proto::Reply& attached,
+                                                                std::string description);
     /// When the link of `connection` closes: counts what it could not send, removes the connection.
     void watch_link(const SendingEnd& end, const std::shared_ptr<Connection>& connection);
     /// The receiving end of a connection from another daemon: the link session feeds an inlet.

@@ -9,14 +9,23 @@ namespace plexus::daemon {
 
 /// received, accepted, dropped_by_accept / constraint / priority / queue, delivered, script_errors.
 inline nlohmann::json inlet_counters(const Inlet& inlet) {
-    return {{"received", inlet.received},
-            {"accepted", inlet.accepted},
-            {"dropped_by_accept", inlet.dropped_by_accept},
-            {"dropped_by_constraint", inlet.member().dropped_by_constraint},
-            {"dropped_by_priority", inlet.member().dropped_by_priority},
-            {"dropped_by_queue", inlet.dropped_by_queue},
-            {"delivered", inlet.delivered},
-            {"script_errors", inlet.script_errors()}};
+    nlohmann::json counters = {{"received", inlet.received},
+                               {"accepted", inlet.accepted},
+                               {"dropped_by_accept", inlet.dropped_by_accept},
+                               {"dropped_by_constraint", inlet.member().dropped_by_constraint},
+                               {"dropped_by_priority", inlet.member().dropped_by_priority},
+                               {"dropped_by_queue", inlet.dropped_by_queue},
+                               {"delivered", inlet.delivered},
+                               {"script_errors", inlet.script_errors()}};
+    if (inlet.datagrams) {
+        // udp/mcast: what the datagram stream lost on the way (DESIGN, "Several machines").
+        const auto& stream = inlet.datagrams->counters();
+        counters["lost"] = stream.lost;
+        counters["late"] = stream.late;
+        counters["incomplete"] = stream.incomplete;
+        counters["dropped_full"] = inlet.dropped_full;
+    }
+    return counters;
 }
 
 }  // namespace plexus::daemon

@@ -5,6 +5,7 @@
 #include "inlet_counters.hpp"
 #include "monitor/chain.hpp"
 #include "net/link.hpp"
+#include "net/udp_carrier.hpp"
 #include "request_fields.hpp"
 #include "script_host.hpp"
 
@@ -28,8 +29,15 @@ nlohmann::json ControlPlane::stats_json(const std::string& only_port) const {
                                  {"carrier", c->carrier},
                                  {"sent", c->sent},
                                  {"dropped_by_monitor", c->dropped_by_monitor}};
-            if (c->remote)
-                entry["queued"] = static_cast<const Link*>(c->sink.get())->queued();
+            if (const auto* link = dynamic_cast<const Link*>(c->sink.get()))
+                entry["queued"] = link->queued();
+            if (const auto* udp = dynamic_cast<const UdpLink*>(c->sink.get())) {
+                const auto& sent = udp->counters();
+                entry["udp"] = {{"messages", sent.messages},
+                                {"datagrams", sent.datagrams},
+                                {"dropped_too_large", sent.dropped_too_large},
+                                {"dropped_send", sent.dropped_send}};
+            }
             if (c->send_chain)
                 entry["monitors"] = c->send_chain->stats();
             connections.push_back(entry);
@@ -76,6 +84,13 @@ nlohmann::json ControlPlane::stats_json(const std::string& only_port) const {
               {"shm_regions", shm_usage_->regions},
               {"shm_bytes", shm_usage_->bytes},
               {"shm_slots", shm_usage_->slots},
+              {"udp_datagrams_sent", host_.udp().counters().datagrams_sent},
+              {"udp_datagrams_received", host_.udp().counters().datagrams_received},
+              {"udp_bad_datagrams", host_.udp().counters().bad_datagrams},
+              {"udp_unknown_stream", host_.udp().counters().unknown_stream},
+              {"udp_wrong_sender", host_.udp().counters().wrong_sender},
+              {"udp_send_failures", host_.udp().counters().send_failures},
+              {"udp_reassembly_bytes", host_.udp().budget().bytes},
               {"monitor_published", scripts.published()},
               {"monitor_publish_dropped", scripts.publish_dropped()}}}};
 }

@@ -47,6 +47,8 @@ public:
 
     /// Makes this session the receiving end of a connection into `port`.
     void become_link(std::shared_ptr<Inlet> link);
+    /// Keeps `thing` (a udp connection's datagram stream) alive for as long as the link is.
+    void hold_while_linked(std::shared_ptr<void> thing) { held_ = std::move(thing); }
 
 protected:
     proto::Status on_hello(const proto::Hello& hello) override;
@@ -98,6 +100,7 @@ private:
     std::string role_;
     std::shared_ptr<Port> link_port_;
     std::shared_ptr<Inlet> link_;
+    std::shared_ptr<void> held_;
     /// Ports this session opened, by the handle its data frames carry.
     std::map<std::uint64_t, std::shared_ptr<Port>> ports_;
     std::uint64_t next_handle_ = 1;

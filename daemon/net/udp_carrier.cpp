@@ -8,6 +8,7 @@
 
 #include "../core/batch.hpp"
 #include "plexus/proto/datagram.hpp"
+#include "plexus/proto/message.hpp"
 
 namespace plexus::daemon {
 
@@ -189,6 +190,13 @@ void UdpCarrier::take(proto::ByteView bytes, const asio::ip::udp::endpoint& from
     auto inlet = stream->inlet.lock();
     if (!inlet || inlet->port()->closed())
         return;
+    // The record must be the connection's source's: a sender may only carry what it attached.
+    const auto record = proto::decode_record(message->record);
+    if (!record || record->source != inlet->source()) {
+        ++counters_.bad_datagrams;
+        spdlog::debug("udp: a message on stream {} is not from {}: dropped", stream->id, inlet->source());
+        return;
+    }
     if (inlet->full()) {
         // A strict queue that is full cannot hold a udp writer back: the message is dropped.
         ++inlet->dropped_full;

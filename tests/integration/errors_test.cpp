@@ -34,7 +34,7 @@ TEST_F(Errors_test, AnUnknownCarrierIsRefusedNamingIt) {
 }
 
 TEST_F(Errors_test, ACarrierThisBuildLacksIsRefusedAsUnsupported) {
-    auto result = cli({"connect", "/a", "/b", "udp"});
+    auto result = cli({"connect", "/a", "/b", "mcast"});
     EXPECT_EQ(result.status, 4);
     EXPECT_NE(result.err.find("not supported by this build"), std::string::npos) << result.err;
 }

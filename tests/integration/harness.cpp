@@ -176,6 +176,8 @@ void Daemon::start(const TempDir& dir, const std::string& node, const std::strin
                                   any_port(host_), "--ready-file", ready, "--log-level", "debug"};
     if (names.empty()) {
         argv.insert(argv.end(), {"--embedded-names", "--names", any_port(host_)});
+    } else if (names == discover_names) {
+        discovers_ = true;
     } else {
         argv.insert(argv.end(), {"--names", names});
     }
@@ -202,6 +204,8 @@ long Daemon::rss_kib() const {
 }
 
 std::map<std::string, std::string> Daemon::env() const {
+    if (discovers_)
+        return {{"PLEXUS_SOCKET", socket_}};  // the CLI finds the name server as its daemon did
     return {{"PLEXUS_SOCKET", socket_}, {"PLEXUS_NAMES", names_}};
 }
 

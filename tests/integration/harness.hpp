@@ -73,6 +73,10 @@ private:
 /// Flags a plexusd or plexus-names needs to listen beyond loopback (empty while none is needed).
 const std::vector<std::string>& beyond_loopback_flags();
 
+/// Pass as `names` to make a daemon find its name server itself (no --names, no PLEXUS_NAMES): by
+/// multicast discovery, inside a host of a Network only.
+inline const std::string discover_names = "(discover)";
+
 /// A plexusd, by default with its own embedded name server on a free port.
 class Daemon {
 public:
@@ -99,6 +103,7 @@ private:
                const std::vector<std::string>& extra);
 
     const Host* host_ = nullptr;
+    bool discovers_ = false;
     std::string socket_;
     std::string names_;
     std::string address_;

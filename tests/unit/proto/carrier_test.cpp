@@ -214,8 +214,8 @@ TEST(ValidateCarrier_test, RefusesUnknownCarrier) {
 }
 
 TEST(ValidateCarrier_test, RefusesUnimplementedBase) {
-    EXPECT_EQ(validate_error("udp"), "carrier 'udp' is not supported by this build");
     EXPECT_EQ(validate_error("mcast"), "carrier 'mcast' is not supported by this build");
+    EXPECT_TRUE(validate_carrier(parse("udp+recv.portmonitor+type.lua+file.x")));
 }
 
 TEST(ValidateCarrier_test, AcceptsPriority) {
