@@ -1,5 +1,6 @@
 #include "framed_connection.hpp"
 
+#include <netinet/in.h>
 #include <poll.h>
 #include <sys/socket.h>
 #include <sys/uio.h>
@@ -32,7 +33,13 @@ FramedConnection::FramedConnection(Socket socket, std::size_t max_frame, std::fu
 
 void FramedConnection::start(const proto::Hello& mine) {
     outbox_.set_owner(weak_from_this());
-    send(proto::encode_hello(mine));
+    mine_ = mine;
+    needs_proof_ = secret_.has_value() && !is_local();
+    if (needs_proof_) {
+        mine_.nonce = proto::random_nonce();
+        mine_.has_secret = true;
+    }
+    send(proto::encode_hello(mine_));
     auto self = shared_from_this();
     asio::co_spawn(
         executor(), [self] { return self->read_loop(); }, asio::detached);
@@ -83,6 +90,24 @@ bool FramedConnection::is_local() {
     return socket_.local_endpoint(ignored).protocol().family() == AF_UNIX;
 }
 
+std::optional<asio::ip::address> FramedConnection::remote_ip() {
+    sockaddr_storage peer{};
+    socklen_t size = sizeof peer;
+    if (::getpeername(socket_.native_handle(), reinterpret_cast<sockaddr*>(&peer), &size) != 0)
+        return std::nullopt;
+    if (peer.ss_family == AF_INET) {
+        const auto* v4 = reinterpret_cast<const sockaddr_in*>(&peer);
+        return asio::ip::address_v4(ntohl(v4->sin_addr.s_addr));
+    }
+    if (peer.ss_family == AF_INET6) {
+        const auto* v6 = reinterpret_cast<const sockaddr_in6*>(&peer);
+        asio::ip::address_v6::bytes_type bytes;
+        std::memcpy(bytes.data(), v6->sin6_addr.s6_addr, bytes.size());
+        return asio::ip::address_v6(bytes, v6->sin6_scope_id);
+    }
+    return std::nullopt;
+}
+
 bool FramedConnection::peer_hung_up() {
     if (closed_)
         return true;
@@ -126,34 +151,19 @@ Task<void> FramedConnection::read_loop() {
             break;
         }
         InFrame& frame = *outcome.frame;
-        if (!peer_hello_) {
-            if (frame.type != proto::FrameType::hello) {
-                fail("expected a hello frame first, got " +
-                     proto::frame_type_name(static_cast<std::uint8_t>(frame.type)));
-                break;
-            }
-            auto hello = proto::decode_hello(frame.fields);
-            if (!hello) {
-                fail("bad hello: " + hello.error().message);
-                break;
-            }
-            if (hello->version != proto::protocol_version) {
-                fail("protocol version " + std::to_string(hello->version) +
-                     " is not supported (this daemon speaks " + std::to_string(proto::protocol_version) +
-                     ")");
-                break;
-            }
-            if (auto accepted = on_hello(*hello); !accepted) {
-                fail(accepted.error().message);
-                break;
-            }
-            peer_hello_ = std::move(*hello);
-            hello_signal_.notify();
-            continue;
-        }
         if (frame.type == proto::FrameType::error) {
             close("peer reported an error: " + std::string(proto::as_string_view(frame.fields)));
             break;
+        }
+        if (!peer_hello_) {
+            bool go_on = false;
+            if (unproven_hello_)
+                go_on = co_await take_proof(frame);
+            else
+                go_on = co_await take_hello(frame);
+            if (!go_on)
+                break;
+            continue;
         }
         const FrameAction action = on_frame_now(frame);
         if (action == FrameAction::handled)
@@ -163,6 +173,78 @@ Task<void> FramedConnection::read_loop() {
         if (!co_await on_frame(std::move(frame)))
             break;
     }
+}
+
+Task<bool> FramedConnection::take_hello(InFrame& frame) {
+    if (frame.type != proto::FrameType::hello) {
+        fail("expected a hello frame first, got " +
+             proto::frame_type_name(static_cast<std::uint8_t>(frame.type)));
+        co_return false;
+    }
+    auto hello = proto::decode_hello(frame.fields);
+    if (!hello) {
+        fail("bad hello: " + hello.error().message);
+        co_return false;
+    }
+    if (hello->version != proto::protocol_version) {
+        fail("protocol version " + std::to_string(hello->version) + " is not supported (this daemon speaks " +
+             std::to_string(proto::protocol_version) + ")");
+        co_return false;
+    }
+    if (!needs_proof_)
+        co_return accept_peer(std::move(*hello));
+    if (!hello->has_secret) {
+        co_await refuse_unauthenticated(
+            "authentication required: this deployment has a shared secret and the peer offered none "
+            "(start it with --secret-file FILE or PLEXUS_SECRET_FILE)");
+        co_return false;
+    }
+    send(proto::encode_auth(secret_->prove(hello->nonce, mine_.nonce, mine_.role, mine_.node)));
+    unproven_hello_ = std::move(*hello);
+    co_return true;
+}
+
+Task<bool> FramedConnection::take_proof(InFrame& frame) {
+    if (frame.type != proto::FrameType::auth) {
+        co_await refuse_unauthenticated(
+            "authentication required: expected an auth frame after the hello, got " +
+            proto::frame_type_name(static_cast<std::uint8_t>(frame.type)));
+        co_return false;
+    }
+    const auto proof = proto::decode_auth(frame.fields);
+    const auto& hello = *unproven_hello_;
+    if (!proof ||
+        !proto::same_proof(secret_->prove(mine_.nonce, hello.nonce, hello.role, hello.node), *proof)) {
+        co_await refuse_unauthenticated(
+            "authentication failed: the peer does not hold this deployment's secret");
+        co_return false;
+    }
+    auto accepted = std::move(*unproven_hello_);
+    unproven_hello_.reset();
+    co_return accept_peer(std::move(accepted));
+}
+
+bool FramedConnection::accept_peer(proto::Hello hello) {
+    if (auto accepted = on_hello(hello); !accepted) {
+        fail(accepted.error().message);
+        return false;
+    }
+    peer_hello_ = std::move(hello);
+    hello_signal_.notify();
+    return true;
+}
+
+Task<void> FramedConnection::refuse_unauthenticated(std::string reason) {
+    auto self = shared_from_this();
+    spdlog::warn("{} (peer '{}' of node '{}'): {}", description_,
+                 unproven_hello_ ? unproven_hello_->role : "?", unproven_hello_ ? unproven_hello_->node : "?",
+                 reason);
+    on_auth_failure(reason);
+    // Every failed attempt costs the peer this long: no fast guessing, whatever it tries.
+    constexpr auto failure_pause = std::chrono::seconds(1);
+    asio::steady_timer pause(executor(), failure_pause);
+    co_await pause.async_wait(use_nothrow);
+    fail(reason);
 }
 
 Task<proto::Result<std::size_t>> FramedConnection::send_with_fds(const Batch& batch) {

@@ -3,11 +3,13 @@
 
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "asio.hpp"
 #include "frame_reader.hpp"
 #include "outbox.hpp"
+#include "plexus/proto/auth.hpp"
 #include "plexus/proto/hello.hpp"
 #include "signal.hpp"
 
@@ -22,6 +24,10 @@ public:
     FramedConnection(const FramedConnection&) = delete;
     FramedConnection& operator=(const FramedConnection&) = delete;
 
+    /// With the deployment secret, a TCP peer must prove it holds it too, right after the hellos
+    /// and before anything else is read (PROTOCOL.md, "Authentication"); a Unix-socket peer is
+    /// trusted by the socket's permissions. Call before start().
+    void require_secret(std::optional<proto::Secret> secret) { secret_ = std::move(secret); }
     /// Sends our hello and starts reading and writing.
     void start(const proto::Hello& mine);
     /// Queues a whole control frame.
@@ -44,6 +50,8 @@ public:
     asio::any_io_executor executor() { return socket_.get_executor(); }
     /// True for a Unix-socket peer (a client on this machine), which can be given descriptors.
     bool is_local();
+    /// The peer's IP address for a TCP peer; nullopt for a Unix-socket one.
+    std::optional<asio::ip::address> remote_ip();
     /// True when the peer has closed or reset the connection, even with unread data left: lets a
     /// session that stopped reading (back-pressure) notice that its client died.
     bool peer_hung_up();
@@ -61,6 +69,8 @@ protected:
     virtual Task<bool> on_frame(InFrame frame) = 0;
     /// Called once, after the connection closed for any reason.
     virtual void on_closed(const std::string& reason) = 0;
+    /// Called when a peer failed to prove it holds the deployment secret (before it is cut off).
+    virtual void on_auth_failure(const std::string& /*reason*/) {}
 
 private:
     Task<void> read_loop();
@@ -70,6 +80,15 @@ private:
     /// Drops the first `sent` bytes from `buffers`.
     static void consume(std::vector<asio::const_buffer>& buffers, std::size_t sent);
     Task<void> close_after(std::chrono::steady_clock::duration grace);
+    /// The peer's hello arrived: checks it, sends our proof when a secret is needed. False when the
+    /// peer was refused.
+    Task<bool> take_hello(InFrame& frame);
+    /// The peer's auth frame arrived: checks its proof. False when the peer was refused.
+    Task<bool> take_proof(InFrame& frame);
+    /// Accepts the peer (its hello, and its proof if one was needed).
+    bool accept_peer(proto::Hello hello);
+    /// Counts, logs, waits a while (a peer guessing cannot go fast), then refuses the peer.
+    Task<void> refuse_unauthenticated(std::string reason);
 
     Socket socket_;
     FrameReader reader_;
@@ -77,6 +96,10 @@ private:
     Signal wake_;
     Signal hello_signal_;
     std::optional<proto::Hello> peer_hello_;
+    std::optional<proto::Secret> secret_;
+    bool needs_proof_ = false;                    ///< decided at start(): a secret and a TCP peer
+    proto::Hello mine_;                           ///< our hello, whose role and node our proof names
+    std::optional<proto::Hello> unproven_hello_;  ///< the peer's hello, waiting for its proof
     std::string description_;
     bool closed_ = false;
     bool draining_ = false;
