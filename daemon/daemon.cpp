@@ -58,6 +58,7 @@ proto::Status Daemon::bind() {
         names_config.listen = config_.names;
         names_config.state_file = config_.names_state;
         names_config.grace = config_.names_grace;
+        names_config.secret = config_.secret;
         if (auto group = proto::discovery_group(); group)
             names_config.discovery = *group;
         else
@@ -114,8 +115,8 @@ int Daemon::run() {
         spdlog::error("{}", bound.error().message);
         return 4;
     }
-    names_ =
-        std::make_unique<names::NameClient>(io_, config_.names, config_.node, address(), config_.max_frame);
+    names_ = std::make_unique<names::NameClient>(io_, config_.names, config_.node, address(),
+                                                 config_.max_frame, config_.secret);
     names_->ports_to_register = [this] {
         std::vector<std::string> names;
         for (const auto& [name, port] : router_.ports())
@@ -217,6 +218,7 @@ void Daemon::start_session(Socket socket, const std::string& description) {
     auto session = std::make_shared<Session>(std::move(socket), *this, id);
     session->set_description(description + " #" + std::to_string(id));
     sessions_[id] = session;
+    session->require_secret(config_.secret);  // only TCP peers are asked for it
     session->start({proto::protocol_version, "daemon", config_.node});
 }
 

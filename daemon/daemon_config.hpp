@@ -5,12 +5,14 @@
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "core/reader_queue.hpp"
 #include "monitor/monitor.hpp"
 #include "net/udp_config.hpp"
+#include "plexus/proto/auth.hpp"
 #include "plexus/proto/endpoint.hpp"
 #include "plexus/proto/frame.hpp"
 
@@ -40,6 +42,10 @@ struct DaemonConfig {
     /// Bound on the bytes of all regions together.
     std::size_t shm_total_bytes = 1024u * 1024u * 1024u;
     UdpConfig udp;  ///< the udp carrier: datagram size, largest message, reassembly bounds
+    /// The deployment secret: every TCP peer must prove it holds it, and datagrams carry a MAC
+    /// made with it. Without one the daemon only listens on loopback, unless `insecure`.
+    std::optional<proto::Secret> secret;
+    bool insecure = false;  ///< --insecure: listen beyond loopback without a secret (warned loudly)
 };
 
 /// Daemon-wide counters that `plexus stats` shows.
@@ -50,7 +56,8 @@ struct DaemonCounters {
     std::uint64_t dropped_unknown_port = 0;  ///< data frames for a handle that is not open
     std::uint64_t dropped_link_down = 0;     ///< messages queued to another daemon when the link died
     std::uint64_t shm_passed = 0;            ///< messages whose payload went to readers in shared memory
-    std::uint64_t shm_copied = 0;  ///< written in shared memory, copied out for readers that needed it
+    std::uint64_t shm_copied = 0;     ///< written in shared memory, copied out for readers that needed it
+    std::uint64_t auth_failures = 0;  ///< TCP peers that did not prove they hold the deployment secret
 };
 
 }  // namespace plexus::daemon

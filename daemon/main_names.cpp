@@ -11,6 +11,7 @@
 #include "names/name_server.hpp"
 #include "plexus/proto/defaults.hpp"
 #include "plexus/proto/discovery.hpp"
+#include "trust.hpp"
 
 int main(int argc, char** argv) {
     CLI::App app{
@@ -33,6 +34,11 @@ int main(int argc, char** argv) {
                    "default " +
                        std::string(plexus::proto::default_discovery_group) +
                        "; only when listening beyond loopback)");
+    std::string secret_file;
+    bool insecure = false;
+    app.add_option("--secret-file", secret_file,
+                   "the deployment secret (env PLEXUS_SECRET_FILE): every TCP peer must prove it holds it");
+    app.add_flag("--insecure", insecure, "listen beyond loopback without a secret (anyone may register)");
     app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
     try {
         app.parse(argc, argv);
@@ -52,9 +58,21 @@ int main(int argc, char** argv) {
         return 2;
     }
     spdlog::set_level(spdlog::level::from_str(log_level));
+    auto secret = plexus::daemon::load_deployment_secret(secret_file);
+    if (!secret) {
+        std::cerr << "plexus-names: " << secret.error().message << '\n';
+        return 2;
+    }
+    if (auto allowed =
+            plexus::daemon::check_listening({endpoint->host}, secret->has_value(), insecure, "plexus-names");
+        !allowed) {
+        std::cerr << "plexus-names: " << allowed.error().message << '\n';
+        return 2;
+    }
     boost::asio::io_context io(1);
     plexus::daemon::names::NameServerConfig config{*endpoint, state, std::chrono::milliseconds(grace_ms)};
     config.discovery = *group;
+    config.secret = *secret;
     plexus::daemon::names::NameServer server(io, config);
     if (auto started = server.start(); !started) {
         std::cerr << "plexus-names: " << started.error().message << '\n';

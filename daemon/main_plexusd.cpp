@@ -3,16 +3,20 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <fstream>
 #include <iostream>
+#include <set>
 
 #include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
 #include "daemon.hpp"
+#include "plexus/proto/datagram.hpp"
 #include "plexus/proto/defaults.hpp"
 #include "plexus/proto/discovery.hpp"
+#include "trust.hpp"
 
 namespace {
 
@@ -28,6 +32,51 @@ plexus::proto::Endpoint endpoint_or_throw(const std::string& text, const char* o
     if (!parsed)
         throw std::runtime_error(std::string(option) + ": " + parsed.error().message);
     return *parsed;
+}
+
+/// The udp carrier's keys of the config file, checked together: a value out of range is refused
+/// with the range, so that a daemon never runs with a carrier that could not carry its own limit.
+void apply_udp_config(const std::string& path, const nlohmann::json& json,
+                      plexus::daemon::DaemonConfig& config) {
+    auto& udp = config.udp;
+    udp.fragment_bytes = json.value("udp_fragment_bytes", udp.fragment_bytes);
+    // Unless it is given, the largest udp message follows a smaller frame limit down.
+    udp.max_message = json.value("udp_max_message", std::min(udp.max_message, config.max_frame));
+    udp.reassembly_bytes = json.value("udp_reassembly_bytes", udp.reassembly_bytes);
+    udp.reassembly_timeout =
+        std::chrono::milliseconds(json.value("udp_timeout_ms", udp.reassembly_timeout.count()));
+    const std::string where = "config " + path + ": ";
+    // 256 keeps the header's share of a datagram small; 65,000 plus the largest header fits the
+    // 65,507 bytes of an IPv4 UDP payload.
+    if (udp.fragment_bytes < 256 || udp.fragment_bytes > 65000) {
+        throw std::runtime_error(where + "udp_fragment_bytes must be between 256 and 65000, not " +
+                                 std::to_string(udp.fragment_bytes));
+    }
+    // A message the carrier takes must reach a reader in one frame.
+    if (udp.max_message < 1 || udp.max_message > config.max_frame) {
+        throw std::runtime_error(where + "udp_max_message must be between 1 and max_frame (" +
+                                 std::to_string(config.max_frame) + "), not " +
+                                 std::to_string(udp.max_message));
+    }
+    const auto fragments = plexus::proto::fragment_count(udp.max_message, udp.fragment_bytes);
+    if (fragments > plexus::proto::max_datagram_fragments) {
+        throw std::runtime_error(where + "udp_max_message " + std::to_string(udp.max_message) +
+                                 " would be cut into " + std::to_string(fragments) +
+                                 " fragments of udp_fragment_bytes " + std::to_string(udp.fragment_bytes) +
+                                 ", more than a datagram may say (" +
+                                 std::to_string(plexus::proto::max_datagram_fragments) +
+                                 "): lower it or raise udp_fragment_bytes");
+    }
+    // Less than one largest message of room and such a message could never be put together.
+    if (udp.reassembly_bytes < udp.max_message) {
+        throw std::runtime_error(where + "udp_reassembly_bytes (" + std::to_string(udp.reassembly_bytes) +
+                                 ") must be at least udp_max_message (" + std::to_string(udp.max_message) +
+                                 ")");
+    }
+    if (udp.reassembly_timeout.count() < 10 || udp.reassembly_timeout.count() > 600000) {
+        throw std::runtime_error(where + "udp_timeout_ms must be between 10 and 600000, not " +
+                                 std::to_string(udp.reassembly_timeout.count()));
+    }
 }
 
 /// Reads the optional JSON config; command-line flags given explicitly win over it.
@@ -49,7 +98,11 @@ void apply_config_file(const std::string& path, plexus::daemon::DaemonConfig& co
                                              "log_level",
                                              "monitor_memory_bytes",
                                              "monitor_budget_ms",
-                                             "monitor_quarantine_after"};
+                                             "monitor_quarantine_after",
+                                             "udp_fragment_bytes",
+                                             "udp_max_message",
+                                             "udp_reassembly_bytes",
+                                             "udp_timeout_ms"};
     for (const auto& [key, value] : json.items()) {
         if (!known.contains(key))
             throw std::runtime_error("config " + path + ": unknown key '" + key + "'");
@@ -77,6 +130,7 @@ void apply_config_file(const std::string& path, plexus::daemon::DaemonConfig& co
                                  ": monitor_memory_bytes must be at least 262144, monitor_budget_ms and "
                                  "monitor_quarantine_after at least 1");
     }
+    apply_udp_config(path, json, config);
     if (json.contains("log_level"))
         spdlog::set_level(spdlog::level::from_str(json["log_level"].get<std::string>()));
 }
@@ -110,9 +164,17 @@ int main(int argc, char** argv) {
     app.add_option("--scripts", config.script_dirs, "directory of monitor scripts (repeatable)");
     app.add_option("--config", config_file,
                    "JSON config file (max_frame, default_capacity, link_capacity, monitor_memory_bytes, "
-                   "monitor_budget_ms, monitor_quarantine_after, ...)");
+                   "monitor_budget_ms, monitor_quarantine_after, udp_fragment_bytes, udp_max_message, "
+                   "udp_reassembly_bytes, udp_timeout_ms, ...)");
     app.add_option("--ready-file", config.ready_file,
                    "write a JSON line (node, address, socket, names, pid) here once serving and registered");
+    std::string secret_file;
+    app.add_option(
+        "--secret-file", secret_file,
+        "the deployment secret (env PLEXUS_SECRET_FILE): a file only its owner may read, 16+ bytes, "
+        "the same on every machine; TCP peers must prove they hold it and datagrams carry a MAC");
+    app.add_flag("--insecure", config.insecure,
+                 "listen beyond loopback without a secret (anyone who reaches the daemon can use it)");
     app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
     try {
         app.parse(argc, argv);
@@ -135,6 +197,18 @@ int main(int argc, char** argv) {
             config.names_state = names_state;
         config.socket_path = socket;
         config.node = node;
+        auto secret = plexus::daemon::load_deployment_secret(secret_file);
+        if (!secret)
+            throw std::runtime_error(secret.error().message);
+        config.secret = *secret;
+        std::vector<std::string> listening{config.listen.host};
+        if (embedded)
+            listening.push_back(config.names.host);
+        if (auto allowed = plexus::daemon::check_listening(listening, config.secret.has_value(),
+                                                           config.insecure, "plexusd");
+            !allowed) {
+            throw std::runtime_error(allowed.error().message);
+        }
     } catch (const std::exception& e) {
         std::cerr << "plexusd: " << e.what() << '\n';
         return 2;

@@ -19,6 +19,7 @@
 #include "plexus/proto/hello.hpp"
 #include "plexus/proto/message.hpp"
 #include "plexus/proto/shm.hpp"
+#include "tcp_handshake.hpp"
 
 namespace plexus::detail {
 
@@ -53,9 +54,12 @@ Connection::WriterRegion::~WriterRegion() {
     ::close(fd);
 }
 
-Connection::Connection(int fd, std::string description) : fd_(fd), path_(std::move(description)) {
+Connection::Connection(int fd, std::string description, bool greeted)
+    : fd_(fd), path_(std::move(description)) {
     try {
         in_.resize(read_chunk);
+        if (greeted)
+            return;
         std::lock_guard lock(send_mutex_);
         out_ = proto::encode_hello({proto::protocol_version, "client", ""});
         send_locked();
@@ -122,7 +126,13 @@ std::shared_ptr<Connection> Connection::to_tcp(const std::string& address) {
         throw Error(ErrorCode::refused, "cannot reach " + address + ": " + std::strerror(error));
     const int one = 1;
     ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-    return std::make_shared<Connection>(fd, address);
+    try {
+        tcp_handshake(fd, address, std::chrono::milliseconds(10000));
+    } catch (...) {
+        ::close(fd);
+        throw;
+    }
+    return std::make_shared<Connection>(fd, address, true);
 }
 
 Connection::~Connection() {

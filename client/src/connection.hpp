@@ -47,7 +47,8 @@ public:
     /// Connects over TCP to a name server (or a daemon) at HOST:PORT.
     static std::shared_ptr<Connection> to_tcp(const std::string& address);
     /// Takes a connected socket; sends our hello.
-    Connection(int fd, std::string description);
+    /// `greeted`: the hellos were already exchanged (tcp_handshake); else it sends its hello now.
+    Connection(int fd, std::string description, bool greeted = false);
     ~Connection();
     Connection(const Connection&) = delete;
     Connection& operator=(const Connection&) = delete;

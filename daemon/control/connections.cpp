@@ -164,8 +164,9 @@ Task<ControlPlane::SendingEnd> ControlPlane::open_sending_end(std::shared_ptr<Po
     const std::string source = port->name();
     SendingEnd end;
     const proto::Hello hello = our_hello("link");
+    const auto secret = host_.config().secret;
     auto peer = co_await Peer::connect(executor_, endpoint, hello, host_.config().max_frame, peer_timeout,
-                                       space_notifier());
+                                       space_notifier(), secret);
     if (!peer) {
         end.answer = refuse("cannot reach the daemon of " + destination + ": " + peer.error().message);
         co_return end;
@@ -250,6 +251,16 @@ Task<proto::Reply> ControlPlane::attach(std::shared_ptr<Session> session, const 
         co_return refuse("bad carrier: " + carrier.error().message);
     if (auto valid = proto::validate_carrier(*carrier); !valid)
         co_return refuse(valid.error().message);
+    // A link carries only a source that lives on its own node (the node its hello named, which the
+    // deployment secret vouches for): no daemon feeds another's port under a third one's name.
+    const std::string link_node = session->peer_hello().node;
+    auto owner = co_await host_.names().lookup(source);
+    if (!owner)
+        co_return refuse("cannot attach " + source + ": " + owner.error().message);
+    if (owner->node != link_node) {
+        co_return refuse("port " + source + " lives on node '" + owner->node +
+                         "', and this link comes from node '" + link_node + "': refused");
+    }
     const InletSpec spec{port, source, *carrier, carrier->text(), request.body.value("strict", false)};
     auto wired = wire_inlet(host_.scripts(), host_.clock(), spec);
     if (!wired)

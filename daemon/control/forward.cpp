@@ -36,8 +36,10 @@ Task<proto::Reply> ControlPlane::forward(const proto::Request& request, const st
     if (!endpoint)
         co_return refuse("the name server gave a bad address for " + port + ": " + where);
     const proto::Hello hello = our_hello("daemon");
+    const std::function<void()> no_space;
+    const auto secret = host_.config().secret;
     auto peer = co_await Peer::connect(executor_, *endpoint, hello, host_.config().max_frame, peer_timeout,
-                                       std::function<void()>{});
+                                       no_space, secret);
     if (!peer)
         co_return refuse("cannot reach the daemon of " + port + ": " + peer.error().message);
     auto body = request.body;

@@ -77,6 +77,7 @@ nlohmann::json ControlPlane::stats_json(const std::string& only_port) const {
               {"sessions_accepted", counters.sessions_accepted},
               {"accept_errors", counters.accept_errors},
               {"protocol_errors", counters.protocol_errors},
+              {"auth_failures", counters.auth_failures},
               {"dropped_unknown_port", counters.dropped_unknown_port},
               {"dropped_link_down", counters.dropped_link_down},
               {"shm_passed", counters.shm_passed},

@@ -30,12 +30,13 @@ nlohmann::json NameClient::register_node_body() const {
 }
 
 NameClient::NameClient(asio::io_context& io, proto::Endpoint names, std::string node, std::string address,
-                       std::size_t max_frame)
+                       std::size_t max_frame, std::optional<proto::Secret> secret)
     : io_(io),
       names_(std::move(names)),
       node_(std::move(node)),
       address_(std::move(address)),
       max_frame_(max_frame),
+      secret_(std::move(secret)),
       state_changed_(io.get_executor()) {}
 
 void NameClient::start() {
@@ -151,11 +152,12 @@ Task<void> NameClient::run() {
     auto delay = std::chrono::steady_clock::duration(first_retry);
     bool warned = false;
     while (!stopped_) {
+        const std::function<void()> no_space;
         proto::Hello hello_out;
         hello_out.role = std::string("daemon");
         hello_out.node = node_;
-        auto connected_peer =
-            co_await Peer::connect(io_.get_executor(), names_, hello_out, max_frame_, request_timeout);
+        auto connected_peer = co_await Peer::connect(io_.get_executor(), names_, hello_out, max_frame_,
+                                                     request_timeout, no_space, secret_);
         if (stopped_)
             co_return;
         if (!connected_peer) {

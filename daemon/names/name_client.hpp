@@ -17,7 +17,7 @@ namespace plexus::daemon::names {
 class NameClient {
 public:
     NameClient(asio::io_context& io, proto::Endpoint names, std::string node, std::string address,
-               std::size_t max_frame);
+               std::size_t max_frame, std::optional<proto::Secret> secret = {});
 
     void start();
     void stop();
@@ -61,6 +61,7 @@ private:
     std::string node_;
     std::string address_;
     std::size_t max_frame_;
+    std::optional<proto::Secret> secret_;
     std::shared_ptr<Peer> peer_;
     Signal state_changed_;
     bool registered_ = false;

@@ -38,6 +38,7 @@ protected:
         send(proto::encode_reply(server_.answer(*request, id_)));
         co_return true;
     }
+    void on_auth_failure(const std::string&) override { server_.count_auth_failure(); }
     void on_closed(const std::string& reason) override {
         spdlog::debug("names: session {} closed: {}", id_, reason);
         server_.session_closed(id_);
@@ -199,6 +200,7 @@ Task<void> NameServer::accept_loop() {
         socket.set_option(asio::ip::tcp::no_delay(true), ec);
         auto session = std::make_shared<NameSession>(Socket(std::move(socket)), *this, next_session_++);
         session->set_description("names session");
+        session->require_secret(config_.secret);
         session->start({proto::protocol_version, "names", ""});
     }
 }
@@ -225,6 +227,10 @@ Task<void> NameServer::udp_loop() {
                                                  : "a datagram must hold exactly one request frame");
         } else if (auto request = proto::decode_request(decoded.fields); !request) {
             answer = proto::make_error_frame("bad request: " + request.error().message);
+        } else if (config_.secret) {
+            // A datagram cannot prove it holds the secret: with one, look-ups are for TCP peers.
+            answer = proto::encode_reply(proto::make_refusal(
+                request->id, ReplyCode::refused, "this name server has a deployment secret: ask over TCP"));
         } else {
             answer = proto::encode_reply(this->answer(*request, 0));
             if (answer.size() > max_datagram) {
@@ -260,7 +266,7 @@ proto::Reply NameServer::handle(const proto::Request& request, std::uint64_t ses
     };
 
     if (asked == op::ping)
-        return ok({{"names", endpoint().text()}});
+        return ok({{"names", endpoint().text()}, {"auth_failures", auth_failures_}});
     if (asked == op::lookup) {
         auto entry = registry_.lookup(text_field(body, "port"));
         if (!entry)
@@ -313,7 +319,7 @@ proto::Reply NameServer::handle(const proto::Request& request, std::uint64_t ses
             }
         }
         auto status =
-            registry_.remove_connection(text_field(body, "source"), text_field(body, "destination"));
+            registry_.remove_connection(text_field(body, "source"), text_field(body, "destination"), session);
         if (forget)
             save_state();
         return status_reply(status);

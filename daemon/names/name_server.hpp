@@ -6,6 +6,7 @@
 #include <string>
 
 #include "../net/asio.hpp"
+#include "plexus/proto/auth.hpp"
 #include "plexus/proto/control.hpp"
 #include "plexus/proto/endpoint.hpp"
 #include "registry.hpp"
@@ -20,6 +21,8 @@ struct NameServerConfig {
     /// The multicast group it answers discovery queries on; none = no discovery. Only joined when
     /// it listens beyond loopback (a query never reaches a loopback-only name server anyway).
     std::optional<proto::Endpoint> discovery;
+    /// The deployment secret: every TCP peer must prove it holds it (see FramedConnection).
+    std::optional<proto::Secret> secret;
 };
 
 /// The name server: ports and daemons over TCP; the same port number over UDP answers the
@@ -41,6 +44,9 @@ public:
     proto::Reply answer(const proto::Request& request, std::uint64_t session);
     void session_closed(std::uint64_t session);
     std::size_t max_frame() const { return config_.max_frame; }
+    /// Peers that failed to prove they hold the secret.
+    void count_auth_failure() { ++auth_failures_; }
+    std::uint64_t auth_failures() const { return auth_failures_; }
 
 private:
     Task<void> accept_loop();
@@ -58,6 +64,7 @@ private:
     asio::ip::udp::socket udp_;
     asio::ip::udp::socket discovery_;
     std::uint64_t next_session_ = 1;
+    std::uint64_t auth_failures_ = 0;
     bool stopped_ = false;
 };
 

@@ -79,13 +79,27 @@ std::optional<PortEntry> Registry::lookup(const std::string& name) const {
     return it->second;
 }
 
-proto::Status Registry::add_connection(ConnectionEntry entry, std::uint64_t session) {
-    if (!node_of_session(session, nullptr))
+proto::Status Registry::owns_source(const std::string& source, std::uint64_t session) const {
+    std::string node_name;
+    if (!node_of_session(session, &node_name))
         return proto::Error{"register the node before its connections"};
+    // A connection is made and unmade by the daemon of its source: only that node may change it.
+    const auto it = ports_.find(source);
+    if (it == ports_.end())
+        return proto::Error{"port " + source + " is not registered"};
+    if (it->second.node != node_name)
+        return proto::Error{"port " + source + " belongs to node '" + it->second.node + "', not '" +
+                            node_name + "'"};
+    return proto::Ok{};
+}
+
+proto::Status Registry::add_connection(ConnectionEntry entry, std::uint64_t session) {
     for (const auto* name : {&entry.source, &entry.destination}) {
         if (auto error = proto::port_name_error(*name))
             return proto::Error{*error};
     }
+    if (auto owned = owns_source(entry.source, session); !owned)
+        return owned;
     if (entry.carrier.size() > max_carrier_text)
         return proto::Error{"carrier longer than " + std::to_string(max_carrier_text) + " bytes"};
     for (auto& existing : connections_) {
@@ -102,7 +116,10 @@ proto::Status Registry::add_connection(ConnectionEntry entry, std::uint64_t sess
     return proto::Ok{};
 }
 
-proto::Status Registry::remove_connection(const std::string& source, const std::string& destination) {
+proto::Status Registry::remove_connection(const std::string& source, const std::string& destination,
+                                          std::uint64_t session) {
+    if (auto owned = owns_source(source, session); !owned)
+        return owned;
     auto before = connections_.size();
     std::erase_if(connections_, [&](const ConnectionEntry& c) {
         return c.source == source && c.destination == destination;

@@ -39,7 +39,9 @@ public:
     std::optional<PortEntry> lookup(const std::string& name) const;
 
     proto::Status add_connection(ConnectionEntry entry, std::uint64_t session);
-    proto::Status remove_connection(const std::string& source, const std::string& destination);
+    /// Only the node that owns `source` may add or remove its connections.
+    proto::Status remove_connection(const std::string& source, const std::string& destination,
+                                    std::uint64_t session);
     /// Persistent connections that name `port` at either end.
     std::vector<ConnectionEntry> persistent_for(const std::string& port) const;
     std::vector<ConnectionEntry> persistent() const;
@@ -61,6 +63,7 @@ private:
         Clock::time_point orphaned_at;
     };
     const Node* node_of_session(std::uint64_t session, std::string* name) const;
+    proto::Status owns_source(const std::string& source, std::uint64_t session) const;
     void remove_ports_of(const std::string& node, std::vector<std::string>& removed);
 
     Clock::duration grace_;

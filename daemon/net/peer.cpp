@@ -18,7 +18,8 @@ Peer::Peer(Socket socket, std::size_t max_frame, std::function<void()> on_space,
 Task<proto::Result<std::shared_ptr<Peer>>> Peer::connect(asio::any_io_executor executor,
                                                          proto::Endpoint endpoint, proto::Hello mine,
                                                          std::size_t max_frame, Duration timeout,
-                                                         std::function<void()> on_space) {
+                                                         std::function<void()> on_space,
+                                                         std::optional<proto::Secret> secret) {
     using namespace asio::experimental::awaitable_operators;
     using Outcome = proto::Result<std::shared_ptr<Peer>>;
     const std::string where = endpoint.text();
@@ -44,6 +45,7 @@ Task<proto::Result<std::shared_ptr<Peer>>> Peer::connect(asio::any_io_executor e
     tcp_socket.set_option(asio::ip::tcp::no_delay(true));
 
     auto peer = std::make_shared<Peer>(Socket(std::move(tcp_socket)), max_frame, std::move(on_space), where);
+    peer->require_secret(std::move(secret));
     peer->start(mine);
     const auto left = deadline.expiry() - std::chrono::steady_clock::now();
     if (!co_await peer->wait_for_hello(left)) {

@@ -24,7 +24,8 @@ public:
     static Task<proto::Result<std::shared_ptr<Peer>>> connect(asio::any_io_executor executor,
                                                               proto::Endpoint endpoint, proto::Hello mine,
                                                               std::size_t max_frame, Duration timeout,
-                                                              std::function<void()> on_space = {});
+                                                              std::function<void()> on_space = {},
+                                                              std::optional<proto::Secret> secret = {});
 
     Peer(Socket socket, std::size_t max_frame, std::function<void()> on_space, std::string description);
 

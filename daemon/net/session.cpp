@@ -393,6 +393,10 @@ Task<void> Session::wait_for_space() {
         close("the peer went away while held back by a full reader");
 }
 
+void Session::on_auth_failure(const std::string&) {
+    ++daemon_.counters().auth_failures;
+}
+
 void Session::on_closed(const std::string& reason) {
     spdlog::debug("{} closed: {}", description(), reason);
     shm_regions_.clear();

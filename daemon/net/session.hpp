@@ -55,6 +55,7 @@ protected:
     FrameAction on_frame_now(InFrame& frame) override;
     Task<bool> on_frame(InFrame frame) override;
     void on_closed(const std::string& reason) override;
+    void on_auth_failure(const std::string& reason) override;
 
 private:
     enum class DataOutcome { delivered, blocked, stop };

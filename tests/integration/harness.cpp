@@ -148,10 +148,29 @@ std::string any_port(const Host* host) {
 
 }  // namespace
 
+const std::string& test_secret_file() {
+    // One secret for every host of this test program, in a file only its owner may read (as the
+    // daemons demand); removed when the program exits.
+    static const std::string path = [] {
+        std::string pattern = (std::filesystem::temp_directory_path() / "plexus-secret-XXXXXX").string();
+        const int fd = ::mkstemp(pattern.data());
+        if (fd < 0)
+            throw std::runtime_error("mkstemp failed for the test secret");
+        const std::string secret = "test-deployment-secret-" + std::to_string(::getpid()) + "-0123456789";
+        if (::write(fd, secret.data(), secret.size()) != static_cast<ssize_t>(secret.size()))
+            throw std::runtime_error("cannot write the test secret");
+        ::close(fd);
+        static const std::string remove_at_exit = pattern;
+        std::atexit([] { std::filesystem::remove(remove_at_exit); });
+        return pattern;
+    }();
+    return path;
+}
+
 const std::vector<std::string>& beyond_loopback_flags() {
-    // One place for what a server needs before it may listen on a host's address (an
-    // --insecure or --secret-file once the daemon asks for one), so every multi-host test follows.
-    static const std::vector<std::string> flags{};
+    // One place for what a server needs before it may listen on a host's address, so every
+    // multi-host test follows: the deployment secret.
+    static const std::vector<std::string> flags{"--secret-file", test_secret_file()};
     return flags;
 }
 
@@ -204,9 +223,12 @@ long Daemon::rss_kib() const {
 }
 
 std::map<std::string, std::string> Daemon::env() const {
-    if (discovers_)
-        return {{"PLEXUS_SOCKET", socket_}};  // the CLI finds the name server as its daemon did
-    return {{"PLEXUS_SOCKET", socket_}, {"PLEXUS_NAMES", names_}};
+    std::map<std::string, std::string> env{{"PLEXUS_SOCKET", socket_}};
+    if (!discovers_)
+        env["PLEXUS_NAMES"] = names_;  // else the CLI finds the name server as its daemon did
+    if (host_)
+        env["PLEXUS_SECRET_FILE"] = test_secret_file();  // a CLI on a host holds the secret too
+    return env;
 }
 
 NameServerProcess::NameServerProcess(const TempDir& dir, const std::vector<std::string>& extra) {

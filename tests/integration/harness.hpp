@@ -70,8 +70,11 @@ private:
     std::string err_path_;
 };
 
-/// Flags a plexusd or plexus-names needs to listen beyond loopback (empty while none is needed).
+/// Flags a plexusd or plexus-names needs to listen beyond loopback: --secret-file with the test
+/// secret.
 const std::vector<std::string>& beyond_loopback_flags();
+/// The deployment secret of this test program's hosts (a 0600 file, removed at exit).
+const std::string& test_secret_file();
 
 /// Pass as `names` to make a daemon find its name server itself (no --names, no PLEXUS_NAMES): by
 /// multicast discovery, inside a host of a Network only.

@@ -933,10 +933,13 @@ TEST(Hostile_test, ALinkThatSendsABrokenRecordIsCutOffAndTheReaderIsUnharmed) {
     auto source = good.open("/victim/source");
     ASSERT_EQ(good.connect("/victim/source", "/victim/sink"), "local");
     auto hostile = Stream::tcp(daemon.address());
-    ASSERT_TRUE(hostile.send(concat(hello_frame("link"), request_frame(1, {{"op", "attach"},
-                                                                           {"source", "/evil/out"},
-                                                                           {"destination", "/victim/sink"},
-                                                                           {"carrier", "tcp"}}))));
+    // On loopback without a secret a node name is only claimed: the link claims the source's
+    // node, so its attach passes (see the next test for one that does not).
+    ASSERT_TRUE(hostile.send(concat(proto::encode_hello({proto::protocol_version, "link", "solo"}),
+                                    request_frame(1, {{"op", "attach"},
+                                                      {"source", "/victim/source"},
+                                                      {"destination", "/victim/sink"},
+                                                      {"carrier", "tcp"}}))));
     auto attached = hostile.reply_to(1);
     ASSERT_TRUE(attached.has_value());
     ASSERT_EQ(attached->code, proto::ReplyCode::ok) << attached->body.dump();
@@ -958,6 +961,29 @@ TEST(Hostile_test, ALinkThatSendsABrokenRecordIsCutOffAndTheReaderIsUnharmed) {
     EXPECT_EQ(first->data, Value("fine"));
     EXPECT_EQ(first->envelope.source, "/victim/source");
     EXPECT_TRUE(daemon.process().running());
+}
+
+TEST(Hostile_test, ALinkMayNotAttachASourceOfAnotherNode) {
+    TempDir dir;
+    Daemon daemon(dir, "solo");
+    Client good({daemon.socket()});
+    auto sink = good.open("/victim/sink");
+    auto source = good.open("/victim/source");
+    for (const std::string& forged : {"/victim/source", "/not/registered"}) {
+        auto hostile = Stream::tcp(daemon.address());
+        ASSERT_TRUE(
+            hostile.send(concat(hello_frame("link"), request_frame(1, {{"op", "attach"},
+                                                                       {"source", forged},
+                                                                       {"destination", "/victim/sink"},
+                                                                       {"carrier", "tcp"}}))));
+        auto attached = hostile.reply_to(1);
+        ASSERT_TRUE(attached.has_value());
+        EXPECT_EQ(attached->code, proto::ReplyCode::refused) << attached->body.dump();
+        EXPECT_NE(attached->body.value("error", std::string{}).find(forged), std::string::npos)
+            << attached->body.dump();
+    }
+    auto stats = good.stats("/victim/sink");
+    EXPECT_TRUE(stats["ports"][0]["inbound"].empty()) << stats.dump();
 }
 
 /// Says hello as a client on `stream` and opens `port`: its handle, or nullopt (and a test

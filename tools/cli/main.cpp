@@ -1,4 +1,5 @@
 // plexus: the command-line tool. Parses the command line and hands over to one command.
+#include <cstdlib>
 #include <iostream>
 
 #include <CLI/CLI.hpp>
@@ -19,6 +20,11 @@ int main(int argc, char** argv) {
                    "discovery, 127.0.0.1:10100; see `plexus where`)");
     app.add_option("--socket", common.socket, "local daemon socket (env PLEXUS_SOCKET)")
         ->capture_default_str();
+    std::string secret_file;
+    app.add_option(
+           "--secret-file", secret_file,
+           "the deployment secret, to talk to a name server or daemon over TCP (env PLEXUS_SECRET_FILE)")
+        ->each([](const std::string& path) { ::setenv("PLEXUS_SECRET_FILE", path.c_str(), 1); });
     int status = 0;
 
     bool json = false;

@@ -20,6 +20,7 @@ TEST(Registry_test, WhatAPeerRegistersIsCheckedAndBounded) {
     EXPECT_FALSE(registry.register_node(std::string(300, 'n'), "h:1", 1).ok());
     EXPECT_FALSE(registry.register_node("n", std::string(300, 'a'), 1).ok());
     ASSERT_TRUE(registry.register_node("n", "h:1", 1).ok());
+    ASSERT_TRUE(registry.register_port("/a", 1).ok());
     auto bad_name = registry.add_connection({"not a port", "/b", "tcp", false}, 1);
     ASSERT_FALSE(bad_name.ok());
     EXPECT_FALSE(registry.add_connection({"/a", "/b", std::string(5000, 'c'), false}, 1).ok());
@@ -93,6 +94,24 @@ TEST(Registry_test, UnregisteringAPortDropsItsLiveConnectionsButKeepsPersistentO
     EXPECT_EQ(list["connections"][0]["source"], "/b");
     EXPECT_EQ(list["connections"][0]["live"], false);
     EXPECT_EQ(registry.persistent_for("/a").size(), 1u);
+}
+
+TEST(Registry_test, OnlyTheNodeOfTheSourceChangesItsConnections) {
+    Registry registry(2s);
+    ASSERT_TRUE(registry.register_node("arm", "h:1", 1).ok());
+    ASSERT_TRUE(registry.register_node("head", "h:2", 2).ok());
+    ASSERT_TRUE(registry.register_port("/arm/out", 1).ok());
+    ASSERT_TRUE(registry.register_port("/head/in", 2).ok());
+
+    auto forged = registry.add_connection({"/arm/out", "/head/in", "tcp", true}, 2);
+    ASSERT_FALSE(forged.ok());
+    EXPECT_EQ(forged.error().message, "port /arm/out belongs to node 'arm', not 'head'");
+    EXPECT_FALSE(registry.add_connection({"/nowhere", "/head/in", "tcp", false}, 2).ok());
+    ASSERT_TRUE(registry.add_connection({"/arm/out", "/head/in", "tcp", true}, 1).ok());
+    EXPECT_FALSE(registry.remove_connection("/arm/out", "/head/in", 2).ok());
+    EXPECT_FALSE(registry.unregister_port("/arm/out", 2).ok());
+    EXPECT_EQ(registry.list()["connections"].size(), 1u);
+    EXPECT_TRUE(registry.remove_connection("/arm/out", "/head/in", 1).ok());
 }
 
 }  // namespace

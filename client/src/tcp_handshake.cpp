@@ -1,0 +1,141 @@
+#include "tcp_handshake.hpp"
+
+#include <poll.h>
+#include <sys/socket.h>
+
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+#include <optional>
+
+#include "plexus/client.hpp"
+#include "plexus/proto/auth.hpp"
+#include "plexus/proto/frame.hpp"
+#include "plexus/proto/hello.hpp"
+
+namespace plexus::detail {
+
+namespace {
+
+/// Reads frames from a blocking socket one at a time, never past the frame it returns... except
+/// what one recv brings: the peer sends nothing unasked after its hello and proof, so nothing is
+/// lost here (anything extra is a protocol error).
+class FrameFeed {
+public:
+    FrameFeed(int fd, std::string address, std::chrono::steady_clock::time_point deadline)
+        : fd_(fd), address_(std::move(address)), deadline_(deadline) {}
+
+    /// The next frame's type and fields (copied).
+    std::pair<proto::FrameType, proto::Bytes> next() {
+        const proto::FrameDecoder decoder(64 * 1024);
+        for (;;) {
+            const auto decoded = decoder.decode(buffer_);
+            if (decoded.status == proto::DecodeStatus::frame) {
+                proto::Bytes fields(decoded.fields.begin(), decoded.fields.end());
+                const auto type = decoded.type;
+                buffer_.erase(buffer_.begin(), buffer_.begin() + static_cast<std::ptrdiff_t>(decoded.used));
+                return {type, std::move(fields)};
+            }
+            if (decoded.status == proto::DecodeStatus::bad)
+                throw Error(ErrorCode::refused, address_ + " is not a Plexus peer: " + decoded.error);
+            receive();
+        }
+    }
+    bool empty() const { return buffer_.empty(); }
+
+private:
+    void receive() {
+        const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+            deadline_ - std::chrono::steady_clock::now());
+        pollfd ready{fd_, POLLIN, 0};
+        if (left.count() <= 0 || ::poll(&ready, 1, static_cast<int>(left.count())) <= 0)
+            throw Error(ErrorCode::timeout, "no hello from " + address_ + " in time");
+        std::uint8_t chunk[4096];
+        const ssize_t n = ::recv(fd_, chunk, sizeof chunk, 0);
+        if (n == 0)
+            throw Error(ErrorCode::refused, address_ + " closed the connection during the hello");
+        if (n < 0 && errno != EINTR)
+            throw Error(ErrorCode::refused, "reading from " + address_ + ": " + std::strerror(errno));
+        if (n > 0)
+            buffer_.insert(buffer_.end(), chunk, chunk + n);
+    }
+
+    int fd_;
+    std::string address_;
+    std::chrono::steady_clock::time_point deadline_;
+    proto::Bytes buffer_;
+};
+
+void send_all(int fd, const proto::Bytes& bytes, const std::string& address) {
+    std::size_t sent = 0;
+    while (sent < bytes.size()) {
+        const ssize_t n = ::send(fd, bytes.data() + sent, bytes.size() - sent, MSG_NOSIGNAL);
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n < 0)
+            throw Error(ErrorCode::refused, "sending to " + address + ": " + std::strerror(errno));
+        sent += static_cast<std::size_t>(n);
+    }
+}
+
+std::optional<proto::Secret> secret_from_environment() {
+    const char* path = std::getenv("PLEXUS_SECRET_FILE");
+    if (!path || !*path)
+        return std::nullopt;
+    auto secret = proto::Secret::load(path);
+    if (!secret)
+        throw Error(ErrorCode::usage, secret.error().message);
+    return *secret;
+}
+
+/// A frame that is not what was expected: the peer's error frame says why it refused us.
+[[noreturn]] void refused_by(const std::string& address, proto::FrameType type, const proto::Bytes& fields,
+                             const char* expected) {
+    if (type == proto::FrameType::error)
+        throw Error(ErrorCode::refused, address + " refused: " + std::string(fields.begin(), fields.end()));
+    throw Error(ErrorCode::refused, address + " sent " +
+                                        proto::frame_type_name(static_cast<std::uint8_t>(type)) + " where " +
+                                        expected + " was expected");
+}
+
+}  // namespace
+
+void tcp_handshake(int fd, const std::string& address, std::chrono::milliseconds timeout) {
+    const auto secret = secret_from_environment();
+    proto::Hello mine{proto::protocol_version, "client", ""};
+    if (secret) {
+        mine.nonce = proto::random_nonce();
+        mine.has_secret = true;
+    }
+    send_all(fd, proto::encode_hello(mine), address);
+    FrameFeed feed(fd, address, std::chrono::steady_clock::now() + timeout);
+    auto [type, fields] = feed.next();
+    if (type != proto::FrameType::hello)
+        refused_by(address, type, fields, "a hello");
+    auto hello = proto::decode_hello(fields);
+    if (!hello)
+        throw Error(ErrorCode::refused, address + " sent a bad hello: " + hello.error().message);
+    if (!secret) {
+        if (hello->has_secret) {
+            // It will refuse us; its error frame says so in its own words.
+            auto [refusal, reason] = feed.next();
+            refused_by(address, refusal, reason, "nothing");
+        }
+        return;
+    }
+    if (!hello->has_secret) {
+        throw Error(ErrorCode::refused, address +
+                                            " did not offer to prove it holds the deployment secret "
+                                            "(it runs without --secret-file): not trusted");
+    }
+    send_all(fd, proto::encode_auth(secret->prove(hello->nonce, mine.nonce, mine.role, mine.node)), address);
+    auto [proof_type, proof] = feed.next();
+    if (proof_type != proto::FrameType::auth)
+        refused_by(address, proof_type, proof, "its proof");
+    if (!proto::same_proof(secret->prove(mine.nonce, hello->nonce, hello->role, hello->node), proof))
+        throw Error(ErrorCode::refused, address + " does not hold the deployment secret: not trusted");
+    if (!feed.empty())
+        throw Error(ErrorCode::refused, address + " sent frames before it was asked anything");
+}
+
+}  // namespace plexus::detail
