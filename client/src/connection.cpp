@@ -767,8 +767,11 @@ void Connection::dispatch(proto::FrameType type, proto::ByteView fields) {
                 it->second = std::move(*reply);
             return;
         }
-        case proto::FrameType::error:
-            return fail("the daemon reported: " + std::string(proto::as_string_view(fields)));
+        case proto::FrameType::error: {
+            const auto reason = proto::decode_error(fields);
+            return fail("the daemon reported: " +
+                        (reason ? *reason : std::string(proto::as_string_view(fields))));
+        }
         case proto::FrameType::shm_region:
         case proto::FrameType::shm_free:
         case proto::FrameType::shm_region_gone:

@@ -91,8 +91,11 @@ std::optional<proto::Secret> secret_from_environment() {
 /// A frame that is not what was expected: the peer's error frame says why it refused us.
 [[noreturn]] void refused_by(const std::string& address, proto::FrameType type, const proto::Bytes& fields,
                              const char* expected) {
-    if (type == proto::FrameType::error)
-        throw Error(ErrorCode::refused, address + " refused: " + std::string(fields.begin(), fields.end()));
+    if (type == proto::FrameType::error) {
+        const auto reason = proto::decode_error(fields);
+        throw Error(ErrorCode::refused,
+                    address + " refused: " + (reason ? *reason : std::string("(no reason)")));
+    }
     throw Error(ErrorCode::refused, address + " sent " +
                                         proto::frame_type_name(static_cast<std::uint8_t>(type)) + " where " +
                                         expected + " was expected");

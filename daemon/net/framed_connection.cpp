@@ -152,7 +152,11 @@ Task<void> FramedConnection::read_loop() {
         }
         InFrame& frame = *outcome.frame;
         if (frame.type == proto::FrameType::error) {
-            close("peer reported an error: " + std::string(proto::as_string_view(frame.fields)));
+            // The reason is a string field (length, then text); a reason that does not decode is
+            // shown as the bytes that came.
+            const auto reason = proto::decode_error(frame.fields);
+            close("peer reported an error: " +
+                  (reason ? *reason : std::string(proto::as_string_view(frame.fields))));
             break;
         }
         if (!peer_hello_) {
