@@ -44,6 +44,13 @@ std::optional<Message> DatagramStream::take(const proto::DatagramView& datagram,
     }
     const auto count = proto::fragment_count(h.length, h.fragment_size);
     if (count == 1) {
+        if (unfinished_.contains(h.message)) {
+            // Disagrees with fragments that came before it under the same number (only a broken or
+            // forged sender does that). Handing it on would leave the unfinished one behind
+            // `next_`, where nothing ever frees it or counts it.
+            ++counters_.late;
+            return std::nullopt;
+        }
         // The common case, a message in one datagram: no bookkeeping, one copy.
         auto storage = std::make_shared<Chunk>(datagram.fragment.size());
         if (!datagram.fragment.empty())

@@ -2,6 +2,7 @@
 
 #include <sys/socket.h>
 
+#include <algorithm>
 #include <array>
 
 #include <spdlog/spdlog.h>
@@ -208,7 +209,9 @@ void UdpCarrier::take(proto::ByteView bytes, const asio::ip::udp::endpoint& from
 Task<void> UdpCarrier::expire_loop() {
     asio::steady_timer tick(io_);
     while (!stopped_) {
-        tick.expires_after(config_.reassembly_timeout / 4);
+        // At least a millisecond: a tiny timeout must not make this loop spin.
+        tick.expires_after(std::max<std::chrono::milliseconds>(config_.reassembly_timeout / 4,
+                                                               std::chrono::milliseconds(1)));
         auto [ec] = co_await tick.async_wait(use_nothrow);
         if (ec || stopped_)
             co_return;

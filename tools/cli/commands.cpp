@@ -262,6 +262,14 @@ int stats(const Common& common, const std::string& port, bool json) {
             std::cout << "    -> " << pad(c.value("destination", ""), 24) << pad(c.value("carrier", ""), 10)
                       << "sent " << c.value("sent", 0) << ", dropped by monitors "
                       << c.value("dropped_by_monitor", 0) << '\n';
+            if (c.contains("udp")) {
+                // What the udp carrier did with what the connection sent.
+                const auto& udp = c["udp"];
+                std::cout << "         udp: " << udp.value("messages", 0) << " messages in "
+                          << udp.value("datagrams", 0) << " datagrams, dropped too large "
+                          << udp.value("dropped_too_large", 0) << " / not sent (socket full) "
+                          << udp.value("dropped_send", 0) << '\n';
+            }
             print_monitors(c);
         }
         for (const auto& c : p.value("inbound", Value::array())) {
@@ -271,6 +279,13 @@ int stats(const Common& common, const std::string& port, bool json) {
                       << c.value("dropped_by_constraint", 0) << " / priority "
                       << c.value("dropped_by_priority", 0) << " / queue " << c.value("dropped_by_queue", 0)
                       << ", script errors " << c.value("script_errors", 0) << '\n';
+            if (c.contains("lost")) {
+                // A datagram carrier (udp): what never arrived whole, or arrived too late or to a
+                // full queue.
+                std::cout << "         lost " << c.value("lost", 0) << " (of which incomplete "
+                          << c.value("incomplete", 0) << "), late " << c.value("late", 0) << ", dropped full "
+                          << c.value("dropped_full", 0) << '\n';
+            }
             print_monitors(c);
         }
     }

@@ -134,5 +134,31 @@ TEST_F(Reassembly_test, TooManyUnfinishedMessagesMakeTheOldestGiveWay) {
     EXPECT_LE(stream.held_bytes(), 7u * 2000u);
 }
 
+TEST_F(Reassembly_test, AOneDatagramMessageUnderTheNumberOfAnUnfinishedOneLeavesNothingBehind) {
+    // Message 0 is begun in fragments; a datagram then says message 0 is one datagram long (a
+    // broken or forged sender). Handed on, it used to leave the unfinished message 0 behind the
+    // stream's position: never expired, never counted, holding its bytes of the daemon's budget
+    // for good, and outside the bound on unfinished messages.
+    auto big = send(0, 3000, 1000);
+    EXPECT_FALSE(stream.take(big.views[0], now));
+    auto single = send(0, 10, 1400);
+    EXPECT_FALSE(stream.take(single.views[0], now));
+    EXPECT_EQ(stream.counters().late, 1u);
+    EXPECT_FALSE(stream.take(big.views[1], now));
+    auto done = stream.take(big.views[2], now);
+    ASSERT_TRUE(done);
+    EXPECT_TRUE(intact(*done, 3000));
+    EXPECT_EQ(budget->bytes, 0u);
+
+    // The same when the unfinished one is never finished: it expires and frees its bytes.
+    auto other = send(1, 3000, 1000);
+    stream.take(other.views[0], now);
+    EXPECT_FALSE(stream.take(send(1, 10, 1400).views[0], now));
+    stream.expire(now + 1s);
+    EXPECT_EQ(stream.counters().lost, 1u);
+    EXPECT_EQ(stream.held_bytes(), 0u);
+    EXPECT_EQ(budget->bytes, 0u);
+}
+
 }  // namespace
 }  // namespace plexus::daemon
