@@ -23,7 +23,7 @@ Daemon::Daemon(asio::io_context& io, DaemonConfig config)
       space_(io.get_executor()),
       tcp_acceptor_(io),
       unix_acceptor_(io),
-      udp_(io, config_.udp),
+      udp_(io, config_.udp, config_.secret),
       signals_(io, SIGINT, SIGTERM),
       control_(io.get_executor(), *this) {
     scripts_ = std::make_unique<ScriptHost>(io_, *this);

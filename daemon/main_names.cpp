@@ -34,6 +34,15 @@ int main(int argc, char** argv) {
                    "default " +
                        std::string(plexus::proto::default_discovery_group) +
                        "; only when listening beyond loopback)");
+    std::string mcast_range = "239.255.81.0/24";
+    int mcast_port = 10102;
+    app.add_option(
+           "--mcast-range", mcast_range,
+           "multicast groups given to source ports for the mcast carrier, as A.B.C.D/PREFIX (16 to 32)")
+        ->capture_default_str();
+    app.add_option("--mcast-port", mcast_port, "the UDP port of every mcast group")
+        ->check(CLI::Range(1, 65535))
+        ->capture_default_str();
     std::string secret_file;
     bool insecure = false;
     app.add_option("--secret-file", secret_file,
@@ -73,6 +82,26 @@ int main(int argc, char** argv) {
     plexus::daemon::names::NameServerConfig config{*endpoint, state, std::chrono::milliseconds(grace_ms)};
     config.discovery = *group;
     config.secret = *secret;
+    {
+        // A.B.C.D/PREFIX inside 224.0.0.0/4, at most 65,536 groups.
+        const auto slash = mcast_range.find('/');
+        boost::system::error_code ec;
+        const auto first = boost::asio::ip::make_address_v4(mcast_range.substr(0, slash), ec);
+        int prefix = -1;
+        try {
+            prefix = slash == std::string::npos ? -1 : std::stoi(mcast_range.substr(slash + 1));
+        } catch (const std::exception&) {
+        }
+        if (ec || !first.is_multicast() || prefix < 16 || prefix > 32) {
+            std::cerr << "plexus-names: --mcast-range " << mcast_range
+                      << ": expected a multicast A.B.C.D/PREFIX with PREFIX 16 to 32, e.g. 239.255.81.0/24\n";
+            return 2;
+        }
+        const std::uint32_t count = 1u << (32 - prefix);
+        config.mcast_first = first.to_uint() & ~(count - 1);
+        config.mcast_count = count;
+        config.mcast_port = static_cast<std::uint16_t>(mcast_port);
+    }
     plexus::daemon::names::NameServer server(io, config);
     if (auto started = server.start(); !started) {
         std::cerr << "plexus-names: " << started.error().message << '\n';

@@ -20,9 +20,36 @@ namespace plexus::daemon {
 namespace {
 using proto::ReplyCode;
 
-/// True for carriers whose data travels in datagrams beside the TCP link (udp).
-bool is_datagram_carrier(const std::string& carrier_text) {
-    return carrier_text == "udp" || carrier_text.rfind("udp+", 0) == 0;
+/// True when the carrier text's base is `base` ("udp", "mcast").
+bool has_base(const std::string& carrier_text, const std::string& base) {
+    return carrier_text == base || carrier_text.rfind(base + "+", 0) == 0;
+}
+
+/// The send-side clauses of a carrier, as text ("" when none): what mcast connections of one port
+/// must agree on.
+std::string send_clauses(const std::string& carrier_text) {
+    auto parsed = proto::parse_carrier(carrier_text);
+    if (!parsed)
+        return {};
+    proto::Carrier sends;
+    sends.base = parsed->base;
+    for (const auto& clause : parsed->clauses) {
+        if (clause.side == proto::Side::send)
+            sends.clauses.push_back(clause);
+    }
+    return sends.clauses.empty() ? std::string{} : sends.text();
+}
+
+/// "A.B.C.D:PORT" as a multicast endpoint; nullopt when it is not one.
+std::optional<asio::ip::udp::endpoint> group_endpoint(const std::string& text) {
+    auto parsed = proto::parse_endpoint(text);
+    if (!parsed)
+        return std::nullopt;
+    boost::system::error_code ec;
+    const auto address = asio::ip::make_address(parsed->host, ec);
+    if (ec || !address.is_multicast() || parsed->port == 0)
+        return std::nullopt;
+    return asio::ip::udp::endpoint(address, parsed->port);
 }
 }  // namespace
 
@@ -145,6 +172,16 @@ Task<proto::Reply> ControlPlane::connect_remote(const proto::Request& request, s
     connection->remote = true;
     connection->sink = end.sink;
     connection->send_chain = std::move(send_chain);
+    if (auto* mcast = dynamic_cast<McastLink*>(end.sink.get())) {
+        // The send-side monitors of mcast run once per message, in the port's one sender, not
+        // once per connection: all mcast connections of a port share them.
+        if (auto shared =
+                mcast->share_send_monitors(std::move(connection->send_chain), send_clauses(carrier));
+            !shared) {
+            end.peer->close("send monitors differ");
+            co_return refuse(shared.error().message);
+        }
+    }
     if (auto added = host_.router().add(port, connection); !added) {
         end.peer->close("duplicate");
         co_return refuse(added.error().message);
@@ -163,6 +200,17 @@ Task<ControlPlane::SendingEnd> ControlPlane::open_sending_end(std::shared_ptr<Po
                                                               proto::Endpoint endpoint, bool strict) {
     const std::string source = port->name();
     SendingEnd end;
+    std::string group;
+    if (has_base(carrier, "mcast")) {
+        // One group per source port, given out by the name server: every daemon with a reader
+        // joins it, and this daemon sends each message there once.
+        auto given = co_await host_.names().mcast_group(source);
+        if (!given) {
+            end.answer = refuse("no multicast group for " + source + ": " + given.error().message);
+            co_return end;
+        }
+        group = *given;
+    }
     const proto::Hello hello = our_hello("link");
     const auto secret = host_.config().secret;
     auto peer = co_await Peer::connect(executor_, endpoint, hello, host_.config().max_frame, peer_timeout,
@@ -179,6 +227,8 @@ Task<ControlPlane::SendingEnd> ControlPlane::open_sending_end(std::shared_ptr<Po
                                   {"destination", destination},
                                   {"carrier", carrier},
                                   {"strict", strict}};
+    if (!group.empty())
+        attach_body["group"] = group;
     auto attached = co_await link_peer->request(attach_body, peer_timeout);
     if (!attached || attached->code != ReplyCode::ok) {
         link_peer->close("attach refused");
@@ -191,7 +241,14 @@ Task<ControlPlane::SendingEnd> ControlPlane::open_sending_end(std::shared_ptr<Po
         co_return end;
     }
     end.answer = *attached;
-    if (is_datagram_carrier(carrier)) {
+    if (!group.empty()) {
+        // mcast: every message goes once to the source port's group, whatever the connections.
+        auto sender = host_.udp().mcast_sender(source, *group_endpoint(group));
+        end.peer = link_peer;
+        end.sink = std::make_shared<McastLink>(std::move(sender), link_peer);
+        co_return end;
+    }
+    if (has_base(carrier, "udp")) {
         // udp: every message leaves at once as datagrams to the stream the receiver opened; the
         // link stays open beside it, and its closing ends the connection.
         auto sink =
@@ -278,6 +335,24 @@ Task<proto::Reply> ControlPlane::attach(std::shared_ptr<Session> session, const 
         session->hold_while_linked(stream);
     }
     // tcp: the link session itself feeds the inlet, with the data frames the sending daemon writes.
+    if (carrier->base == "mcast") {
+        // mcast: join the source port's group, which the name server (not the sender) vouches for.
+        const std::string asked = text(request.body, "group");
+        auto given = co_await host_.names().mcast_group(source);
+        if (!given)
+            co_return refuse("no multicast group for " + source + ": " + given.error().message);
+        const auto group = group_endpoint(*given);
+        if (!group || asked != *given)
+            co_return refuse("the group " + asked + " is not the one the name server gives " + source);
+        const auto sender = session->remote_ip();
+        if (!sender)
+            co_return refuse("the mcast carrier needs a link over TCP");
+        auto joined = host_.udp().join_group(*group, wired->inlet, *sender);
+        if (!joined)
+            co_return refuse(joined.error().message);
+        wired->inlet->datagrams = UdpCarrier::datagrams(**joined);
+        session->hold_while_linked(*joined);
+    }
     session->become_link(wired->inlet);
     std::weak_ptr<Session> weak = session;
     port->on_close(weak, [weak] {

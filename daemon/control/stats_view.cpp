@@ -31,6 +31,19 @@ nlohmann::json ControlPlane::stats_json(const std::string& only_port) const {
                                  {"dropped_by_monitor", c->dropped_by_monitor}};
             if (const auto* link = dynamic_cast<const Link*>(c->sink.get()))
                 entry["queued"] = link->queued();
+            if (const auto* mcast = dynamic_cast<const McastLink*>(c->sink.get())) {
+                // The port's one sending end: every mcast connection of the port shows the same.
+                const auto& sent = mcast->sender().counters();
+                entry["mcast"] = {{"group", mcast->sender().group().address().to_string() + ":" +
+                                                std::to_string(mcast->sender().group().port())},
+                                  {"messages_sent_once", sent.messages},
+                                  {"datagrams", sent.datagrams},
+                                  {"dropped_too_large", sent.dropped_too_large},
+                                  {"dropped_send", sent.dropped_send},
+                                  {"dropped_by_monitor", sent.dropped_by_monitor}};
+                if (const auto& shared = mcast->sender().send_monitors())
+                    entry["monitors"] = shared->stats();
+            }
             if (const auto* udp = dynamic_cast<const UdpLink*>(c->sink.get())) {
                 const auto& sent = udp->counters();
                 entry["udp"] = {{"messages", sent.messages},
@@ -91,6 +104,7 @@ nlohmann::json ControlPlane::stats_json(const std::string& only_port) const {
               {"udp_unknown_stream", host_.udp().counters().unknown_stream},
               {"udp_wrong_sender", host_.udp().counters().wrong_sender},
               {"udp_send_failures", host_.udp().counters().send_failures},
+              {"udp_bad_mac", host_.udp().counters().bad_mac},
               {"udp_reassembly_bytes", host_.udp().budget().bytes},
               {"monitor_published", scripts.published()},
               {"monitor_publish_dropped", scripts.publish_dropped()}}}};

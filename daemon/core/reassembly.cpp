@@ -38,6 +38,10 @@ void DatagramStream::skip_to(std::uint64_t message) {
 std::optional<Message> DatagramStream::take(const proto::DatagramView& datagram, Clock::time_point now) {
     const auto& h = datagram.header;
     ++counters_.datagrams;
+    if (limits_.start_anywhere && !started_) {
+        started_ = true;
+        next_ = h.message;
+    }
     if (h.message < next_) {
         ++counters_.late;
         return std::nullopt;

@@ -44,6 +44,9 @@ public:
     struct Limits {
         std::size_t max_unfinished = 8;  ///< messages being put together at once
         Clock::duration timeout = std::chrono::seconds(1);
+        /// Take the first message seen as the start (a multicast group joined mid-stream), rather
+        /// than counting every message before it as lost.
+        bool start_anywhere = false;
     };
 
     DatagramStream(std::shared_ptr<ReassemblyBudget> budget, Limits limits)
@@ -76,6 +79,7 @@ private:
     std::shared_ptr<ReassemblyBudget> budget_;
     Limits limits_;
     std::uint64_t next_ = 0;  ///< the oldest message neither handed on nor counted lost
+    bool started_ = false;    ///< with start_anywhere: a first datagram has set next_
     std::map<std::uint64_t, Unfinished> unfinished_;
     DatagramCounters counters_;
 };

@@ -113,6 +113,15 @@ Task<proto::Result<PortEntry>> NameClient::lookup(std::string port) {
                         reply->body.value("address", std::string{})};
 }
 
+Task<proto::Result<std::string>> NameClient::mcast_group(std::string port) {
+    using Outcome = proto::Result<std::string>;
+    nlohmann::json body = {{"op", op::mcast_group}, {"port", port}};
+    auto reply = co_await ask(std::move(body));
+    if (!reply)
+        co_return Outcome(reply.error());
+    co_return Outcome(reply->body.value("group", std::string{}));
+}
+
 Task<proto::Status> NameClient::add_connection(ConnectionEntry connection) {
     nlohmann::json body = {{"op", op::add_connection},
                            {"source", connection.source},

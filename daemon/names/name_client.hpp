@@ -34,6 +34,8 @@ public:
     /// Where a port lives; an Error "port X does not exist" when it is not registered.
     Task<proto::Result<PortEntry>> lookup(std::string port);
     Task<proto::Status> add_connection(ConnectionEntry connection);
+    /// The multicast group ("A.B.C.D:PORT") the name server gives `port`.
+    Task<proto::Result<std::string>> mcast_group(std::string port);
     /// `forget`: also forget a persistent connection (a disconnect), not only mark it down.
     Task<proto::Status> remove_connection(std::string source, std::string destination, bool forget);
 

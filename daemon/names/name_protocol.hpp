@@ -16,7 +16,8 @@ inline constexpr const char* register_port = "register_port";
 inline constexpr const char* unregister_port = "unregister_port";
 inline constexpr const char* add_connection = "add_connection";
 inline constexpr const char* remove_connection = "remove_connection";
-inline constexpr const char* discover = "discover";  ///< multicast only: where is the name server
+inline constexpr const char* mcast_group = "mcast_group";  ///< the multicast group of a source port
+inline constexpr const char* discover = "discover";        ///< multicast only: where is the name server
 }  // namespace op
 
 struct PortEntry {

@@ -57,12 +57,9 @@ std::string text_field(const nlohmann::json& body, const char* key) {
 }  // namespace
 
 NameServer::NameServer(asio::io_context& io, NameServerConfig config)
-    : io_(io),
-      config_(std::move(config)),
-      registry_(config_.grace),
-      acceptor_(io),
-      udp_(io),
-      discovery_(io) {}
+    : io_(io), config_(std::move(config)), registry_(config_.grace), acceptor_(io), udp_(io), discovery_(io) {
+    registry_.set_mcast_range(config_.mcast_first, config_.mcast_count, config_.mcast_port);
+}
 
 NameServer::~NameServer() {
     stop();
@@ -277,6 +274,12 @@ proto::Reply NameServer::handle(const proto::Request& request, std::uint64_t ses
         return ok(registry_.list());
     if (session == 0)
         return refuse("'" + asked + "' is not available over UDP; use TCP", ReplyCode::usage);
+    if (asked == op::mcast_group) {
+        auto group = registry_.mcast_group(text_field(body, "port"));
+        if (!group)
+            return refuse(group.error().message);
+        return ok({{"group", *group}});
+    }
 
     if (asked == op::register_node) {
         auto status = registry_.register_node(text_field(body, "node"), text_field(body, "address"), session);

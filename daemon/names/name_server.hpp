@@ -23,6 +23,11 @@ struct NameServerConfig {
     std::optional<proto::Endpoint> discovery;
     /// The deployment secret: every TCP peer must prove it holds it (see FramedConnection).
     std::optional<proto::Secret> secret;
+    /// Where mcast groups are given out from (one per source port asking): a first IPv4 group
+    /// address and a count, all on one UDP port.
+    std::uint32_t mcast_first = (239u << 24) | (255u << 16) | (81u << 8);  // 239.255.81.0
+    std::uint32_t mcast_count = 256;
+    std::uint16_t mcast_port = 10102;
 };
 
 /// The name server: ports and daemons over TCP; the same port number over UDP answers the

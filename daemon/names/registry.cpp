@@ -205,4 +205,28 @@ nlohmann::json Registry::list() const {
     return {{"ports", ports}, {"connections", connections}};
 }
 
+proto::Result<std::string> Registry::mcast_group(const std::string& port) {
+    if (!ports_.contains(port))
+        return proto::Error{"port " + port + " is not registered"};
+    auto it = mcast_groups_.find(port);
+    if (it == mcast_groups_.end()) {
+        if (mcast_groups_.size() >= mcast_count_) {
+            return proto::Error{"all " + std::to_string(mcast_count_) +
+                                " multicast groups of the name server's range are given out"};
+        }
+        // The lowest offset not in use (groups are few: a scan is fine).
+        std::vector<bool> used(mcast_count_, false);
+        for (const auto& [name, offset] : mcast_groups_)
+            used[offset] = true;
+        std::uint32_t offset = 0;
+        while (used[offset])
+            ++offset;
+        it = mcast_groups_.emplace(port, offset).first;
+    }
+    const std::uint32_t address = mcast_first_ + it->second;
+    return std::to_string(address >> 24) + "." + std::to_string((address >> 16) & 0xff) + "." +
+           std::to_string((address >> 8) & 0xff) + "." + std::to_string(address & 0xff) + ":" +
+           std::to_string(mcast_port_);
+}
+
 }  // namespace plexus::daemon::names

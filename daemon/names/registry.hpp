@@ -53,6 +53,18 @@ public:
     /// Returns the names of the ports removed.
     std::vector<std::string> expire(Clock::time_point now);
 
+    /// The multicast group of `port` ("A.B.C.D:PORT"), given out from the range the first time it
+    /// is asked for and the same for as long as this name server runs. An Error when the port is
+    /// not registered or the range is used up.
+    proto::Result<std::string> mcast_group(const std::string& port);
+    /// The range groups are given out from: `first` (an IPv4 multicast address, as a number),
+    /// `count` addresses, all on UDP port `udp_port`.
+    void set_mcast_range(std::uint32_t first, std::uint32_t count, std::uint16_t udp_port) {
+        mcast_first_ = first;
+        mcast_count_ = count;
+        mcast_port_ = udp_port;
+    }
+
     nlohmann::json list() const;
     std::size_t port_count() const { return ports_.size(); }
 
@@ -70,6 +82,10 @@ private:
     std::map<std::string, Node> nodes_;
     std::map<std::string, PortEntry> ports_;
     std::vector<ConnectionEntry> connections_;
+    std::map<std::string, std::uint32_t> mcast_groups_;                     ///< port -> offset in the range
+    std::uint32_t mcast_first_ = (239u << 24) | (255u << 16) | (81u << 8);  // 239.255.81.0
+    std::uint32_t mcast_count_ = 256;
+    std::uint16_t mcast_port_ = 10102;
 };
 
 }  // namespace plexus::daemon::names

@@ -8,6 +8,7 @@
 #include <spdlog/spdlog.h>
 
 #include "../core/batch.hpp"
+#include "../monitor/chain.hpp"
 #include "plexus/proto/datagram.hpp"
 #include "plexus/proto/message.hpp"
 
@@ -22,20 +23,36 @@ constexpr std::size_t datagrams_per_call = 64;
 constexpr int socket_buffer_bytes = 8 * 1024 * 1024;
 }  // namespace
 
+struct UdpCarrier::Group {
+    explicit Group(asio::io_context& io) : socket(io) {}
+    asio::ip::udp::socket socket;
+    std::weak_ptr<Stream> stream;
+    std::string key;
+};
+
 struct UdpCarrier::Stream {
-    std::uint64_t id = 0;
-    std::weak_ptr<Inlet> inlet;
+    std::uint64_t id = 0;                      ///< 0 for a multicast group's stream
+    std::vector<std::weak_ptr<Inlet>> inlets;  ///< one for udp; every connection of the group for mcast
     asio::ip::address sender;
     std::shared_ptr<DatagramStream> datagrams;
     UdpCarrier* carrier = nullptr;
+    std::shared_ptr<Group> group;  ///< mcast: the joined group, left with the last handle
     ~Stream() {
-        if (carrier)
+        if (carrier && id != 0)
             carrier->streams_.erase(id);
+        if (group) {
+            boost::system::error_code ignored;
+            group->socket.close(ignored);  // ends its loop; closing leaves the group
+        }
     }
 };
 
-UdpCarrier::UdpCarrier(asio::io_context& io, UdpConfig config)
-    : io_(io), config_(config), socket_(io), budget_(std::make_shared<ReassemblyBudget>()) {
+UdpCarrier::UdpCarrier(asio::io_context& io, UdpConfig config, std::optional<proto::Secret> secret)
+    : io_(io),
+      config_(config),
+      secret_(std::move(secret)),
+      socket_(io),
+      budget_(std::make_shared<ReassemblyBudget>()) {
     budget_->max_bytes = config_.reassembly_bytes;
 }
 
@@ -44,6 +61,12 @@ UdpCarrier::~UdpCarrier() {
     for (auto& [id, weak] : streams_) {
         if (auto stream = weak.lock())
             stream->carrier = nullptr;
+    }
+    for (auto& [key, weak] : groups_) {
+        if (auto group = weak.lock()) {
+            if (auto stream = group->stream.lock())
+                stream->carrier = nullptr;
+        }
     }
 }
 
@@ -57,7 +80,13 @@ proto::Status UdpCarrier::bind(const asio::ip::address& address, std::uint16_t p
         return proto::Error{"cannot listen on UDP " + address.to_string() + ":" + std::to_string(port) +
                             " (the udp carrier uses the TCP port's number): " + ec.message()};
     }
+    interface_ = address;
     socket_.non_blocking(true, ec);
+    // Multicast leaves by the listening address's interface, and goes as far as configured.
+    if (address.is_v4() && !address.is_unspecified())
+        socket_.set_option(asio::ip::multicast::outbound_interface(address.to_v4()), ec);
+    socket_.set_option(asio::ip::multicast::hops(config_.mcast_ttl), ec);
+    socket_.set_option(asio::ip::multicast::enable_loopback(true), ec);
     socket_.set_option(asio::socket_base::send_buffer_size(socket_buffer_bytes), ec);
     socket_.set_option(asio::socket_base::receive_buffer_size(socket_buffer_bytes), ec);
     return proto::Ok{};
@@ -72,6 +101,10 @@ void UdpCarrier::stop() {
     stopped_ = true;
     boost::system::error_code ignored;
     socket_.close(ignored);
+    for (auto& [key, weak] : groups_) {
+        if (auto group = weak.lock())
+            group->socket.close(ignored);
+    }
 }
 
 std::uint16_t UdpCarrier::port() const {
@@ -84,7 +117,7 @@ std::shared_ptr<UdpCarrier::Stream> UdpCarrier::open_stream(std::weak_ptr<Inlet>
                                                             asio::ip::address sender) {
     auto stream = std::make_shared<Stream>();
     stream->id = next_stream_++;
-    stream->inlet = std::move(inlet);
+    stream->inlets.push_back(std::move(inlet));
     stream->sender = std::move(sender);
     DatagramStream::Limits limits;
     limits.timeout = config_.reassembly_timeout;
@@ -92,6 +125,71 @@ std::shared_ptr<UdpCarrier::Stream> UdpCarrier::open_stream(std::weak_ptr<Inlet>
     stream->carrier = this;
     streams_[stream->id] = stream;
     return stream;
+}
+
+proto::Result<std::shared_ptr<UdpCarrier::Stream>> UdpCarrier::join_group(
+    const asio::ip::udp::endpoint& group, std::weak_ptr<Inlet> inlet, asio::ip::address sender) {
+    using Outcome = proto::Result<std::shared_ptr<Stream>>;
+    const std::string key = group.address().to_string() + ":" + std::to_string(group.port());
+    if (auto known = groups_.find(key); known != groups_.end()) {
+        if (auto joined = known->second.lock()) {
+            if (auto stream = joined->stream.lock()) {
+                if (stream->sender != sender)
+                    return Outcome(proto::Error{"group " + key + " is already fed by another daemon"});
+                stream->inlets.push_back(std::move(inlet));
+                return Outcome(stream);
+            }
+        }
+    }
+    if (!group.address().is_v4() || !group.address().is_multicast())
+        return Outcome(proto::Error{key + " is not an IPv4 multicast group"});
+    if (interface_.is_loopback())
+        return Outcome(proto::Error{"mcast needs a daemon listening on a network interface, not loopback"});
+    auto joined = std::make_shared<Group>(io_);
+    joined->key = key;
+    boost::system::error_code ec;
+    joined->socket.open(asio::ip::udp::v4(), ec);
+    if (!ec)
+        joined->socket.set_option(asio::socket_base::reuse_address(true), ec);
+    if (!ec)
+        joined->socket.bind(group, ec);  // bound to the group: only its datagrams arrive
+    if (!ec) {
+        if (interface_.is_v4() && !interface_.is_unspecified())
+            joined->socket.set_option(
+                asio::ip::multicast::join_group(group.address().to_v4(), interface_.to_v4()), ec);
+        else
+            joined->socket.set_option(asio::ip::multicast::join_group(group.address()), ec);
+    }
+    if (!ec)
+        joined->socket.non_blocking(true, ec);
+    if (ec)
+        return Outcome(proto::Error{"cannot join multicast group " + key + ": " + ec.message()});
+    joined->socket.set_option(asio::socket_base::receive_buffer_size(socket_buffer_bytes), ec);
+    auto stream = std::make_shared<Stream>();
+    stream->inlets.push_back(std::move(inlet));
+    stream->sender = std::move(sender);
+    DatagramStream::Limits limits;
+    limits.timeout = config_.reassembly_timeout;
+    limits.start_anywhere = true;  // a group may have sent long before this daemon joined
+    stream->datagrams = std::make_shared<DatagramStream>(budget_, limits);
+    stream->carrier = this;
+    stream->group = joined;
+    joined->stream = stream;
+    groups_[key] = joined;
+    asio::co_spawn(io_, group_loop(joined), asio::detached);
+    spdlog::info("joined multicast group {} on {}", key, interface_.to_string());
+    return Outcome(stream);
+}
+
+std::shared_ptr<McastSender> UdpCarrier::mcast_sender(const std::string& source,
+                                                      const asio::ip::udp::endpoint& group) {
+    if (auto known = senders_.find(source); known != senders_.end()) {
+        if (auto sender = known->second.lock(); sender && sender->group() == group)
+            return sender;
+    }
+    auto sender = std::make_shared<McastSender>(*this, group, source);
+    senders_[source] = sender;
+    return sender;
 }
 
 std::uint64_t UdpCarrier::id(const Stream& stream) {
@@ -106,10 +204,12 @@ bool UdpCarrier::send(const asio::ip::udp::endpoint& to, std::uint64_t stream, s
                       proto::ByteView record) {
     const std::size_t fragment = config_.fragment_bytes;
     const auto count = proto::fragment_count(record.size(), fragment);
-    // Headers of one sendmmsg call, each in its own slot; the fragments are sent from the record
-    // itself (gather), not copied.
+    const bool signing = secret_.has_value();
+    // Headers (and MACs) of one sendmmsg call, each in its own slot; the fragments are sent from
+    // the record itself (gather), not copied.
     std::array<std::array<std::uint8_t, proto::max_datagram_header>, datagrams_per_call> headers{};
-    std::array<iovec, datagrams_per_call * 2> pieces{};
+    std::array<std::array<std::uint8_t, proto::datagram_mac_size>, datagrams_per_call> macs{};
+    std::array<iovec, datagrams_per_call * 3> pieces{};
     std::array<mmsghdr, datagrams_per_call> messages{};
     proto::Bytes header;
     std::uint64_t index = 0;
@@ -118,18 +218,25 @@ bool UdpCarrier::send(const asio::ip::udp::endpoint& to, std::uint64_t stream, s
         for (std::size_t i = 0; i < batch; ++i) {
             const std::uint64_t fragment_index = index + i;
             header.clear();
-            proto::append_datagram_header(header,
-                                          {stream, message, record.size(), fragment, fragment_index, false});
+            proto::append_datagram_header(
+                header, {stream, message, record.size(), fragment, fragment_index, signing});
             std::copy(header.begin(), header.end(), headers[i].begin());
             const std::size_t begin = fragment_index * fragment;
             const std::size_t size = std::min(record.size() - begin, fragment);
-            pieces[2 * i] = {headers[i].data(), header.size()};
-            pieces[2 * i + 1] = {const_cast<std::uint8_t*>(record.data() + begin), size};
+            const proto::ByteView body(record.data() + begin, size);
+            std::size_t used = 0;
+            pieces[3 * i + used++] = {headers[i].data(), header.size()};
+            if (size != 0)
+                pieces[3 * i + used++] = {const_cast<std::uint8_t*>(body.data()), size};
+            if (signing) {
+                secret_->datagram_mac({headers[i].data(), header.size()}, body, macs[i].data());
+                pieces[3 * i + used++] = {macs[i].data(), macs[i].size()};
+            }
             messages[i] = {};
             messages[i].msg_hdr.msg_name = const_cast<void*>(static_cast<const void*>(to.data()));
             messages[i].msg_hdr.msg_namelen = static_cast<socklen_t>(to.size());
-            messages[i].msg_hdr.msg_iov = &pieces[2 * i];
-            messages[i].msg_hdr.msg_iovlen = size == 0 ? 1 : 2;
+            messages[i].msg_hdr.msg_iov = &pieces[3 * i];
+            messages[i].msg_hdr.msg_iovlen = used;
         }
         const int sent =
             ::sendmmsg(socket_.native_handle(), messages.data(), static_cast<unsigned>(batch), 0);
@@ -146,8 +253,6 @@ bool UdpCarrier::send(const asio::ip::udp::endpoint& to, std::uint64_t stream, s
 }
 
 Task<void> UdpCarrier::receive_loop() {
-    std::vector<std::uint8_t> buffer(largest_datagram);
-    asio::ip::udp::endpoint from;
     while (!stopped_) {
         auto [ec] = co_await socket_.async_wait(asio::socket_base::wait_read, use_nothrow);
         if (ec) {
@@ -155,28 +260,56 @@ Task<void> UdpCarrier::receive_loop() {
                 co_return;
             continue;
         }
-        // Take everything that is waiting before going back to the event loop: a 1 MiB message
-        // arrives as hundreds of datagrams.
-        for (;;) {
-            boost::system::error_code receive_error;
-            const std::size_t n = socket_.receive_from(asio::buffer(buffer), from, 0, receive_error);
-            if (receive_error)
-                break;
-            ++counters_.datagrams_received;
-            take({buffer.data(), n}, from);
-        }
+        drain(socket_, nullptr);
     }
 }
 
-void UdpCarrier::take(proto::ByteView bytes, const asio::ip::udp::endpoint& from) {
+Task<void> UdpCarrier::group_loop(std::shared_ptr<Group> group) {
+    while (!stopped_ && group->socket.is_open()) {
+        auto [ec] = co_await group->socket.async_wait(asio::socket_base::wait_read, use_nothrow);
+        if (ec)
+            co_return;  // closed: its last connection went, or the daemon stops
+        auto stream = group->stream.lock();
+        if (!stream)
+            co_return;
+        drain(group->socket, stream.get());
+    }
+}
+
+void UdpCarrier::drain(asio::ip::udp::socket& socket, Stream* fixed) {
+    // Take everything that is waiting before going back to the event loop: a 1 MiB message
+    // arrives as hundreds of datagrams.
+    thread_local std::vector<std::uint8_t> buffer(largest_datagram);
+    asio::ip::udp::endpoint from;
+    for (;;) {
+        boost::system::error_code receive_error;
+        const std::size_t n = socket.receive_from(asio::buffer(buffer), from, 0, receive_error);
+        if (receive_error)
+            return;
+        ++counters_.datagrams_received;
+        take({buffer.data(), n}, from, fixed);
+    }
+}
+
+void UdpCarrier::take(proto::ByteView bytes, const asio::ip::udp::endpoint& from, Stream* fixed) {
     auto decoded = proto::decode_datagram(bytes, config_.max_message);
     if (!decoded) {
         ++counters_.bad_datagrams;
         spdlog::debug("udp: bad datagram from {}: {}", from.address().to_string(), decoded.error().message);
         return;
     }
-    const auto it = streams_.find(decoded->header.stream);
-    auto stream = it == streams_.end() ? nullptr : it->second.lock();
+    if (secret_ &&
+        (!decoded->header.has_mac || !secret_->datagram_mac_ok(decoded->signed_part, decoded->mac))) {
+        // Checked before the stream sees it: a forged datagram must not move its position.
+        ++counters_.bad_mac;
+        return;
+    }
+    std::shared_ptr<Stream> looked_up;
+    if (!fixed) {
+        const auto it = streams_.find(decoded->header.stream);
+        looked_up = it == streams_.end() ? nullptr : it->second.lock();
+    }
+    Stream* stream = fixed ? fixed : looked_up.get();
     if (!stream) {
         ++counters_.unknown_stream;
         return;
@@ -188,22 +321,25 @@ void UdpCarrier::take(proto::ByteView bytes, const asio::ip::udp::endpoint& from
     auto message = stream->datagrams->take(*decoded, DatagramStream::Clock::now());
     if (!message)
         return;
-    auto inlet = stream->inlet.lock();
-    if (!inlet || inlet->port()->closed())
-        return;
-    // The record must be the connection's source's: a sender may only carry what it attached.
     const auto record = proto::decode_record(message->record);
-    if (!record || record->source != inlet->source()) {
-        ++counters_.bad_datagrams;
-        spdlog::debug("udp: a message on stream {} is not from {}: dropped", stream->id, inlet->source());
-        return;
+    std::erase_if(stream->inlets, [](const std::weak_ptr<Inlet>& inlet) { return inlet.expired(); });
+    for (const auto& weak : stream->inlets) {
+        auto inlet = weak.lock();
+        if (!inlet || inlet->port()->closed())
+            continue;
+        // The record must be the connection's source's: a sender may only carry what it attached.
+        if (!record || record->source != inlet->source()) {
+            ++counters_.bad_datagrams;
+            spdlog::debug("udp: a message is not from {}: dropped", inlet->source());
+            return;
+        }
+        if (inlet->full()) {
+            // A strict queue that is full cannot hold a datagram writer back: the message is dropped.
+            ++inlet->dropped_full;
+            continue;
+        }
+        inlet->deliver(*message);
     }
-    if (inlet->full()) {
-        // A strict queue that is full cannot hold a udp writer back: the message is dropped.
-        ++inlet->dropped_full;
-        return;
-    }
-    inlet->deliver(*message);
 }
 
 Task<void> UdpCarrier::expire_loop() {
@@ -220,7 +356,63 @@ Task<void> UdpCarrier::expire_loop() {
             if (auto stream = weak.lock())
                 stream->datagrams->expire(now);
         }
+        std::erase_if(groups_, [](const auto& entry) { return entry.second.expired(); });
+        for (auto& [key, weak] : groups_) {
+            if (auto group = weak.lock()) {
+                if (auto stream = group->stream.lock())
+                    stream->datagrams->expire(now);
+            }
+        }
     }
+}
+
+McastSender::~McastSender() = default;
+
+proto::Status McastSender::share_send_monitors(std::shared_ptr<monitor::MonitorChain> chain,
+                                               const std::string& clauses) {
+    if (!clauses_) {
+        clauses_ = clauses;
+        chain_ = std::move(chain);
+        return proto::Ok{};
+    }
+    if (*clauses_ != clauses) {
+        return proto::Error{"mcast connections of " + source_ +
+                            " share one stream and so its send-side monitors: "
+                            "they are '" +
+                            *clauses_ + "', not '" + clauses + "'"};
+    }
+    return proto::Ok{};  // the new connection's own chain goes: the shared one serves it
+}
+
+void McastSender::deliver(const Message& message) {
+    // Every mcast connection of the port hands over the same unit, one after the other: send it
+    // for the first only.
+    if (last_.storage == message.storage && last_.record.data() == message.record.data() &&
+        last_.record.size() == message.record.size() && message.storage) {
+        return;
+    }
+    last_ = message;
+    for_each_record(message, [this](const Message& record) {
+        Message single = record;
+        if (chain_ && !chain_->process(single)) {
+            ++counters_.dropped_by_monitor;
+            return;
+        }
+        if (single.record.size() > carrier_.config().max_message) {
+            if (counters_.dropped_too_large++ == 0) {
+                spdlog::warn(
+                    "mcast {}: a message of {} bytes is larger than the limit {} (udp_max_message): "
+                    "dropped; such drops are counted in stats",
+                    source_, single.record.size(), carrier_.config().max_message);
+            }
+            return;
+        }
+        if (carrier_.send(group_, 0, next_message_++, single.record))
+            ++counters_.messages;
+        else
+            ++counters_.dropped_send;
+        counters_.datagrams += proto::fragment_count(single.record.size(), carrier_.config().fragment_bytes);
+    });
 }
 
 void UdpLink::deliver(const Message& message) {

@@ -4,15 +4,24 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include "../core/inlet.hpp"
 #include "../core/reassembly.hpp"
 #include "asio.hpp"
 #include "peer.hpp"
+#include "plexus/proto/auth.hpp"
 #include "plexus/proto/bytes.hpp"
 #include "udp_config.hpp"
 
 namespace plexus::daemon {
+
+class McastSender;
+namespace monitor {
+struct MonitorChain;
+}
 
 /// Daemon-wide counters of the carrier (`plexus stats`, under "daemon").
 struct UdpCounters {
@@ -22,6 +31,7 @@ struct UdpCounters {
     std::uint64_t unknown_stream = 0;  ///< for no stream open here (a connection that went away)
     std::uint64_t wrong_sender = 0;    ///< for a stream open here, from another address
     std::uint64_t send_failures = 0;   ///< datagrams the socket would not take (buffer full)
+    std::uint64_t bad_mac = 0;         ///< without the MAC the deployment secret calls for, or a wrong one
 };
 
 /// What one udp sending end reports (`plexus stats`, on the connection).
@@ -32,13 +42,15 @@ struct UdpSendCounters {
     std::uint64_t dropped_send = 0;       ///< not all of its datagrams left (socket buffer full)
 };
 
-/// The daemon's UDP socket for the udp carrier, bound to the address and port number of its TCP
-/// listener: it sends the datagrams of connections out of this daemon's ports and takes those of
-/// connections into them. Datagrams are only accepted for a stream opened by an `attach` on a
-/// TCP link, and only from that link's address.
+/// The daemon's datagram carriers. Its UDP socket, bound to the address and port number of its
+/// TCP listener, sends the datagrams of udp connections out of this daemon's ports and takes those
+/// of udp connections into them; one more socket per multicast group that a connection into a
+/// port here listens to. Datagrams are only accepted for a stream opened by an `attach` on a TCP
+/// link, only from that link's address, only with records of the attached source, and, with the
+/// deployment secret, only with a good MAC.
 class UdpCarrier {
 public:
-    UdpCarrier(asio::io_context& io, UdpConfig config);
+    UdpCarrier(asio::io_context& io, UdpConfig config, std::optional<proto::Secret> secret = {});
     ~UdpCarrier();
     UdpCarrier(const UdpCarrier&) = delete;
     UdpCarrier& operator=(const UdpCarrier&) = delete;
@@ -55,22 +67,41 @@ public:
     /// The stream is closed when the returned handle is dropped.
     struct Stream;
     std::shared_ptr<Stream> open_stream(std::weak_ptr<Inlet> inlet, asio::ip::address sender);
+    /// Joins multicast `group` (once per group, however many connections listen to it) for a
+    /// connection into `inlet` whose source's daemon at `sender` sends there. The group is left
+    /// when the last handle is dropped.
+    proto::Result<std::shared_ptr<Stream>> join_group(const asio::ip::udp::endpoint& group,
+                                                      std::weak_ptr<Inlet> inlet, asio::ip::address sender);
     static std::uint64_t id(const Stream& stream);
     static std::shared_ptr<const DatagramStream> datagrams(const Stream& stream);
 
-    /// Sends one record to `to` as message `message` of `stream`, cut into datagrams. False if the
-    /// socket did not take all of them (the receiver will count the message lost).
+    /// Sends one record to `to` as message `message` of `stream`, cut into datagrams (each with a
+    /// MAC when there is a secret). False if the socket did not take all of them (the receiver
+    /// will count the message lost).
     bool send(const asio::ip::udp::endpoint& to, std::uint64_t stream, std::uint64_t message,
               proto::ByteView record);
+    /// The multicast sending end of a source port, shared by all of its mcast connections.
+    std::shared_ptr<McastSender> mcast_sender(const std::string& source,
+                                              const asio::ip::udp::endpoint& group);
 
 private:
+    struct Group;
     Task<void> receive_loop();
+    Task<void> group_loop(std::shared_ptr<Group> group);
     Task<void> expire_loop();
-    void take(proto::ByteView datagram, const asio::ip::udp::endpoint& from);
+    /// Drains what waits on `socket`, handing each datagram to take().
+    void drain(asio::ip::udp::socket& socket, Stream* fixed);
+    /// One datagram: on the daemon's socket `fixed` is null and the header names the stream; on a
+    /// group's socket the group is the stream.
+    void take(proto::ByteView datagram, const asio::ip::udp::endpoint& from, Stream* fixed);
 
     asio::io_context& io_;
     UdpConfig config_;
+    std::optional<proto::Secret> secret_;
     asio::ip::udp::socket socket_;
+    asio::ip::address interface_;  ///< the listening address: multicast leaves and is joined there
+    std::map<std::string, std::weak_ptr<Group>> groups_;         ///< by "group:port"
+    std::map<std::string, std::weak_ptr<McastSender>> senders_;  ///< by source port
     std::shared_ptr<ReassemblyBudget> budget_;
     std::map<std::uint64_t, std::weak_ptr<Stream>> streams_;
     std::uint64_t next_stream_ = 1;
@@ -104,6 +135,67 @@ private:
     std::string description_;
     std::uint64_t next_message_ = 0;
     UdpSendCounters counters_;
+};
+
+/// What the multicast sending end of a source port reports (`plexus stats`, on the port).
+struct McastSendCounters {
+    std::uint64_t messages = 0;   ///< sent once each, whatever the number of receiving daemons
+    std::uint64_t datagrams = 0;  ///< datagrams those took
+    std::uint64_t dropped_too_large = 0;
+    std::uint64_t dropped_send = 0;
+    std::uint64_t dropped_by_monitor = 0;  ///< dropped by the shared send-side monitors
+};
+
+/// The multicast sending end of one source port: every message goes out once, to the port's
+/// group, however many mcast connections (to however many daemons) the port has. Each of those
+/// connections hands it every message; it sends the first hand-over of each and skips the rest.
+class McastSender {
+public:
+    McastSender(UdpCarrier& carrier, asio::ip::udp::endpoint group, std::string source)
+        : carrier_(carrier), group_(std::move(group)), source_(std::move(source)) {}
+    ~McastSender();
+    void deliver(const Message& message);
+    const McastSendCounters& counters() const { return counters_; }
+    const asio::ip::udp::endpoint& group() const { return group_; }
+    /// The send-side monitors, run once per message before it goes to the group. The first mcast
+    /// connection of the port brings them (`clauses` is their carrier text, "" for none); every
+    /// later one must bring the same clauses (its own chain is then dropped), else an Error.
+    proto::Status share_send_monitors(std::shared_ptr<monitor::MonitorChain> chain,
+                                      const std::string& clauses);
+    const std::shared_ptr<monitor::MonitorChain>& send_monitors() const { return chain_; }
+
+private:
+    UdpCarrier& carrier_;
+    asio::ip::udp::endpoint group_;
+    std::string source_;
+    std::uint64_t next_message_ = 0;
+    /// The last unit sent, held so that its storage (and so its address) cannot be reused by a
+    /// later message while it is compared against.
+    Message last_;
+    McastSendCounters counters_;
+    std::optional<std::string> clauses_;  ///< set by the first connection
+    std::shared_ptr<monitor::MonitorChain> chain_;
+};
+
+/// The sending end of one mcast connection: hands every message to its port's McastSender. Like
+/// a udp connection it is never full, and the TCP link that attached it stays open beside it.
+class McastLink : public MessageSink {
+public:
+    McastLink(std::shared_ptr<McastSender> sender, std::shared_ptr<Peer> control)
+        : sender_(std::move(sender)), control_(std::move(control)) {}
+    bool full() const override { return false; }
+    std::size_t room() const override { return std::size_t{1} << 30; }
+    void deliver(const Message& message) override { sender_->deliver(message); }
+    void close_after_flush() override { control_->close_when_drained(); }
+    const McastSender& sender() const { return *sender_; }
+    proto::Status share_send_monitors(std::shared_ptr<monitor::MonitorChain> chain,
+                                      const std::string& clauses) {
+        return sender_->share_send_monitors(std::move(chain), clauses);
+    }
+
+private:
+    std::shared_ptr<McastSender> sender_;
+    std::shared_ptr<Peer> control_;
 };
 
 }  // namespace plexus::daemon

@@ -18,6 +18,8 @@ struct UdpConfig {
     std::size_t reassembly_bytes = 64u * 1024u * 1024u;
     /// An unfinished message older than this is counted lost.
     std::chrono::milliseconds reassembly_timeout{1000};
+    /// Hops a multicast datagram may travel: 1 keeps the mcast carrier on the local network.
+    int mcast_ttl = 1;
 };
 
 }  // namespace plexus::daemon

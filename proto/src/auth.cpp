@@ -10,6 +10,7 @@
 #include <openssl/crypto.h>
 #include <openssl/evp.h>
 #include <openssl/hmac.h>
+#include <openssl/params.h>
 #include <openssl/rand.h>
 
 namespace plexus::proto {
@@ -39,9 +40,14 @@ Bytes length_prefixed(std::string_view text) {
 }
 }  // namespace
 
+struct MacContextFree {
+    void operator()(EVP_MAC_CTX* context) const { ::EVP_MAC_CTX_free(context); }
+};
+
 struct Secret::Keys {
     Bytes proof_key;     ///< the secret itself: proofs are HMACs keyed by it
     Proof datagram_key;  ///< HMAC(secret, datagram label): datagrams never use the secret directly
+    std::unique_ptr<EVP_MAC_CTX, MacContextFree> datagram_context;  ///< HMAC-SHA256 keyed with it
 };
 
 Result<Secret> Secret::from_bytes(std::string_view bytes) {
@@ -53,6 +59,16 @@ Result<Secret> Secret::from_bytes(std::string_view bytes) {
     auto keys = std::make_shared<Keys>();
     keys->proof_key.assign(bytes.begin(), bytes.end());
     keys->datagram_key = hmac(keys->proof_key, {as_bytes(datagram_label)});
+    EVP_MAC* mac = ::EVP_MAC_fetch(nullptr, "HMAC", nullptr);
+    keys->datagram_context.reset(::EVP_MAC_CTX_new(mac));
+    ::EVP_MAC_free(mac);
+    char digest[] = "SHA256";
+    const OSSL_PARAM parameters[] = {OSSL_PARAM_construct_utf8_string("digest", digest, 0),
+                                     OSSL_PARAM_construct_end()};
+    if (!keys->datagram_context || ::EVP_MAC_init(keys->datagram_context.get(), keys->datagram_key.data(),
+                                                  keys->datagram_key.size(), parameters) != 1) {
+        return Error{"OpenSSL has no HMAC-SHA256 here"};
+    }
     Secret secret;
     secret.keys_ = std::move(keys);
     return secret;
@@ -82,11 +98,17 @@ Proof Secret::prove(const Nonce& challenge, const Nonce& own, std::string_view r
                 {as_bytes(proof_label), challenge, own, length_prefixed(role), length_prefixed(node)});
 }
 
-void Secret::datagram_mac(ByteView signed_part, std::uint8_t* out16) const {
+void Secret::datagram_mac(ByteView head, ByteView body, std::uint8_t* out16) const {
+    // A keyed context made once and copied per datagram: the key's two padded blocks are hashed
+    // once per secret, not once per datagram.
+    EVP_MAC_CTX* context = ::EVP_MAC_CTX_dup(keys_->datagram_context.get());
+    ::EVP_MAC_update(context, head.data(), head.size());
+    if (!body.empty())
+        ::EVP_MAC_update(context, body.data(), body.size());
     Proof full{};
-    unsigned int size = 0;
-    ::HMAC(EVP_sha256(), keys_->datagram_key.data(), static_cast<int>(keys_->datagram_key.size()),
-           signed_part.data(), signed_part.size(), full.data(), &size);
+    std::size_t size = 0;
+    ::EVP_MAC_final(context, full.data(), &size, full.size());
+    ::EVP_MAC_CTX_free(context);
     std::copy_n(full.begin(), 16, out16);
 }
 

@@ -33,12 +33,6 @@ TEST_F(Errors_test, AnUnknownCarrierIsRefusedNamingIt) {
     EXPECT_NE(result.err.find("carrier-pigeon"), std::string::npos) << result.err;
 }
 
-TEST_F(Errors_test, ACarrierThisBuildLacksIsRefusedAsUnsupported) {
-    auto result = cli({"connect", "/a", "/b", "mcast"});
-    EXPECT_EQ(result.status, 4);
-    EXPECT_NE(result.err.find("not supported by this build"), std::string::npos) << result.err;
-}
-
 TEST_F(Errors_test, AnUnknownModifierIsRefusedNamingIt) {
     auto result = cli({"connect", "/a", "/b", "tcp+recv.bogus"});
     EXPECT_EQ(result.status, 4);

@@ -214,8 +214,17 @@ TEST(ValidateCarrier_test, RefusesUnknownCarrier) {
 }
 
 TEST(ValidateCarrier_test, RefusesUnimplementedBase) {
-    EXPECT_EQ(validate_error("mcast"), "carrier 'mcast' is not supported by this build");
-    EXPECT_TRUE(validate_carrier(parse("udp+recv.portmonitor+type.lua+file.x")));
+    CarrierSupport support;
+    support.bases = {"tcp"};
+    support.unimplemented_bases = {"mcast"};
+    auto refused = validate_carrier(parse("mcast"), support);
+    ASSERT_FALSE(refused);
+    EXPECT_EQ(refused.error().message, "carrier 'mcast' is not supported by this build");
+}
+
+TEST(ValidateCarrier_test, AcceptsEveryBaseOfTheContract) {
+    for (const char* base : {"tcp", "udp", "mcast", "local"})
+        EXPECT_TRUE(validate_carrier(parse(std::string(base) + "+recv.portmonitor+type.lua+file.x"))) << base;
 }
 
 TEST(ValidateCarrier_test, AcceptsPriority) {

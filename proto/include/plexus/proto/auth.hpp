@@ -37,8 +37,12 @@ public:
     /// its own nonce | its role | its node). Binding both nonces makes a proof useless on any
     /// other connection; binding role and node makes it useless for anyone else's hello.
     Proof prove(const Nonce& challenge, const Nonce& own, std::string_view role, std::string_view node) const;
-    /// The MAC of a datagram (HMAC with a key derived for datagrams, cut to 16 bytes).
-    void datagram_mac(ByteView signed_part, std::uint8_t* out16) const;
+    /// The MAC of a datagram (HMAC with a key derived for datagrams, cut to 16 bytes) over `head`
+    /// followed by `body` (a sender's header and fragment lie apart).
+    void datagram_mac(ByteView head, ByteView body, std::uint8_t* out16) const;
+    void datagram_mac(ByteView signed_part, std::uint8_t* out16) const {
+        datagram_mac(signed_part, {}, out16);
+    }
     /// Checks a datagram's MAC in constant time.
     bool datagram_mac_ok(ByteView signed_part, ByteView mac) const;
 

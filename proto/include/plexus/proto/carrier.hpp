@@ -44,9 +44,9 @@ Result<Carrier> parse_carrier(std::string_view text);
 
 /// Modifiers this build knows; later issues add to this.
 struct CarrierSupport {
-    std::vector<std::string> bases{"tcp", "udp", "local"};
+    std::vector<std::string> bases{"tcp", "udp", "mcast", "local"};
     /// Known base carriers that this build does not implement (refused as "not supported by this build").
-    std::vector<std::string> unimplemented_bases{"mcast"};
+    std::vector<std::string> unimplemented_bases{};
     /// Known modifiers this build does not implement.
     std::vector<std::string> unimplemented_modifiers{};
     /// Modifiers this build implements; a later issue moves a name here from the list above.
