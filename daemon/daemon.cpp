@@ -7,6 +7,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "net/keepalive.hpp"
 #include "net/session.hpp"
 #include "plexus/proto/discovery.hpp"
 #include "script_host.hpp"
@@ -180,6 +181,7 @@ Task<void> Daemon::accept_tcp() {
             continue;
         }
         socket.set_option(asio::ip::tcp::no_delay(true), ec);
+        keep_alive(socket.native_handle());
         boost::system::error_code remote_error;
         auto remote = socket.remote_endpoint(remote_error);
         start_session(Socket(std::move(socket)),

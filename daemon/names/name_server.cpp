@@ -6,6 +6,7 @@
 #include <spdlog/spdlog.h>
 
 #include "../net/framed_connection.hpp"
+#include "../net/keepalive.hpp"
 #include "name_protocol.hpp"
 #include "plexus/proto/discovery.hpp"
 #include "plexus/proto/frame.hpp"
@@ -195,6 +196,7 @@ Task<void> NameServer::accept_loop() {
             continue;
         }
         socket.set_option(asio::ip::tcp::no_delay(true), ec);
+        keep_alive(socket.native_handle());
         auto session = std::make_shared<NameSession>(Socket(std::move(socket)), *this, next_session_++);
         session->set_description("names session");
         session->require_secret(config_.secret);

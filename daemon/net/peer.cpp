@@ -2,6 +2,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include "keepalive.hpp"
+
 namespace plexus::daemon {
 
 struct Peer::Pending {
@@ -43,6 +45,7 @@ Task<proto::Result<std::shared_ptr<Peer>>> Peer::connect(asio::any_io_executor e
     if (connect_error)
         co_return Outcome(proto::Error{"cannot connect to " + where + ": " + connect_error.message()});
     tcp_socket.set_option(asio::ip::tcp::no_delay(true));
+    keep_alive(tcp_socket.native_handle());
 
     auto peer = std::make_shared<Peer>(Socket(std::move(tcp_socket)), max_frame, std::move(on_space), where);
     peer->require_secret(std::move(secret));
