@@ -32,20 +32,22 @@ void check_payload(const FloorFrame& frame, std::size_t size) {
 
 class FloorLatency : public Measurement {
 public:
-    FloorLatency(const Topology& topology, const Options& options)
-        : pids_(topology.pids()),
+    FloorLatency(FloorEnds ends, const Options& options)
+        : pids_(std::move(ends.pids)),
           size_(options.size),
           count_(latency_count(options)),
           payload_(options.size, 0x5a),
-          near_(topology.near_socket(), stall_timeout),
-          far_(topology.far_socket(), 200ms) {
+          near_(std::move(ends.near)),
+          far_(std::move(ends.far)) {
+        near_->set_read_timeout(stall_timeout);
+        far_->set_read_timeout(200ms);
         echo_ = std::jthread([this](const std::stop_token& stop) { echo(stop); });
     }
 
     ~FloorLatency() override {
         echo_.request_stop();
         try {
-            near_.write(floor_frame::stop_seq, 0, {}, true);
+            near_->write(floor_frame::stop_seq, 0, {}, true);
         } catch (...) {
             // The echo thread also stops on its own within one read timeout.
         }
@@ -58,8 +60,8 @@ public:
 private:
     double round_trip() {
         const auto sent = Clock::now();
-        near_.write(seq_, now_ns(), payload_, true);
-        const auto reply = near_.read();
+        near_->write(seq_, now_ns(), payload_, true);
+        const auto reply = near_->read();
         const auto back = Clock::now();
         if (!reply) {
             std::lock_guard lock(echo_error_mutex_);
@@ -76,12 +78,12 @@ private:
     void echo(const std::stop_token& stop) {
         try {
             while (!stop.stop_requested()) {
-                const auto frame = far_.read();
+                const auto frame = far_->read();
                 if (!frame)
                     continue;  // read timeout: look at the stop token again
                 if (frame->seq == floor_frame::stop_seq)
                     return;
-                far_.write(frame->seq, frame->time_ns, frame->payload, true);
+                far_->write(frame->seq, frame->time_ns, frame->payload, true);
             }
         } catch (const std::exception& e) {
             std::lock_guard lock(echo_error_mutex_);
@@ -94,8 +96,8 @@ private:
     std::size_t count_;
     std::vector<std::uint8_t> payload_;
     std::uint64_t seq_ = 1;
-    FloorSocket near_;
-    FloorSocket far_;
+    std::unique_ptr<FloorSocket> near_;
+    std::unique_ptr<FloorSocket> far_;
     std::mutex echo_error_mutex_;
     std::string echo_error_;
     std::jthread echo_;  // last: joined before the sockets it uses are destroyed
@@ -103,13 +105,15 @@ private:
 
 class FloorThroughput : public Measurement {
 public:
-    FloorThroughput(const Topology& topology, const Options& options)
-        : pids_(topology.pids()),
+    FloorThroughput(FloorEnds ends, const Options& options)
+        : pids_(std::move(ends.pids)),
           size_(options.size),
           count_(throughput_count(options)),
           payload_(options.size, 0x5a),
-          writer_(topology.near_socket(), stall_timeout),
-          reader_(topology.far_socket(), stall_timeout) {
+          writer_(std::move(ends.near)),
+          reader_(std::move(ends.far)) {
+        writer_->set_read_timeout(stall_timeout);
+        reader_->set_read_timeout(stall_timeout);
         stream(std::max<std::size_t>(count_ / 10, 10));  // warm-up, as for Plexus
     }
 
@@ -134,7 +138,7 @@ private:
         std::jthread reader([&] {
             try {
                 for (std::size_t i = 0; i < count; ++i) {
-                    const auto frame = reader_.read();
+                    const auto frame = reader_->read();
                     const std::uint64_t arrived = now_ns();
                     if (!frame)
                         throw std::runtime_error("floor: message " + std::to_string(i) + " never arrived");
@@ -153,8 +157,8 @@ private:
         });
         // The send time is taken per message, like libplexus does for the envelope.
         for (std::size_t i = 0; i < count; ++i)
-            writer_.write(next_write_++, now_ns(), payload_, false);
-        writer_.flush();
+            writer_->write(next_write_++, now_ns(), payload_, false);
+        writer_->flush();
         reader.join();
         if (!error.empty())
             throw std::runtime_error(error);
@@ -165,20 +169,33 @@ private:
     std::size_t size_;
     std::size_t count_;
     std::vector<std::uint8_t> payload_;
-    FloorSocket writer_;
-    FloorSocket reader_;
+    std::unique_ptr<FloorSocket> writer_;
+    std::unique_ptr<FloorSocket> reader_;
     std::uint64_t next_write_ = 1;
     std::uint64_t next_read_ = 1;
 };
 
+FloorEnds relay_ends(const Topology& topology) {
+    return {std::make_unique<FloorSocket>(topology.near_socket(), stall_timeout),
+            std::make_unique<FloorSocket>(topology.far_socket(), stall_timeout), topology.pids()};
+}
+
 }  // namespace
 
 std::unique_ptr<Measurement> floor_latency(const Topology& topology, const Options& options) {
-    return std::make_unique<FloorLatency>(topology, options);
+    return std::make_unique<FloorLatency>(relay_ends(topology), options);
 }
 
 std::unique_ptr<Measurement> floor_throughput(const Topology& topology, const Options& options) {
-    return std::make_unique<FloorThroughput>(topology, options);
+    return std::make_unique<FloorThroughput>(relay_ends(topology), options);
+}
+
+std::unique_ptr<Measurement> floor_latency_between(FloorEnds ends, const Options& options) {
+    return std::make_unique<FloorLatency>(std::move(ends), options);
+}
+
+std::unique_ptr<Measurement> floor_throughput_between(FloorEnds ends, const Options& options) {
+    return std::make_unique<FloorThroughput>(std::move(ends), options);
 }
 
 }  // namespace plexus::bench

@@ -36,13 +36,24 @@ FloorSocket::FloorSocket(const std::string& path, std::chrono::milliseconds read
         ::close(fd_);
         throw error;
     }
+    set_read_timeout(read_timeout);
+    in_.resize(read_chunk);
+    out_.reserve(2 * flush_threshold);
+}
+
+FloorSocket::FloorSocket(int connected_fd, std::string name, std::chrono::milliseconds read_timeout)
+    : fd_(connected_fd), path_(std::move(name)) {
+    set_read_timeout(read_timeout);
+    in_.resize(read_chunk);
+    out_.reserve(2 * flush_threshold);
+}
+
+void FloorSocket::set_read_timeout(std::chrono::milliseconds read_timeout) {
     // A blocking recv with a timeout: one system call per read, where poll + recv would be two.
     timeval timeout{};
     timeout.tv_sec = static_cast<time_t>(read_timeout.count() / 1000);
     timeout.tv_usec = static_cast<suseconds_t>((read_timeout.count() % 1000) * 1000);
     ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
-    in_.resize(read_chunk);
-    out_.reserve(2 * flush_threshold);
 }
 
 FloorSocket::~FloorSocket() {

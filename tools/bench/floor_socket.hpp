@@ -24,6 +24,9 @@ class FloorSocket {
 public:
     /// Connects to a relay's Unix socket; reads give up (throw) after `read_timeout`.
     FloorSocket(const std::string& path, std::chrono::milliseconds read_timeout);
+    /// Takes over a connected stream socket (a TCP connection of `plexus-bench hosts`); `name`
+    /// says which in error messages.
+    FloorSocket(int connected_fd, std::string name, std::chrono::milliseconds read_timeout);
     ~FloorSocket();
     FloorSocket(const FloorSocket&) = delete;
     FloorSocket& operator=(const FloorSocket&) = delete;
@@ -33,6 +36,8 @@ public:
     void flush();
     /// The next frame; nullopt if none arrives within the read timeout; throws if the relay closed.
     std::optional<FloorFrame> read();
+    /// How long read() waits before it gives up.
+    void set_read_timeout(std::chrono::milliseconds timeout);
 
 private:
     void send_all(std::span<const std::uint8_t> first, std::span<const std::uint8_t> second);

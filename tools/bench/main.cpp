@@ -5,6 +5,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "hosts_scenario.hpp"
 #include "options.hpp"
 #include "peers/peers_command.hpp"
 #include "plexus/client.hpp"
@@ -111,6 +112,22 @@ int main(int argc, char** argv) {
         status = peers::run_peers(peers_options);
     });
 
+    HostsOptions hosts_options;
+    hosts_options.plexusd = PLEXUSD_PATH;
+    auto* hosts = app.add_subcommand(
+        "hosts",
+        "tcp, udp and mcast between daemons on separate hosts (network namespaces; needs root), each "
+        "against direct sockets over the same veth; mcast fan-out on the wire; the cost of the secret");
+    hosts->add_flag("--quick", hosts_options.quick, "a tenth of the messages and one run per system");
+    hosts->add_option("--repeat", hosts_options.repeat, "runs per system; medians are reported")
+        ->check(CLI::PositiveNumber)
+        ->capture_default_str();
+    hosts->add_flag("--json", hosts_options.json, "one JSON object per line and system");
+    hosts->add_option("--plexusd", hosts_options.plexusd, "the plexusd binary")->capture_default_str();
+    hosts->add_option("--plexus-names", hosts_options.plexus_names,
+                      "the plexus-names binary (default: next to plexusd)");
+    hosts->callback([&] { status = run_hosts(hosts_options); });
+
 #ifdef PLEXUS_BENCH_PEERS
     // Not for people: the ZeroMQ proxy of the peers bench, a process of its own like every broker.
     std::string proxy_ready_file;
@@ -126,6 +143,7 @@ int main(int argc, char** argv) {
     relay->add_option("--ready-file", relay_options.ready_file)->required();
     relay->add_flag("--link-listen", relay_options.link_listen);
     relay->add_option("--link-connect", relay_options.link_connect);
+    relay->add_option("--link-address", relay_options.link_address);
     relay->callback([&] { status = run_relay(relay_options); });
 
     try {

@@ -45,8 +45,8 @@ RunResult median_of(const std::vector<RunResult>& runs) {
             values.push_back(run.*member);
         return median(std::move(values));
     };
-    return {figure(&RunResult::p50_us), figure(&RunResult::p99_us), figure(&RunResult::msgs_per_s),
-            figure(&RunResult::mb_per_s), figure(&RunResult::cpu_us_per_msg)};
+    return {figure(&RunResult::p50_us),   figure(&RunResult::p99_us),         figure(&RunResult::msgs_per_s),
+            figure(&RunResult::mb_per_s), figure(&RunResult::cpu_us_per_msg), figure(&RunResult::lost)};
 }
 
 RunResult time_round_trips(std::size_t count, std::size_t payload_size, const std::vector<pid_t>& broker_pids,

@@ -17,6 +17,7 @@ struct RunResult {
     double msgs_per_s = 0;      ///< messages carried by the broker per second
     double mb_per_s = 0;        ///< payload bytes of those messages, in 10^6 bytes per second
     double cpu_us_per_msg = 0;  ///< CPU time of the broker processes (daemons or relays) per message
+    double lost = 0;            ///< fraction of the messages written that never arrived (udp, mcast)
 };
 
 /// A prepared scenario on one system (processes started, clients connected); run() measures once.

@@ -17,6 +17,10 @@ struct Options {
     std::string plexusd;        ///< path of the daemon binary
     std::size_t ports = 1000;   ///< memory: ports to open
     bool empty_accept = false;  ///< monitor: also run an accept that returns true without reading msg
+    /// Carrier of the connections latency and throughput make ("": the daemon's choice). A
+    /// non-empty one also prefixes their port names ("/bench/udp-ping"), so that scenarios on
+    /// different carriers can share daemons.
+    std::string carrier;
 };
 
 /// Round trips per latency run when --count is not given: about 32 MiB each way, 100 to 10,000.

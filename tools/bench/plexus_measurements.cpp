@@ -61,6 +61,18 @@ PortOptions queue(const Options& options) {
     return {QueuePolicy::strict, options.capacity};
 }
 
+/// "udp-" for options.carrier "udp": keeps the ports of scenarios on different carriers apart.
+std::string carrier_tag(const Options& options) {
+    return options.carrier.empty() ? "" : options.carrier + "-";
+}
+
+bool lossy_carrier(const std::string& carrier) {
+    return carrier.rfind("udp", 0) == 0 || carrier.rfind("mcast", 0) == 0;
+}
+
+// A lossy stream is over once nothing has arrived for this long (its last messages were lost).
+constexpr auto lossy_idle_timeout = 500ms;
+
 class PlexusLatency : public Measurement {
 public:
     PlexusLatency(const Topology& topology, const Options& options)
@@ -70,12 +82,12 @@ public:
           payload_(blob(options.size)),
           near_(connect_client(topology.near_socket())),
           far_(connect_client(topology.far_socket())),
-          ping_(near_.open("/bench/ping", queue(options))),
-          ping_in_(near_.open("/bench/ping-in", queue(options))),
-          pong_in_(far_.open("/bench/pong-in", queue(options))),
-          pong_(far_.open("/bench/pong", queue(options))) {
-        connect_when_registered(near_, "/bench/ping", "/bench/pong-in");
-        connect_when_registered(near_, "/bench/pong", "/bench/ping-in");
+          ping_(near_.open("/bench/" + carrier_tag(options) + "ping", queue(options))),
+          ping_in_(near_.open("/bench/" + carrier_tag(options) + "ping-in", queue(options))),
+          pong_in_(far_.open("/bench/" + carrier_tag(options) + "pong-in", queue(options))),
+          pong_(far_.open("/bench/" + carrier_tag(options) + "pong", queue(options))) {
+        connect_when_registered(near_, ping_.name(), pong_in_.name(), options.carrier);
+        connect_when_registered(near_, pong_.name(), ping_in_.name(), options.carrier);
         echo_ = std::jthread([this](const std::stop_token& stop) { echo(stop); });
     }
 
@@ -147,6 +159,7 @@ public:
           count_(throughput_count(options)),
           payload_(std::move(spec.payload)),
           check_(std::move(spec.check)),
+          lossy_(spec.lossy),
           writer_(connect_client(topology.near_socket())),
           reader_(connect_client(topology.far_socket())),
           source_(writer_.open("/bench/" + spec.name + "source", queue(options))),
@@ -162,12 +175,17 @@ public:
         const auto start = Clock::now();
         auto [latencies, last] = stream(count_);
         const double cpu = cpu_seconds(pids_) - cpu_before;
-        return summarize(latencies, count_, size_, last - start, cpu);
+        const std::size_t arrived = latencies.size();
+        if (arrived == 0)
+            throw std::runtime_error("plexus: none of " + std::to_string(count_) + " messages arrived");
+        auto result = summarize(latencies, arrived, size_, last - start, cpu);
+        result.lost = static_cast<double>(count_ - arrived) / static_cast<double>(count_);
+        return result;
     }
 
 private:
     struct Streamed {
-        std::vector<double> latencies_us;
+        std::vector<double> latencies_us;  ///< one per message that arrived
         Clock::time_point last;
     };
 
@@ -176,8 +194,14 @@ private:
         Streamed streamed;
         streamed.latencies_us.reserve(count);
         std::string error;
+        const std::uint64_t first = written_ + 1;  // the seq of this stream's first message
+        written_ += count;
         std::jthread reader([&] {
             try {
+                if (lossy_) {
+                    read_lossy(first, count, streamed);
+                    return;
+                }
                 for (std::size_t i = 0; i < count; ++i) {
                     auto message = sink_.read(stall_timeout);
                     if (!message)
@@ -206,17 +230,45 @@ private:
         return streamed;
     }
 
+    /// Reads messages `first` to `first + count - 1` as they come, skipping lost ones (and late
+    /// ones of an earlier stream), until the last one or a quiet lossy_idle_timeout.
+    void read_lossy(std::uint64_t first, std::size_t count, Streamed& streamed) {
+        const std::uint64_t end = first + count;
+        streamed.last = Clock::now();
+        // The first message may wait for the writer's start; then the stream must keep flowing.
+        auto timeout = std::chrono::duration_cast<std::chrono::milliseconds>(stall_timeout);
+        while (next_seq_ < end) {
+            auto message = sink_.read(timeout);
+            if (!message)
+                break;
+            const std::uint64_t arrived = now_ns();
+            const std::uint64_t seq = message->envelope.seq;
+            if (seq < std::max(first, next_seq_))
+                continue;  // late: of an earlier stream, or out of order
+            next_seq_ = seq + 1;
+            if (seq >= end)
+                throw std::runtime_error("plexus: seq " + std::to_string(seq) + " was never written");
+            check_(*message);
+            streamed.latencies_us.push_back(static_cast<double>(arrived - message->envelope.time_ns) / 1e3);
+            streamed.last = Clock::now();
+            timeout = lossy_idle_timeout;
+        }
+        next_seq_ = end;
+    }
+
     std::vector<pid_t> pids_;
     std::size_t size_;
     std::size_t count_;
     Value payload_;
     std::function<void(const Received&)> check_;
+    bool lossy_ = false;
     Client writer_;
     Client reader_;
     Port source_;
     Port sink_;
     std::vector<Port> extra_ports_;  ///< opened by spec.prepare; open for as long as the stream
     std::uint64_t next_seq_ = 1;
+    std::uint64_t written_ = 0;  ///< messages written by all streams so far
 };
 
 }  // namespace
@@ -227,8 +279,12 @@ std::unique_ptr<Measurement> plexus_latency(const Topology& topology, const Opti
 
 std::unique_ptr<Measurement> plexus_throughput(const Topology& topology, const Options& options) {
     const std::size_t size = options.size;
-    StreamSpec spec{
-        "", blob(size), "", [size](const Received& message) { check_payload(message, size); }, {}};
+    StreamSpec spec{carrier_tag(options),
+                    blob(size),
+                    options.carrier,
+                    [size](const Received& message) { check_payload(message, size); },
+                    {},
+                    lossy_carrier(options.carrier)};
     return std::make_unique<PlexusThroughput>(topology, options, std::move(spec));
 }
 

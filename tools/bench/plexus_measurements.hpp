@@ -23,9 +23,11 @@ void connect_when_registered(Client& client, const std::string& source, const st
                              const std::string& carrier = "");
 
 /// Ping-pong: A writes /bench/ping -> B's /bench/pong-in; B echoes on /bench/pong -> A's /bench/ping-in.
+/// With options.carrier, over that carrier and with the carrier in the names (/bench/udp-ping).
 std::unique_ptr<Measurement> plexus_latency(const Topology& topology, const Options& options);
 
 /// Streaming: A writes /bench/source (batched) -> B's /bench/sink (strict queue); B reads all.
+/// With options.carrier, over that carrier (/bench/udp-source); udp and mcast streams are lossy.
 std::unique_ptr<Measurement> plexus_throughput(const Topology& topology, const Options& options);
 
 /// What one stream carries and how: plexus_throughput is a blob of --size bytes over the default
@@ -38,6 +40,9 @@ struct StreamSpec {
     /// Called once the stream is connected, before the warm-up, with the writing client and the
     /// sink's name: opens and connects other ports (competitors); they stay open with the stream.
     std::function<std::vector<Port>(Client&, const std::string& sink)> prepare;
+    /// Messages may be lost (udp, mcast): the reader takes what arrives, in order, until the last
+    /// message or until nothing has come for a while; RunResult::lost says how many did not.
+    bool lossy = false;
 };
 std::unique_ptr<Measurement> plexus_stream(const Topology& topology, const Options& options, StreamSpec spec);
 

@@ -47,13 +47,14 @@ int listen_unix(const std::string& path) {
     return fd;
 }
 
-int listen_tcp(int& port) {
+int listen_tcp(const std::string& host, int& port) {
     const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
     if (fd < 0)
         die("socket");
     sockaddr_in address{};
     address.sin_family = AF_INET;
-    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    if (::inet_pton(AF_INET, host.c_str(), &address.sin_addr) != 1)
+        throw std::runtime_error("relay: bad address " + host);
     if (::bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0)
         die("bind tcp");
     if (::listen(fd, 8) != 0)
@@ -87,13 +88,13 @@ int connect_tcp(const std::string& address_text) {
     return fd;
 }
 
-void write_ready(const std::string& path, int link_port) {
+void write_ready(const std::string& path, const std::string& link_host, int link_port) {
     const std::string temporary = path + ".tmp";
     {
         std::ofstream out(temporary);
         out << R"({"pid":)" << ::getpid();
         if (link_port > 0)
-            out << ",\"link\":\"127.0.0.1:" << link_port << '"';
+            out << ",\"link\":\"" << link_host << ':' << link_port << '"';
         out << "}\n";
     }
     std::filesystem::rename(temporary, path);  // readers never see half a file
@@ -231,8 +232,8 @@ int run_relay(const RelayOptions& options) {
     try {
         const int clients = listen_unix(options.socket);
         int link_port = 0;
-        const int link_listener = options.link_listen ? listen_tcp(link_port) : -1;
-        write_ready(options.ready_file, link_port);
+        const int link_listener = options.link_listen ? listen_tcp(options.link_address, link_port) : -1;
+        write_ready(options.ready_file, options.link_address, link_port);
         // Gather the two sides: a client and the link, or (one hop) two clients.
         std::vector<int> sides;
         if (!options.link_connect.empty())

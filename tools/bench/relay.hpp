@@ -17,6 +17,8 @@ struct RelayOptions {
     std::string ready_file;    ///< written (JSON: pid, link) once the sockets are bound
     bool link_listen = false;  ///< two hops, near side: accept the other relay over TCP on 127.0.0.1:0
     std::string link_connect;  ///< two hops, far side: connect to the other relay at 127.0.0.1:PORT
+    /// The address the near side's link listens on (`plexus-bench hosts`: its host's eth0).
+    std::string link_address = "127.0.0.1";
 };
 
 /// Runs a relay until one side closes; the exit status for main.

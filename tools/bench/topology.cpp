@@ -90,8 +90,17 @@ std::unique_ptr<Topology> Topology::floor(const TempDir& dir, int hops) {
     return topology;
 }
 
+std::unique_ptr<Topology> Topology::existing(std::vector<std::string> sockets, std::vector<pid_t> pids) {
+    if (sockets.empty())
+        throw std::runtime_error("a topology needs at least one socket");
+    std::unique_ptr<Topology> topology(new Topology);
+    topology->sockets_ = std::move(sockets);
+    topology->existing_pids_ = std::move(pids);
+    return topology;
+}
+
 std::vector<pid_t> Topology::pids() const {
-    std::vector<pid_t> pids;
+    std::vector<pid_t> pids = existing_pids_;
     for (const auto& process : processes_)
         pids.push_back(process->pid());
     return pids;

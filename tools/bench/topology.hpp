@@ -20,6 +20,9 @@ public:
                                             const std::vector<std::string>& extra = {});
     /// One relay (this program's hidden `relay` command); with hops == 2 two, linked by tcp.
     static std::unique_ptr<Topology> floor(const TempDir& dir, int hops);
+    /// Daemons started by someone else (on the hosts of `plexus-bench hosts`), which outlive it:
+    /// their Unix sockets, first (near) to last (far), and their pids.
+    static std::unique_ptr<Topology> existing(std::vector<std::string> sockets, std::vector<pid_t> pids);
 
     /// The socket of the first hop: where the writing (or pinging) client connects.
     const std::string& near_socket() const { return sockets_.front(); }
@@ -35,6 +38,7 @@ private:
                       const std::string& log);
 
     std::vector<std::unique_ptr<ChildProcess>> processes_;
+    std::vector<pid_t> existing_pids_;  ///< processes of existing(), not stopped here
     std::vector<std::string> sockets_;
 };
 

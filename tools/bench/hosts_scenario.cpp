@@ -1,0 +1,694 @@
+#include "hosts_scenario.hpp"
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <condition_variable>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <mutex>
+#include <stdexcept>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "child_process.hpp"
+#include "floor_measurements.hpp"
+#include "hosts_floor.hpp"
+#include "hosts_network.hpp"
+#include "plexus/client.hpp"
+#include "plexus_measurements.hpp"
+#include "run_deadline.hpp"
+#include "topology.hpp"
+
+namespace plexus::bench {
+
+using namespace std::chrono_literals;
+using Clock = std::chrono::steady_clock;
+using nlohmann::ordered_json;
+
+namespace {
+
+constexpr std::size_t small = 64;
+constexpr std::size_t large = std::size_t{1} << 20;
+const std::vector<std::string> carriers{"tcp", "udp", "mcast"};
+// The host that writes (and pings) and the one that reads (and echoes); fan-out adds 3 and 4.
+constexpr int writer_host = 1;
+constexpr int reader_host = 2;
+
+/// How many messages each part of the run uses: enough for stable medians, within ~3 minutes.
+struct Counts {
+    std::size_t latency_small = 2000;  // round trips
+    std::size_t latency_large = 50;
+    std::size_t throughput_small = 50000;  // messages
+    std::size_t throughput_large = 128;
+    std::size_t fanout_small = 1000;
+    std::size_t fanout_large = 20;
+    std::size_t connects = 40;
+};
+
+Counts counts_for(const HostsOptions& options) {
+    if (!options.quick)
+        return {};
+    return {200, 10, 5000, 16, 100, 4, 5};
+}
+
+// --- the deployments ---------------------------------------------------------------------
+
+/// Starts a process and waits until its ready file parses as JSON; returns that text. `argv` is
+/// wrapped (`ip netns exec NS PROGRAM ...`): its 4th and 5th words say what and where.
+std::string start_ready(std::vector<std::unique_ptr<ChildProcess>>& processes,
+                        const std::vector<std::string>& argv, const std::string& ready_file,
+                        const std::string& log) {
+    processes.push_back(std::make_unique<ChildProcess>(argv, log));
+    auto& process = *processes.back();
+    std::string ready;
+    const bool started = poll_until(
+        [&] {
+            if (!std::filesystem::exists(ready_file))
+                return !process.running();
+            ready = read_file(ready_file);
+            return nlohmann::json::accept(ready);
+        },
+        20s);
+    if (!started || ready.empty()) {
+        throw std::runtime_error(argv.at(4) + " on " + argv.at(3) + " did not become ready (" + ready_file +
+                                 "):\n" + process.log_tail());
+    }
+    return ready;
+}
+
+/// plexus-names on host 0 and plexusd on some hosts, with or without the deployment secret.
+class Deployment {
+public:
+    Deployment(const HostsNetwork& network, const TempDir& dir, const HostsOptions& options,
+               const std::string& tag, const std::string& secret_file, const std::vector<int>& hosts,
+               int names_port, const std::string& mcast_range, int mcast_port) {
+        std::vector<std::string> trust = secret_file.empty()
+                                             ? std::vector<std::string>{"--insecure"}
+                                             : std::vector<std::string>{"--secret-file", secret_file};
+        const std::string names_ready = dir.file(tag + "-names.ready");
+        std::vector<std::string> names_argv{options.plexus_names,
+                                            "--listen",
+                                            network.address(0) + ":" + std::to_string(names_port),
+                                            "--ready-file",
+                                            names_ready,
+                                            "--discovery",
+                                            "off",
+                                            "--mcast-range",
+                                            mcast_range,
+                                            "--mcast-port",
+                                            std::to_string(mcast_port),
+                                            "--log-level",
+                                            "warn"};
+        names_argv.insert(names_argv.end(), trust.begin(), trust.end());
+        names_ = nlohmann::json::parse(
+                     start(network.wrap(0, names_argv), names_ready, dir.file(tag + "-names.log")))
+                     .at("names")
+                     .get<std::string>();
+        for (const int k : hosts) {
+            const std::string node = tag + "-h" + std::to_string(k);
+            const std::string socket = dir.file(node + ".sock");
+            const std::string ready_file = dir.file(node + ".ready");
+            std::vector<std::string> argv{options.plexusd, "--listen", network.address(k) + ":0",
+                                          "--names",       names_,     "--socket",
+                                          socket,          "--node",   node,
+                                          "--ready-file",  ready_file, "--log-level",
+                                          "warn"};
+            argv.insert(argv.end(), trust.begin(), trust.end());
+            const auto ready =
+                nlohmann::json::parse(start(network.wrap(k, argv), ready_file, dir.file(node + ".log")));
+            sockets_[k] = ready.value("socket", socket);
+            pids_[k] = processes_.back()->pid();
+        }
+    }
+
+    /// The daemons of hosts a and b as a Topology for plexus_measurements.hpp (a near, b far).
+    std::unique_ptr<Topology> pair(int a, int b) const {
+        return Topology::existing({sockets_.at(a), sockets_.at(b)}, {pids_.at(a), pids_.at(b)});
+    }
+    const std::string& socket(int k) const { return sockets_.at(k); }
+
+private:
+    std::string start(const std::vector<std::string>& argv, const std::string& ready_file,
+                      const std::string& log) {
+        return start_ready(processes_, argv, ready_file, log);
+    }
+
+    std::vector<std::unique_ptr<ChildProcess>> processes_;
+    std::string names_;
+    std::map<int, std::string> sockets_;
+    std::map<int, pid_t> pids_;
+};
+
+/// The relay floor across hosts: relay.cpp's two relays linked by tcp, one on host a and one on
+/// host b, with the clients on Unix sockets: the same processes and socket hops as Plexus, less
+/// everything Plexus does beyond forwarding frames. One per measurement (a relay pairs one client).
+class RelayPair {
+public:
+    RelayPair(const HostsNetwork& network, const TempDir& dir, const std::string& tag, int a, int b) {
+        const std::string self = std::filesystem::read_symlink("/proc/self/exe").string();
+        const std::string near_socket = dir.file(tag + "-relay-a.sock");
+        const std::string far_socket = dir.file(tag + "-relay-b.sock");
+        const std::string near_ready = dir.file(tag + "-relay-a.ready");
+        const std::string far_ready = dir.file(tag + "-relay-b.ready");
+        const auto near = nlohmann::json::parse(
+            start_ready(processes_,
+                        network.wrap(a, {self, "relay", "--socket", near_socket, "--ready-file", near_ready,
+                                         "--link-listen", "--link-address", network.address(a)}),
+                        near_ready, dir.file(tag + "-relay-a.log")));
+        start_ready(processes_,
+                    network.wrap(b, {self, "relay", "--socket", far_socket, "--ready-file", far_ready,
+                                     "--link-connect", near.at("link").get<std::string>()}),
+                    far_ready, dir.file(tag + "-relay-b.log"));
+        topology_ =
+            Topology::existing({near_socket, far_socket}, {processes_[0]->pid(), processes_[1]->pid()});
+    }
+    const Topology& topology() const { return *topology_; }
+
+private:
+    std::vector<std::unique_ptr<ChildProcess>> processes_;
+    std::unique_ptr<Topology> topology_;
+};
+
+std::string write_secret(const TempDir& dir) {
+    const std::string path = dir.file("secret");
+    std::string secret;
+    std::ifstream random("/dev/urandom", std::ios::binary);
+    for (int i = 0; i < 32; ++i)
+        secret += "0123456789abcdef"[static_cast<unsigned char>(random.get()) % 16];
+    {
+        std::ofstream out(path, std::ios::trunc);
+        out << secret << '\n';
+    }
+    ::chmod(path.c_str(), 0600);  // plexusd refuses a secret others may read
+    return path;
+}
+
+// --- running and collecting --------------------------------------------------------------
+
+/// One scenario on several systems, medians of each; systems[0] is Plexus with the secret.
+struct Row {
+    std::string scenario;  ///< "latency" or "throughput"
+    std::string carrier;
+    std::size_t size = 0;
+    std::size_t count = 0;
+    std::vector<std::pair<std::string, RunResult>> systems;  ///< "plexus", "floor", "plexus_insecure"
+
+    const RunResult* find(const std::string& system) const {
+        for (const auto& [name, result] : systems) {
+            if (name == system)
+                return &result;
+        }
+        return nullptr;
+    }
+};
+
+/// Runs every system once per round, `repeat` rounds, so that drift on the machine hits all alike;
+/// each round starts with the next system, so that none always runs first (or right after another).
+Row alternate(Row row, const std::vector<std::pair<std::string, Measurement*>>& systems, int repeat) {
+    std::vector<std::vector<RunResult>> runs(systems.size());
+    for (int round = 0; round < repeat; ++round) {
+        for (std::size_t j = 0; j < systems.size(); ++j) {
+            const std::size_t i = (j + static_cast<std::size_t>(round)) % systems.size();
+            RunDeadline deadline;
+            runs[i].push_back(systems[i].second->run());
+        }
+    }
+    for (std::size_t i = 0; i < systems.size(); ++i)
+        row.systems.emplace_back(systems[i].first, median_of(runs[i]));
+    return row;
+}
+
+Options options_for(std::size_t size, std::size_t count, const std::string& carrier) {
+    Options options;
+    options.size = size;
+    options.count = count;
+    options.carrier = carrier;
+    return options;
+}
+
+/// What the writer's host put on the wire while one port sent `messages` to readers on 3 hosts.
+struct Fanout {
+    std::string carrier;
+    std::size_t size = 0;
+    std::size_t messages = 0;
+    std::size_t receivers = 0;
+    double bytes_per_msg = 0;
+    double packets_per_msg = 0;
+    double datagrams_per_msg = 0;  ///< udp datagrams the writer's daemon sent, per message
+    std::size_t lost = 0;          ///< deliveries that never came (of messages * receivers)
+};
+
+Fanout fanout(const HostsNetwork& network, const Deployment& deployment, const std::string& carrier,
+              std::size_t size, std::size_t messages) {
+    const std::vector<int> hosts{2, 3, 4};
+    const std::string prefix = "/fan/" + carrier + "-" + std::to_string(size);
+    Client writer = connect_client(deployment.socket(writer_host));
+    Port out = writer.open(prefix + "-out");
+    std::vector<std::unique_ptr<Client>> clients;
+    std::vector<Port> ins;
+    for (const int k : hosts) {
+        clients.push_back(std::make_unique<Client>(Client::Options{deployment.socket(k), 10000ms}));
+        ins.push_back(clients.back()->open(prefix + "-in" + std::to_string(k)));
+    }
+    for (const auto& in : ins)
+        connect_when_registered(writer, out.name(), in.name(), carrier);
+
+    // Each reader notes the highest seq it got and how many; the writer waits for all three
+    // before its next message, so nothing is lost to a full queue and each message goes alone.
+    std::mutex mutex;
+    std::condition_variable arrived;
+    std::vector<std::uint64_t> highest(hosts.size(), 0);
+    std::vector<std::size_t> got(hosts.size(), 0);
+    std::atomic<bool> stop{false};
+    std::vector<std::jthread> readers;
+    for (std::size_t i = 0; i < ins.size(); ++i) {
+        readers.emplace_back([&, i] {
+            while (!stop) {
+                auto message = ins[i].read(100ms);
+                if (!message)
+                    continue;
+                std::lock_guard lock(mutex);
+                highest[i] = std::max(highest[i], message->envelope.seq);
+                ++got[i];
+                arrived.notify_all();
+            }
+        });
+    }
+    const Value payload = Value::binary(std::vector<std::uint8_t>(size, 0x5a));
+    std::uint64_t seq = 0;
+    auto send = [&](std::size_t count) {
+        for (std::size_t j = 0; j < count; ++j) {
+            out.write(payload, true);
+            ++seq;
+            std::unique_lock lock(mutex);
+            arrived.wait_for(lock, 2s, [&] {
+                return std::all_of(highest.begin(), highest.end(), [&](std::uint64_t h) { return h >= seq; });
+            });
+        }
+    };
+    auto total = [&] {
+        std::lock_guard lock(mutex);
+        std::size_t sum = 0;
+        for (const auto g : got)
+            sum += g;
+        return sum;
+    };
+    auto datagrams_sent = [&] {
+        return writer.stats().at("daemon").value("udp_datagrams_sent", std::uint64_t{0});
+    };
+    send(5);  // warm-up: links and groups in use, buffers grown
+    const std::size_t got_before = total();
+    const auto datagrams_before = datagrams_sent();
+    const auto before = network.eth0(writer_host);
+    send(messages);
+    const auto after = network.eth0(writer_host);
+    const auto datagrams_after = datagrams_sent();
+    const std::size_t delivered = total() - got_before;
+    stop = true;
+    readers.clear();
+
+    Fanout result;
+    result.carrier = carrier;
+    result.size = size;
+    result.messages = messages;
+    result.receivers = hosts.size();
+    const auto n = static_cast<double>(messages);
+    result.bytes_per_msg = static_cast<double>(after.tx_bytes - before.tx_bytes) / n;
+    result.packets_per_msg = static_cast<double>(after.tx_packets - before.tx_packets) / n;
+    result.datagrams_per_msg = static_cast<double>(datagrams_after - datagrams_before) / n;
+    result.lost = messages * hosts.size() - std::min(delivered, messages * hosts.size());
+    return result;
+}
+
+/// Connect times through libplexus (what `plexus connect` asks the daemon): a tcp connection from
+/// a port on host 1 to one on host 2, made and removed again, in milliseconds.
+class ConnectProbe {
+public:
+    explicit ConnectProbe(const Deployment& deployment)
+        : near_(connect_client(deployment.socket(writer_host))),
+          far_(connect_client(deployment.socket(reader_host))),
+          source_(near_.open("/connect/source")),
+          destination_(far_.open("/connect/destination")) {
+        connect_when_registered(near_, source_.name(), destination_.name(), "tcp");
+        near_.disconnect(source_.name(), destination_.name());
+    }
+
+    double once() {
+        const auto start = Clock::now();
+        near_.connect(source_.name(), destination_.name(), "tcp");
+        const auto connected = Clock::now();
+        near_.disconnect(source_.name(), destination_.name());
+        return std::chrono::duration<double, std::milli>(connected - start).count();
+    }
+
+private:
+    Client near_;
+    Client far_;
+    Port source_;
+    Port destination_;
+};
+
+struct ConnectTimes {
+    std::vector<double> secure_ms;
+    std::vector<double> insecure_ms;
+};
+
+// --- printing ----------------------------------------------------------------------------
+
+double rounded(double value) {
+    return std::round(value * 1000) / 1000;
+}
+
+std::string size_text(std::size_t size) {
+    return size >= large ? std::to_string(size >> 20) + " MiB" : std::to_string(size) + " B";
+}
+
+double ratio(double a, double b) {
+    return b > 0 ? a / b : 0;
+}
+
+std::string floor_text(const std::string& carrier, const std::string& scenario) {
+    if (carrier == "tcp")
+        return scenario == "latency" ? "TCP ping-pong" : "TCP stream";
+    const std::string kind = carrier == "mcast" ? "multicast UDP" : "UDP";
+    return kind + (scenario == "latency" ? " ping-pong" : " stream, 1,400 B datagrams");
+}
+
+void print_json(const std::vector<Row>& rows, const std::vector<Fanout>& fanouts,
+                const ConnectTimes& connects) {
+    for (const auto& row : rows) {
+        for (const auto& [system, run] : row.systems) {
+            std::cout << ordered_json{{"system", system},
+                                      {"scenario", "hosts_" + row.scenario},
+                                      {"carrier", row.carrier},
+                                      {"size", row.size},
+                                      {"count", row.count},
+                                      {"p50_us", rounded(run.p50_us)},
+                                      {"p99_us", rounded(run.p99_us)},
+                                      {"msgs_per_s", rounded(run.msgs_per_s)},
+                                      {"mb_per_s", rounded(run.mb_per_s)},
+                                      {"cpu_us_per_msg", rounded(run.cpu_us_per_msg)},
+                                      {"lost", rounded(run.lost)}}
+                             .dump()
+                      << '\n';
+        }
+    }
+    for (const auto& f : fanouts) {
+        std::cout << ordered_json{{"system", "plexus"},
+                                  {"scenario", "hosts_fanout"},
+                                  {"carrier", f.carrier},
+                                  {"size", f.size},
+                                  {"count", f.messages},
+                                  {"receivers", f.receivers},
+                                  {"wire_bytes_per_msg", rounded(f.bytes_per_msg)},
+                                  {"wire_packets_per_msg", rounded(f.packets_per_msg)},
+                                  {"datagrams_per_msg", rounded(f.datagrams_per_msg)},
+                                  {"lost", f.lost}}
+                         .dump()
+                  << '\n';
+    }
+    for (const auto& [system, times] :
+         {std::pair{"plexus", &connects.secure_ms}, std::pair{"plexus_insecure", &connects.insecure_ms}}) {
+        std::vector<double> sorted = *times;
+        std::sort(sorted.begin(), sorted.end());
+        std::cout << ordered_json{{"system", system},
+                                  {"scenario", "hosts_connect"},
+                                  {"carrier", "tcp"},
+                                  {"count", sorted.size()},
+                                  {"p50_ms", rounded(median(sorted))},
+                                  {"p90_ms", rounded(percentile(sorted, 0.9))},
+                                  {"min_ms", rounded(sorted.empty() ? 0 : sorted.front())}}
+                         .dump()
+                  << '\n';
+    }
+}
+
+const Row& find_row(const std::vector<Row>& rows, const std::string& scenario, const std::string& carrier,
+                    std::size_t size) {
+    for (const auto& row : rows) {
+        if (row.scenario == scenario && row.carrier == carrier && row.size == size)
+            return row;
+    }
+    throw std::logic_error("no row " + scenario + " " + carrier);
+}
+
+void print_tables(const HostsOptions& options, const std::vector<Row>& rows,
+                  const std::vector<Fanout>& fanouts, const ConnectTimes& connects) {
+    const std::string runs = "median of " + std::to_string(options.repeat) + " runs";
+    std::printf(
+        "Across hosts: plexusd on host 1 -> plexusd on host 2 over veth + bridge (network namespaces),\n"
+        "deployment secret on; the floors are direct sockets between the same two hosts.\n\n");
+
+    std::printf("1. one-hop latency, 64 B, RTT/2 in us (%zu round trips per run, %s)\n",
+                find_row(rows, "latency", "tcp", small).count, runs.c_str());
+    std::printf("  %-6s %10s %10s %10s %10s %9s %9s  %-26s %s\n", "", "plexus p50", "p99", "floor p50", "p99",
+                "p50 x", "p99 x", "floor", "target p50 <= 1.5x");
+    for (const auto& carrier : carriers) {
+        const Row& row = find_row(rows, "latency", carrier, small);
+        const auto& p = *row.find("plexus");
+        const auto& f = *row.find("floor");
+        const double x = ratio(p.p50_us, f.p50_us);
+        std::printf("  %-6s %10.1f %10.1f %10.1f %10.1f %9.2f %9.2f  %-26s %s\n", carrier.c_str(), p.p50_us,
+                    p.p99_us, f.p50_us, f.p99_us, x, ratio(p.p99_us, f.p99_us),
+                    floor_text(carrier, "latency").c_str(),
+                    carrier == "mcast" ? (x <= 1.5 ? "(met)" : "(missed)") : (x <= 1.5 ? "met" : "missed"));
+    }
+    {
+        const Row& row = find_row(rows, "latency", "tcp", small);
+        const auto& p = *row.find("plexus");
+        const auto& r = *row.find("relay_floor");
+        std::printf("  %-6s %10s %10s %10.1f %10.1f %9.2f %9.2f  %s\n", "tcp", "", "", r.p50_us, r.p99_us,
+                    ratio(p.p50_us, r.p50_us), ratio(p.p99_us, r.p99_us), "relay floor: Plexus's hops");
+    }
+
+    std::printf("\n2. throughput, 1 MiB messages, host 1 -> host 2 (%zu messages per run, %s)\n",
+                find_row(rows, "throughput", "tcp", large).count, runs.c_str());
+    std::printf("  %-6s %9s %9s %7s %10s %9s %9s %7s %8s  %s\n", "", "plexus/s", "MB/s", "lost", "daemons us",
+                "floor/s", "MB/s", "lost", "MB/s x", "floor");
+    for (const auto& carrier : carriers) {
+        const Row& row = find_row(rows, "throughput", carrier, large);
+        const auto& p = *row.find("plexus");
+        const auto& f = *row.find("floor");
+        std::printf("  %-6s %9.1f %9.1f %6.1f%% %10.0f %9.1f %9.1f %6.1f%% %8.2f  %s\n", carrier.c_str(),
+                    p.msgs_per_s, p.mb_per_s, 100 * p.lost, p.cpu_us_per_msg, f.msgs_per_s, f.mb_per_s,
+                    100 * f.lost, ratio(p.mb_per_s, f.mb_per_s), floor_text(carrier, "throughput").c_str());
+    }
+    {
+        const Row& row = find_row(rows, "throughput", "tcp", large);
+        const auto& p = *row.find("plexus");
+        const auto& r = *row.find("relay_floor");
+        std::printf("  %-6s %9s %9s %7s %10s %9.1f %9.1f %6.1f%% %8.2f  %s\n", "tcp", "", "", "", "",
+                    r.msgs_per_s, r.mb_per_s, 100 * r.lost, ratio(p.mb_per_s, r.mb_per_s),
+                    "relay floor: Plexus's hops");
+        std::printf("  (daemons us: CPU of both plexusd per message delivered; the relays took %.0f)\n",
+                    r.cpu_us_per_msg);
+    }
+
+    std::printf("\n3. fan-out from host 1 to hosts 2, 3, 4: what host 1's eth0 sent per message\n");
+    std::printf("  %-7s %-6s %9s %14s %14s %16s %6s\n", "size", "", "messages", "wire bytes/msg",
+                "packets/msg", "datagrams/msg", "lost");
+    for (const auto& f : fanouts) {
+        std::printf("  %-7s %-6s %9zu %14.1f %14.2f %16.2f %6zu\n", size_text(f.size).c_str(),
+                    f.carrier.c_str(), f.messages, f.bytes_per_msg, f.packets_per_msg, f.datagrams_per_msg,
+                    f.lost);
+    }
+    for (const std::size_t size : {small, large}) {
+        const Fanout* mcast = nullptr;
+        const Fanout* tcp = nullptr;
+        for (const auto& f : fanouts) {
+            if (f.size == size)
+                (f.carrier == "mcast" ? mcast : tcp) = &f;
+        }
+        if (!mcast || !tcp)
+            continue;
+        // One copy: every datagram the daemon sent left the wire once (not once per receiver).
+        const double copies = ratio(mcast->packets_per_msg, mcast->datagrams_per_msg);
+        std::printf(
+            "  %s: tcp/mcast bytes %.2fx; mcast packets per datagram sent %.2f -> one copy per "
+            "message: %s\n",
+            size_text(size).c_str(), ratio(tcp->bytes_per_msg, mcast->bytes_per_msg), copies,
+            copies < 1.5 ? "met" : "missed");
+    }
+
+    std::printf("\n4. authentication: the deployment secret against --insecure, same hosts, same run\n");
+    std::vector<double> secure = connects.secure_ms;
+    std::vector<double> insecure = connects.insecure_ms;
+    std::sort(secure.begin(), secure.end());
+    std::sort(insecure.begin(), insecure.end());
+    std::printf(
+        "  connect (tcp, host 1 -> 2, %zu each, ms): secret p50 %.3f p90 %.3f; insecure p50 %.3f p90 %.3f; "
+        "%+.1f%%\n",
+        secure.size(), median(secure), percentile(secure, 0.9), median(insecure), percentile(insecure, 0.9),
+        100 * (ratio(median(secure), median(insecure)) - 1));
+    std::printf("  %-22s %12s %12s %9s  %s\n", "udp", "secret", "insecure", "added", "target at 64 B: <= 5%");
+    for (const std::size_t size : {small, large}) {
+        const Row& latency = find_row(rows, "latency", "udp", size);
+        const auto& s = *latency.find("plexus");
+        const auto& i = *latency.find("plexus_insecure");
+        const double added = 100 * (ratio(s.p50_us, i.p50_us) - 1);
+        std::printf("  %-22s %12.1f %12.1f %8.1f%%  %s\n", ("latency p50 us, " + size_text(size)).c_str(),
+                    s.p50_us, i.p50_us, added, size == small ? (added <= 5 ? "met" : "missed") : "");
+    }
+    for (const std::size_t size : {small, large}) {
+        const Row& throughput = find_row(rows, "throughput", "udp", size);
+        const auto& s = *throughput.find("plexus");
+        const auto& i = *throughput.find("plexus_insecure");
+        // Added cost per message: fewer messages per second with the secret.
+        const double added = 100 * (ratio(i.msgs_per_s, s.msgs_per_s) - 1);
+        std::printf(
+            "  %-22s %12.0f %12.0f %8.1f%%  %s (lost %.1f%% / %.1f%%; daemons CPU us/msg %.2f / %.2f)\n",
+            ("msgs/s, " + size_text(size)).c_str(), s.msgs_per_s, i.msgs_per_s, added,
+            size == small ? (added <= 5 ? "met" : "missed") : "", 100 * s.lost, 100 * i.lost,
+            s.cpu_us_per_msg, i.cpu_us_per_msg);
+    }
+    std::fflush(stdout);
+}
+
+std::string load_average() {
+    const std::string text = read_file("/proc/loadavg");  // "1min 5min 15min running/total last-pid"
+    return text.substr(0, text.find(' ', text.find(' ', text.find(' ') + 1) + 1));
+}
+
+}  // namespace
+
+int run_hosts(const HostsOptions& given) {
+    HostsOptions options = given;
+    if (options.quick)
+        options.repeat = 1;
+    if (options.plexus_names.empty())
+        options.plexus_names =
+            (std::filesystem::path(options.plexusd).parent_path() / "plexus-names").string();
+    if (::access(options.plexus_names.c_str(), X_OK) != 0) {
+        std::cerr << "plexus-bench hosts: no plexus-names at " << options.plexus_names
+                  << " (build it, or give --plexus-names)\n";
+        return 2;
+    }
+    const Counts counts = counts_for(options);
+    const std::string load_before = load_average();
+
+    TempDir dir;
+    std::unique_ptr<HostsNetwork> network;
+    try {
+        network = std::make_unique<HostsNetwork>(5, dir.path());
+    } catch (const NetnsUnavailable& e) {
+        std::cerr << "plexus-bench hosts: " << e.what() << "; nothing measured\n";
+        return hosts_unavailable_status;
+    }
+    const std::string secret = write_secret(dir);
+    // Different groups and group ports: the two deployments share hosts 1 and 2.
+    const Deployment secure(*network, dir, options, "s", secret, {1, 2, 3, 4}, 10100, "239.255.81.0/24",
+                            10102);
+    const Deployment insecure(*network, dir, options, "i", "", {1, 2}, 10110, "239.255.82.0/24", 10112);
+    const auto plexus = secure.pair(writer_host, reader_host);
+    const auto plexus_insecure = insecure.pair(writer_host, reader_host);
+
+    std::vector<Row> rows;
+    // 1. One-hop latency at 64 B on each carrier against its floor; udp also without the secret.
+    for (const auto& carrier : carriers) {
+        const Options o = options_for(small, counts.latency_small, carrier);
+        auto with_secret = plexus_latency(*plexus, o);
+        auto floor = carrier == "tcp"
+                         ? floor_latency_between(tcp_floor_ends(*network, writer_host, reader_host), o)
+                         : datagram_floor_latency(*network, writer_host, reader_host, carrier == "mcast", o);
+        std::vector<std::pair<std::string, Measurement*>> systems{{"plexus", with_secret.get()},
+                                                                  {"floor", floor.get()}};
+        std::unique_ptr<Measurement> without;
+        if (carrier == "udp") {
+            without = plexus_latency(*plexus_insecure, o);
+            systems.emplace_back("plexus_insecure", without.get());
+        }
+        std::unique_ptr<RelayPair> relays;
+        std::unique_ptr<Measurement> relayed;
+        if (carrier == "tcp") {
+            relays = std::make_unique<RelayPair>(*network, dir, "latency", writer_host, reader_host);
+            relayed = floor_latency(relays->topology(), o);
+            systems.emplace_back("relay_floor", relayed.get());
+        }
+        rows.push_back(alternate({"latency", carrier, small, latency_count(o), {}}, systems, options.repeat));
+    }
+    // 2. 1 MiB streams against their floors; udp also without the secret.
+    for (const auto& carrier : carriers) {
+        const Options o = options_for(large, counts.throughput_large, carrier);
+        auto with_secret = plexus_throughput(*plexus, o);
+        auto floor =
+            carrier == "tcp"
+                ? floor_throughput_between(tcp_floor_ends(*network, writer_host, reader_host), o)
+                : datagram_floor_throughput(*network, writer_host, reader_host, carrier == "mcast", o);
+        std::vector<std::pair<std::string, Measurement*>> systems{{"plexus", with_secret.get()},
+                                                                  {"floor", floor.get()}};
+        std::unique_ptr<Measurement> without;
+        if (carrier == "udp") {
+            without = plexus_throughput(*plexus_insecure, o);
+            systems.emplace_back("plexus_insecure", without.get());
+        }
+        std::unique_ptr<RelayPair> relays;
+        std::unique_ptr<Measurement> relayed;
+        if (carrier == "tcp") {
+            relays = std::make_unique<RelayPair>(*network, dir, "throughput", writer_host, reader_host);
+            relayed = floor_throughput(relays->topology(), o);
+            systems.emplace_back("relay_floor", relayed.get());
+        }
+        rows.push_back(
+            alternate({"throughput", carrier, large, throughput_count(o), {}}, systems, options.repeat));
+    }
+    // 4. (part) udp with and without the secret where no floor is asked for: 1 MiB latency, 64 B stream.
+    {
+        const Options o = options_for(large, counts.latency_large, "udp");
+        auto with_secret = plexus_latency(*plexus, o);
+        auto without = plexus_latency(*plexus_insecure, o);
+        rows.push_back(alternate({"latency", "udp", large, latency_count(o), {}},
+                                 {{"plexus", with_secret.get()}, {"plexus_insecure", without.get()}},
+                                 options.repeat));
+    }
+    {
+        Options o = options_for(small, counts.throughput_small, "udp");
+        auto with_secret = plexus_throughput(*plexus, o);
+        auto without = plexus_throughput(*plexus_insecure, o);
+        rows.push_back(alternate({"throughput", "udp", small, throughput_count(o), {}},
+                                 {{"plexus", with_secret.get()}, {"plexus_insecure", without.get()}},
+                                 options.repeat));
+    }
+    // 3. Fan-out to three hosts: mcast against tcp, at both sizes.
+    std::vector<Fanout> fanouts;
+    for (const std::size_t size : {small, large}) {
+        for (const std::string carrier : {"mcast", "tcp"}) {
+            RunDeadline deadline;
+            fanouts.push_back(fanout(*network, secure, carrier, size,
+                                     size == small ? counts.fanout_small : counts.fanout_large));
+        }
+    }
+    // 4. Connect time with and without the secret, alternated.
+    ConnectTimes connects;
+    {
+        RunDeadline deadline;
+        ConnectProbe with_secret(secure);
+        ConnectProbe without(insecure);
+        for (std::size_t i = 0; i < counts.connects; ++i) {
+            // In turn, each first every other time.
+            if (i % 2 == 0)
+                connects.secure_ms.push_back(with_secret.once());
+            connects.insecure_ms.push_back(without.once());
+            if (i % 2 == 1)
+                connects.secure_ms.push_back(with_secret.once());
+        }
+    }
+
+    if (options.json) {
+        print_json(rows, fanouts, connects);
+    } else {
+        print_tables(options, rows, fanouts, connects);
+        std::printf("\nload average (1, 5, 15 min) before: %s, after: %s\n", load_before.c_str(),
+                    load_average().c_str());
+    }
+    return 0;
+}
+
+}  // namespace plexus::bench
