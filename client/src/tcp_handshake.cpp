@@ -131,11 +131,16 @@ void tcp_handshake(int fd, const std::string& address, std::chrono::milliseconds
                                             " did not offer to prove it holds the deployment secret "
                                             "(it runs without --secret-file): not trusted");
     }
-    send_all(fd, proto::encode_auth(secret->prove(hello->nonce, mine.nonce, mine.role, mine.node)), address);
+    send_all(fd,
+             proto::encode_auth(
+                 secret->prove(proto::Party::connecting, hello->nonce, mine.nonce, mine.role, mine.node)),
+             address);
     auto [proof_type, proof] = feed.next();
     if (proof_type != proto::FrameType::auth)
         refused_by(address, proof_type, proof, "its proof");
-    if (!proto::same_proof(secret->prove(mine.nonce, hello->nonce, hello->role, hello->node), proof))
+    if (!proto::same_proof(
+            secret->prove(proto::Party::accepting, mine.nonce, hello->nonce, hello->role, hello->node),
+            proof))
         throw Error(ErrorCode::refused, address + " does not hold the deployment secret: not trusted");
     if (!feed.empty())
         throw Error(ErrorCode::refused, address + " sent frames before it was asked anything");

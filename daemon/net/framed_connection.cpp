@@ -90,6 +90,12 @@ bool FramedConnection::is_local() {
     return socket_.local_endpoint(ignored).protocol().family() == AF_UNIX;
 }
 
+void FramedConnection::limit_send_buffer(int bytes) {
+    boost::system::error_code ignored;
+    socket_.set_option(asio::socket_base::send_buffer_size(bytes), ignored);
+    large_send_buffer_ = true;  // never raised again
+}
+
 std::optional<asio::ip::address> FramedConnection::remote_ip() {
     sockaddr_storage peer{};
     socklen_t size = sizeof peer;
@@ -203,7 +209,11 @@ Task<bool> FramedConnection::take_hello(InFrame& frame) {
             "(start it with --secret-file FILE or PLEXUS_SECRET_FILE)");
         co_return false;
     }
-    send(proto::encode_auth(secret_->prove(hello->nonce, mine_.nonce, mine_.role, mine_.node)));
+    if (hello->nonce == mine_.nonce) {
+        co_await refuse_unauthenticated("authentication failed: the peer sent back our own challenge");
+        co_return false;
+    }
+    send(proto::encode_auth(secret_->prove(party_, hello->nonce, mine_.nonce, mine_.role, mine_.node)));
     unproven_hello_ = std::move(*hello);
     co_return true;
 }
@@ -218,7 +228,8 @@ Task<bool> FramedConnection::take_proof(InFrame& frame) {
     const auto proof = proto::decode_auth(frame.fields);
     const auto& hello = *unproven_hello_;
     if (!proof ||
-        !proto::same_proof(secret_->prove(mine_.nonce, hello.nonce, hello.role, hello.node), *proof)) {
+        !proto::same_proof(secret_->prove(other_party(), mine_.nonce, hello.nonce, hello.role, hello.node),
+                           *proof)) {
         co_await refuse_unauthenticated(
             "authentication failed: the peer does not hold this deployment's secret");
         co_return false;

@@ -27,7 +27,10 @@ public:
     /// With the deployment secret, a TCP peer must prove it holds it too, right after the hellos
     /// and before anything else is read (PROTOCOL.md, "Authentication"); a Unix-socket peer is
     /// trusted by the socket's permissions. Call before start().
-    void require_secret(std::optional<proto::Secret> secret) { secret_ = std::move(secret); }
+    void require_secret(std::optional<proto::Secret> secret, proto::Party party = proto::Party::accepting) {
+        secret_ = std::move(secret);
+        party_ = party;
+    }
     /// Sends our hello and starts reading and writing.
     void start(const proto::Hello& mine);
     /// Queues a whole control frame.
@@ -48,6 +51,9 @@ public:
     void set_description(std::string text) { description_ = std::move(text); }
     Outbox& outbox() { return outbox_; }
     asio::any_io_executor executor() { return socket_.get_executor(); }
+    /// Keeps the socket's send buffer at `bytes` from now on (never raised for large messages):
+    /// for links that must not hold much in the kernel, where it would only add delay.
+    void limit_send_buffer(int bytes);
     /// True for a Unix-socket peer (a client on this machine), which can be given descriptors.
     bool is_local();
     /// The peer's IP address for a TCP peer; nullopt for a Unix-socket one.
@@ -87,6 +93,9 @@ private:
     Task<bool> take_proof(InFrame& frame);
     /// Accepts the peer (its hello, and its proof if one was needed).
     bool accept_peer(proto::Hello hello);
+    proto::Party other_party() const {
+        return party_ == proto::Party::connecting ? proto::Party::accepting : proto::Party::connecting;
+    }
     /// Counts, logs, waits a while (a peer guessing cannot go fast), then refuses the peer.
     Task<void> refuse_unauthenticated(std::string reason);
 
@@ -97,9 +106,10 @@ private:
     Signal hello_signal_;
     std::optional<proto::Hello> peer_hello_;
     std::optional<proto::Secret> secret_;
-    bool needs_proof_ = false;                    ///< decided at start(): a secret and a TCP peer
-    proto::Hello mine_;                           ///< our hello, whose role and node our proof names
-    std::optional<proto::Hello> unproven_hello_;  ///< the peer's hello, waiting for its proof
+    proto::Party party_ = proto::Party::accepting;  ///< which end we are: our proofs' label
+    bool needs_proof_ = false;                      ///< decided at start(): a secret and a TCP peer
+    proto::Hello mine_;                             ///< our hello, whose role and node our proof names
+    std::optional<proto::Hello> unproven_hello_;    ///< the peer's hello, waiting for its proof
     std::string description_;
     bool closed_ = false;
     bool draining_ = false;

@@ -48,7 +48,7 @@ Task<proto::Result<std::shared_ptr<Peer>>> Peer::connect(asio::any_io_executor e
     keep_alive(tcp_socket.native_handle());
 
     auto peer = std::make_shared<Peer>(Socket(std::move(tcp_socket)), max_frame, std::move(on_space), where);
-    peer->require_secret(std::move(secret));
+    peer->require_secret(std::move(secret), proto::Party::connecting);
     peer->start(mine);
     const auto left = deadline.expiry() - std::chrono::steady_clock::now();
     if (!co_await peer->wait_for_hello(left)) {

@@ -16,7 +16,8 @@
 namespace plexus::proto {
 
 namespace {
-constexpr std::string_view proof_label = "plexus-auth-v1";
+constexpr std::string_view connecting_label = "plexus-auth-v1 connecting";
+constexpr std::string_view accepting_label = "plexus-auth-v1 accepting";
 constexpr std::string_view datagram_label = "plexus-datagram-v1";
 
 Proof hmac(ByteView key, std::initializer_list<ByteView> parts) {
@@ -92,10 +93,11 @@ Result<Secret> Secret::load(const std::string& path) {
     return secret;
 }
 
-Proof Secret::prove(const Nonce& challenge, const Nonce& own, std::string_view role,
+Proof Secret::prove(Party party, const Nonce& challenge, const Nonce& own, std::string_view role,
                     std::string_view node) const {
+    const auto label = party == Party::connecting ? connecting_label : accepting_label;
     return hmac(keys_->proof_key,
-                {as_bytes(proof_label), challenge, own, length_prefixed(role), length_prefixed(node)});
+                {as_bytes(label), challenge, own, length_prefixed(role), length_prefixed(node)});
 }
 
 void Secret::datagram_mac(ByteView head, ByteView body, std::uint8_t* out16) const {

@@ -22,15 +22,19 @@ TEST(Auth_test, AProofHoldsOnlyForItsNoncesRoleNodeAndSecret) {
     const auto a = random_nonce();
     const auto b = random_nonce();
     EXPECT_NE(a, b);
-    const auto proof = secret.prove(a, b, "daemon", "arm");
-    EXPECT_TRUE(same_proof(proof, secret.prove(a, b, "daemon", "arm")));
-    EXPECT_FALSE(same_proof(proof, secret.prove(b, a, "daemon", "arm")));
-    EXPECT_FALSE(same_proof(proof, secret.prove(a, b, "link", "arm")));
-    EXPECT_FALSE(same_proof(proof, secret.prove(a, b, "daemon", "head")));
-    EXPECT_FALSE(same_proof(proof, secret_of("another-secret-of-16").prove(a, b, "daemon", "arm")));
+    const auto proof = secret.prove(Party::connecting, a, b, "daemon", "arm");
+    EXPECT_TRUE(same_proof(proof, secret.prove(Party::connecting, a, b, "daemon", "arm")));
+    EXPECT_FALSE(same_proof(proof, secret.prove(Party::connecting, b, a, "daemon", "arm")));
+    EXPECT_FALSE(same_proof(proof, secret.prove(Party::connecting, a, b, "link", "arm")));
+    EXPECT_FALSE(same_proof(proof, secret.prove(Party::connecting, a, b, "daemon", "head")));
+    EXPECT_FALSE(
+        same_proof(proof, secret_of("another-secret-of-16").prove(Party::connecting, a, b, "daemon", "arm")));
     // Role and node are length-prefixed: moving a byte from one to the other changes the proof.
-    EXPECT_FALSE(same_proof(secret.prove(a, b, "ab", "c"), secret.prove(a, b, "a", "bc")));
+    EXPECT_FALSE(same_proof(secret.prove(Party::connecting, a, b, "ab", "c"),
+                            secret.prove(Party::connecting, a, b, "a", "bc")));
     EXPECT_FALSE(same_proof(proof, ByteView(proof).first(31)));
+    // The other end's proof over the very same fields differs: it cannot be reflected back.
+    EXPECT_FALSE(same_proof(proof, secret.prove(Party::accepting, a, b, "daemon", "arm")));
 }
 
 TEST(Auth_test, ADatagramMacFailsOnAnyChangedByte) {
@@ -61,8 +65,9 @@ TEST(Auth_test, ShortSecretsAndOpenFilesAreRefused) {
     ASSERT_TRUE(loaded) << loaded.error().message;
     // The trailing newline is not part of the secret.
     const auto n = random_nonce();
-    EXPECT_TRUE(same_proof(loaded->prove(n, n, "r", "n"),
-                           secret_of("a-secret-long-enough-for-this").prove(n, n, "r", "n")));
+    EXPECT_TRUE(
+        same_proof(loaded->prove(Party::connecting, n, n, "r", "n"),
+                   secret_of("a-secret-long-enough-for-this").prove(Party::connecting, n, n, "r", "n")));
     ::chmod(path, 0644);
     auto open = Secret::load(path);
     ASSERT_FALSE(open);

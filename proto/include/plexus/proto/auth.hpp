@@ -22,6 +22,11 @@ inline constexpr std::size_t auth_proof_size = 32;
 inline constexpr std::size_t min_secret_size = 16;
 
 using Nonce = std::array<std::uint8_t, auth_nonce_size>;
+
+/// Which end of a TCP connection proves: the proofs of the two ends are made with different
+/// labels, so a proof one end sends can never be handed back to it as the other end's (a peer
+/// without the secret opening two connections and reflecting one's proof into the other).
+enum class Party { connecting, accepting };
 using Proof = std::array<std::uint8_t, auth_proof_size>;
 
 /// The deployment secret, and keys derived from it. Cheap to share (a shared pointer inside).
@@ -36,7 +41,8 @@ public:
     /// What a peer sends to prove it holds the secret: HMAC(secret, label | the other side's nonce |
     /// its own nonce | its role | its node). Binding both nonces makes a proof useless on any
     /// other connection; binding role and node makes it useless for anyone else's hello.
-    Proof prove(const Nonce& challenge, const Nonce& own, std::string_view role, std::string_view node) const;
+    Proof prove(Party party, const Nonce& challenge, const Nonce& own, std::string_view role,
+                std::string_view node) const;
     /// The MAC of a datagram (HMAC with a key derived for datagrams, cut to 16 bytes) over `head`
     /// followed by `body` (a sender's header and fragment lie apart).
     void datagram_mac(ByteView head, ByteView body, std::uint8_t* out16) const;
