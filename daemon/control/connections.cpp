@@ -262,8 +262,21 @@ Task<ControlPlane::SendingEnd> ControlPlane::open_sending_end(std::shared_ptr<Po
         end.sink = *sink;
         co_return end;
     }
-    // tcp: messages wait in the link's strict queue and leave on its socket.
-    auto link = std::make_shared<Link>(link_peer, host_.config().link_capacity, host_.config().queue_bytes);
+    // tcp: messages wait in the link's queue and leave on its socket. Into a latest port the link
+    // keeps only the newest few and a small socket buffer, so a slow network adds little delay
+    // (the kernel's buffer would otherwise hold seconds of data at 10 Mbit/s); into a strict port
+    // it holds the writer back.
+    const bool latest = attached->body.value("policy", std::string("strict")) == "latest";
+    const std::size_t capacity =
+        latest ? std::min<std::size_t>(
+                     host_.config().link_capacity,
+                     std::max<std::size_t>(1, attached->body.value("capacity", std::size_t{16})))
+               : host_.config().link_capacity;
+    constexpr int latest_send_buffer = 64 * 1024;
+    if (latest)
+        link_peer->limit_send_buffer(latest_send_buffer);
+    auto link = std::make_shared<Link>(link_peer, capacity, host_.config().queue_bytes,
+                                       latest ? QueuePolicy::latest : QueuePolicy::strict);
     end.peer = link_peer;
     end.sink = link;
     end.queue = link->queue();
@@ -322,7 +335,10 @@ Task<proto::Reply> ControlPlane::attach(std::shared_ptr<Session> session, const 
     auto wired = wire_inlet(host_.scripts(), host_.clock(), spec);
     if (!wired)
         co_return refuse(wired.error().message);
-    nlohmann::json answer = {{"warnings", wired->warnings}};
+    // The sending daemon shapes its end after this port's queue (a latest port gets a latest link).
+    nlohmann::json answer = {{"warnings", wired->warnings},
+                             {"policy", queue_policy_name(port->queue().policy())},
+                             {"capacity", port->queue().capacity()}};
     if (carrier->base == "udp") {
         // udp: datagrams from the link's address, for a stream of its own, feed the inlet.
         const auto sender = session->remote_ip();

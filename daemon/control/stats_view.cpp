@@ -29,8 +29,10 @@ nlohmann::json ControlPlane::stats_json(const std::string& only_port) const {
                                  {"carrier", c->carrier},
                                  {"sent", c->sent},
                                  {"dropped_by_monitor", c->dropped_by_monitor}};
-            if (const auto* link = dynamic_cast<const Link*>(c->sink.get()))
+            if (const auto* link = dynamic_cast<const Link*>(c->sink.get())) {
                 entry["queued"] = link->queued();
+                entry["dropped_latest"] = link->dropped();  // a link into a latest port keeps the newest
+            }
             if (const auto* mcast = dynamic_cast<const McastLink*>(c->sink.get())) {
                 // The port's one sending end: every mcast connection of the port shows the same.
                 const auto& sent = mcast->sender().counters();

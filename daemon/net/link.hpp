@@ -9,13 +9,16 @@
 
 namespace plexus::daemon {
 
-/// The sending end of a tcp connection: messages wait in a strict queue and leave on the peer's
-/// socket as data frames. A full queue holds the writer back (TCP back-pressure, end to end).
+/// The sending end of a tcp connection: messages wait in a queue and leave on the peer's socket as
+/// data frames. Into a strict port the queue is strict: a full one holds the writer back (TCP
+/// back-pressure, end to end). Into a latest port it is a latest queue that drops its oldest
+/// message (counted) rather than hold anyone back, so that on a slow network the reader gets the
+/// newest data, not a backlog.
 class Link : public MessageSink {
 public:
-    Link(std::shared_ptr<Peer> peer, std::size_t capacity, std::size_t max_bytes)
-        : peer_(std::move(peer)),
-          queue_(std::make_shared<ReaderQueue>(QueuePolicy::strict, capacity, max_bytes)) {
+    Link(std::shared_ptr<Peer> peer, std::size_t capacity, std::size_t max_bytes,
+         QueuePolicy policy = QueuePolicy::strict)
+        : peer_(std::move(peer)), queue_(std::make_shared<ReaderQueue>(policy, capacity, max_bytes)) {
         peer_->outbox().add_source({0, queue_.get(), nullptr, queue_});
     }
     bool full() const override { return queue_->full(); }
@@ -29,6 +32,8 @@ public:
     void close_after_flush() override { peer_->close_when_drained(); }
     /// Messages still queued (lost if the link died).
     std::size_t queued() const { return queue_->depth(); }
+    /// Messages a latest link dropped to keep its queue short.
+    std::uint64_t dropped() const { return queue_->dropped(); }
     /// The queue itself, for whoever must count what is left in it after the link is gone.
     std::shared_ptr<const ReaderQueue> queue() const { return queue_; }
     const std::shared_ptr<Peer>& peer() const { return peer_; }
