@@ -252,6 +252,26 @@ bool UdpCarrier::send(const asio::ip::udp::endpoint& to, std::uint64_t stream, s
     return true;
 }
 
+void UdpCarrier::send_counted(const asio::ip::udp::endpoint& to, std::uint64_t stream,
+                              std::uint64_t& next_message, proto::ByteView record, UdpSendCounters& counters,
+                              const std::string& description) {
+    if (record.size() > config_.max_message) {
+        // Never numbered: the receiver sees no gap for it; the sender's counter says it.
+        if (counters.dropped_too_large++ == 0) {
+            spdlog::warn(
+                "{}: a message of {} bytes is larger than the udp carrier's limit {} (udp_max_message): "
+                "dropped; such drops are counted in stats",
+                description, record.size(), config_.max_message);
+        }
+        return;
+    }
+    if (send(to, stream, next_message++, record))
+        ++counters.messages;
+    else
+        ++counters.dropped_send;
+    counters.datagrams += proto::fragment_count(record.size(), config_.fragment_bytes);
+}
+
 Task<void> UdpCarrier::receive_loop() {
     while (!stopped_) {
         auto [ec] = co_await socket_.async_wait(asio::socket_base::wait_read, use_nothrow);
@@ -398,40 +418,13 @@ void McastSender::deliver(const Message& message) {
             ++counters_.dropped_by_monitor;
             return;
         }
-        if (single.record.size() > carrier_.config().max_message) {
-            if (counters_.dropped_too_large++ == 0) {
-                spdlog::warn(
-                    "mcast {}: a message of {} bytes is larger than the limit {} (udp_max_message): "
-                    "dropped; such drops are counted in stats",
-                    source_, single.record.size(), carrier_.config().max_message);
-            }
-            return;
-        }
-        if (carrier_.send(group_, 0, next_message_++, single.record))
-            ++counters_.messages;
-        else
-            ++counters_.dropped_send;
-        counters_.datagrams += proto::fragment_count(single.record.size(), carrier_.config().fragment_bytes);
+        carrier_.send_counted(group_, 0, next_message_, single.record, counters_, "mcast " + source_);
     });
 }
 
 void UdpLink::deliver(const Message& message) {
     for_each_record(message, [this](const Message& single) {
-        if (single.record.size() > carrier_.config().max_message) {
-            if (counters_.dropped_too_large++ == 0) {
-                spdlog::warn(
-                    "{}: a message of {} bytes is larger than the udp carrier's limit {} "
-                    "(udp_max_message): dropped; such drops are counted in stats",
-                    description_, single.record.size(), carrier_.config().max_message);
-            }
-            return;
-        }
-        const std::uint64_t number = next_message_++;
-        if (carrier_.send(to_, stream_, number, single.record))
-            ++counters_.messages;
-        else
-            ++counters_.dropped_send;
-        counters_.datagrams += proto::fragment_count(single.record.size(), carrier_.config().fragment_bytes);
+        carrier_.send_counted(to_, stream_, next_message_, single.record, counters_, description_);
     });
 }
 

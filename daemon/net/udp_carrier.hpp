@@ -80,6 +80,10 @@ public:
     /// will count the message lost).
     bool send(const asio::ip::udp::endpoint& to, std::uint64_t stream, std::uint64_t message,
               proto::ByteView record);
+    /// send() with the bookkeeping of a sending end: a record over max_message is dropped (logged
+    /// the first time), else numbered `next_message` (then advanced) and counted.
+    void send_counted(const asio::ip::udp::endpoint& to, std::uint64_t stream, std::uint64_t& next_message,
+                      proto::ByteView record, UdpSendCounters& counters, const std::string& description);
     /// The multicast sending end of a source port, shared by all of its mcast connections.
     std::shared_ptr<McastSender> mcast_sender(const std::string& source,
                                               const asio::ip::udp::endpoint& group);
@@ -137,12 +141,9 @@ private:
     UdpSendCounters counters_;
 };
 
-/// What the multicast sending end of a source port reports (`plexus stats`, on the port).
-struct McastSendCounters {
-    std::uint64_t messages = 0;   ///< sent once each, whatever the number of receiving daemons
-    std::uint64_t datagrams = 0;  ///< datagrams those took
-    std::uint64_t dropped_too_large = 0;
-    std::uint64_t dropped_send = 0;
+/// What the multicast sending end of a source port reports (`plexus stats`, on the port):
+/// `messages` were sent once each, whatever the number of receiving daemons.
+struct McastSendCounters : UdpSendCounters {
     std::uint64_t dropped_by_monitor = 0;  ///< dropped by the shared send-side monitors
 };
 

@@ -10,13 +10,6 @@ namespace {
 
 using nlohmann::json;
 
-std::string numbered_lines(int from, int count) {
-    std::string lines;
-    for (int i = from; i < from + count; ++i)
-        lines += std::to_string(i) + "\n";
-    return lines;
-}
-
 /// The stats entry of the connection into `port` from `source`, on `daemon`; null if absent.
 json inbound_stats(const TempDir& dir, const Daemon& daemon, const std::string& port,
                    const std::string& source) {

@@ -339,4 +339,30 @@ std::vector<nlohmann::json> json_lines(const std::string& text) {
     return lines;
 }
 
+std::string numbered_lines(int from, int count) {
+    std::string lines;
+    for (int i = from; i < from + count; ++i)
+        lines += std::to_string(i) + "\n";
+    return lines;
+}
+
+/// Exit status of a forked child, or -1 (after killing it) if it is still running at the deadline.
+int wait_child(pid_t pid, std::chrono::milliseconds timeout) {
+    int status = -1;
+    const bool done = eventually(
+        [&] {
+            int raw = 0;
+            if (::waitpid(pid, &raw, WNOHANG) != pid)
+                return false;
+            status = WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + WTERMSIG(raw);
+            return true;
+        },
+        timeout);
+    if (!done) {
+        ::kill(pid, SIGKILL);
+        ::waitpid(pid, nullptr, 0);
+    }
+    return status;
+}
+
 }  // namespace plexus::test

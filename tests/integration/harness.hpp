@@ -165,6 +165,13 @@ private:
 /// Polls until `plexus exists PORT` succeeds on that daemon's name server.
 bool wait_port(const TempDir& dir, const Daemon& daemon, const std::string& port);
 
+/// "from\n" ... "from+count-1\n": numbered lines for `plexus write`, and what a reader prints of them.
+std::string numbered_lines(int from, int count);
+
+/// Exit status of a forked child (Host::fork_inside), or -1 (after killing it) if it is still
+/// running at the deadline.
+int wait_child(pid_t pid, std::chrono::milliseconds timeout = 20s);
+
 /// One JSON value per complete, non-empty line (the output of `plexus read`).
 std::vector<nlohmann::json> json_lines(const std::string& text);
 

@@ -10,13 +10,6 @@ namespace {
 
 using nlohmann::json;
 
-std::string numbered_lines(int count) {
-    std::string lines;
-    for (int i = 0; i < count; ++i)
-        lines += std::to_string(i) + "\n";
-    return lines;
-}
-
 json stats_of(const TempDir& dir, const Daemon& daemon, const std::string& port = "") {
     std::vector<std::string> args{"stats", "--json"};
     if (!port.empty())
@@ -55,11 +48,11 @@ TEST(Mcast_test, EveryMessageIsSentOnceToReadersOnThreeHostsWithAMonitorOnEachSi
     }
     const auto before = stats_of(dir, writer_side)["daemon"]["udp_datagrams_sent"].get<int>();
 
-    writer.send(numbered_lines(count));
+    writer.send(numbered_lines(0, count));
 
     for (std::size_t k = 0; k < readers.size(); ++k) {
         auto& reader = readers[k];
-        ASSERT_TRUE(eventually([&] { return reader->out() == numbered_lines(count); }, 30s))
+        ASSERT_TRUE(eventually([&] { return reader->out() == numbered_lines(0, count); }, 30s))
             << "reader on host " << k + 2 << " got [" << reader->out() << "]\n"
             << stats_of(dir, *readers_sides[k]).dump() << "\n"
             << stats_of(dir, writer_side).dump();

@@ -15,13 +15,6 @@ namespace {
 
 using nlohmann::json;
 
-std::string numbered_lines(int from, int count) {
-    std::string lines;
-    for (int i = from; i < from + count; ++i)
-        lines += std::to_string(i) + "\n";
-    return lines;
-}
-
 bool registered_again(const TempDir& dir, const Daemon& daemon) {
     auto list = run_cli(dir, daemon, {"list", "--json"}, "", 10s);
     if (list.status != 0)

@@ -25,25 +25,6 @@ using nlohmann::json;
 const char* const group = "239.255.77.1";
 constexpr int group_port = 47701;
 
-/// Exit status of a forked child, or -1 (after killing it) if it is still running at the deadline.
-int wait_child(pid_t pid, std::chrono::milliseconds timeout = 20s) {
-    int status = -1;
-    const bool done = eventually(
-        [&] {
-            int raw = 0;
-            if (::waitpid(pid, &raw, WNOHANG) != pid)
-                return false;
-            status = WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + WTERMSIG(raw);
-            return true;
-        },
-        timeout);
-    if (!done) {
-        ::kill(pid, SIGKILL);
-        ::waitpid(pid, nullptr, 0);
-    }
-    return status;
-}
-
 /// Reads what is there on `fd` within `timeout`; "" if nothing came.
 std::string read_within(int fd, std::chrono::milliseconds timeout) {
     pollfd p{fd, POLLIN, 0};
@@ -102,13 +83,6 @@ int send_one(const std::string& address, const std::string& payload) {
     const ssize_t n =
         ::sendto(s, payload.data(), payload.size(), 0, reinterpret_cast<sockaddr*>(&to), sizeof to);
     return n == static_cast<ssize_t>(payload.size()) ? 0 : 1;
-}
-
-std::string numbered_lines(int count) {
-    std::string lines;
-    for (int i = 0; i < count; ++i)
-        lines += std::to_string(i) + "\n";
-    return lines;
 }
 
 TEST(Netns_test, EveryHostReachesEveryOtherHost) {
@@ -215,11 +189,11 @@ TEST(Netns_test, TcpDeliversInOrderBetweenDaemonsOnTwoHosts) {
     auto reader = start_cli(dir, reader_side,
                             {"read", "/b/in", "--count", std::to_string(count), "--timeout", "60"}, "reader");
     ASSERT_TRUE(wait_port(dir, writer_side, "/b/in"));
-    auto written = run_cli(dir, writer_side, {"write", "/a/out", "/b/in"}, numbered_lines(count));
+    auto written = run_cli(dir, writer_side, {"write", "/a/out", "/b/in"}, numbered_lines(0, count));
 
     ASSERT_EQ(written.status, 0) << written.err;
     ASSERT_EQ(reader->wait(60s), 0) << reader->err();
-    EXPECT_EQ(reader->out(), numbered_lines(count));
+    EXPECT_EQ(reader->out(), numbered_lines(0, count));
 }
 
 TEST(Netns_test, ARecvMonitorRunsOnAConnectionBetweenHosts) {
@@ -247,11 +221,11 @@ TEST(Netns_test, ARecvMonitorRunsOnAConnectionBetweenHosts) {
         dir, writer_side, {"connect", "/a/out", "/c/in", "tcp+recv.portmonitor+type.lua+file.rate_logger"});
     ASSERT_EQ(to_monitored.status, 0) << to_monitored.err;
 
-    writer.send(numbered_lines(count));
+    writer.send(numbered_lines(0, count));
 
     ASSERT_EQ(plain->wait(60s), 0) << plain->err();
-    EXPECT_EQ(plain->out(), numbered_lines(count));
-    ASSERT_TRUE(eventually([&] { return monitored->out() == numbered_lines(count); }, 30s))
+    EXPECT_EQ(plain->out(), numbered_lines(0, count));
+    ASSERT_TRUE(eventually([&] { return monitored->out() == numbered_lines(0, count); }, 30s))
         << monitored->out();
     // The monitor saw every message, in the daemon of the host it was meant for.
     auto param = run_cli(dir, monitor_side, {"param", "get", "/a/out", "/c/in"});

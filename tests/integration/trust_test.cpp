@@ -24,20 +24,6 @@ namespace {
 
 using nlohmann::json;
 
-int wait_child(pid_t pid) {
-    int status = -1;
-    eventually(
-        [&] {
-            int raw = 0;
-            if (::waitpid(pid, &raw, WNOHANG) != pid)
-                return false;
-            status = WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + WTERMSIG(raw);
-            return true;
-        },
-        30s);
-    return status;
-}
-
 /// Inside the calling namespace: connects to `address` as a link of node `node` with no secret,
 /// asks to attach `source` to `destination`, and reads until the daemon closes. Exit 0 when it was
 /// refused for want of the secret (an error frame saying so, and no reply), else 1.

@@ -24,13 +24,6 @@ namespace {
 
 using nlohmann::json;
 
-std::string numbered_lines(int from, int count) {
-    std::string lines;
-    for (int i = from; i < from + count; ++i)
-        lines += std::to_string(i) + "\n";
-    return lines;
-}
-
 /// The port number of a daemon's address ("10.77.0.3:41234" → 41234): its udp carrier's too.
 int port_of(const Daemon& daemon) {
     return std::stoi(daemon.address().substr(daemon.address().rfind(':') + 1));
