@@ -1,6 +1,7 @@
 #include <spdlog/fmt/fmt.h>
 
 #include "connection.hpp"
+#include "daemon_link.hpp"
 #include "plexus/client.hpp"
 #include "plexus/proto/cbor.hpp"
 #include "plexus/proto/defaults.hpp"
@@ -9,34 +10,37 @@
 
 namespace plexus {
 
+using detail::checked;
+
 namespace {
 
-[[noreturn]] void throw_reply(const proto::Reply& reply) {
-    const auto code =
-        static_cast<ErrorCode>(std::clamp<std::uint32_t>(static_cast<std::uint32_t>(reply.code), 1, 4));
-    throw Error(code, reply.body.value("error", std::string("refused by plexusd")));
-}
-
-nlohmann::json checked(const proto::Reply& reply) {
-    if (reply.code != proto::ReplyCode::ok)
-        throw_reply(reply);
-    return reply.body;
-}
+constexpr std::chrono::milliseconds control_timeout{10000};
 
 }  // namespace
 
 // --- Port ---
 
-Port::Port(std::shared_ptr<detail::Connection> connection, std::string name, std::uint64_t handle)
-    : connection_(std::move(connection)),
-      name_(std::move(name)),
-      handle_(handle),
-      ready_(std::make_unique<detail::Inbox>()) {}
+Port::Port(std::shared_ptr<detail::DaemonLink> link, std::shared_ptr<detail::PortRecord> record)
+    : link_(std::move(link)),
+      record_(std::move(record)),
+      name_(record_->name),
+      ready_(std::make_unique<detail::Inbox>()) {
+    std::lock_guard lock(record_->mutex);
+    connection_ = read_connection_ = record_->connection;
+    handle_ = read_handle_ = record_->handle;
+    generation_ = read_generation_ = record_->generation.load(std::memory_order_relaxed);
+}
 
 Port::Port(Port&& other) noexcept
-    : connection_(std::move(other.connection_)),
+    : link_(std::move(other.link_)),
+      record_(std::move(other.record_)),
       name_(std::move(other.name_)),
+      connection_(std::move(other.connection_)),
       handle_(other.handle_),
+      generation_(other.generation_),
+      read_connection_(std::move(other.read_connection_)),
+      read_handle_(other.read_handle_),
+      read_generation_(other.read_generation_),
       next_seq_(other.next_seq_),
       ready_(std::move(other.ready_)) {}
 
@@ -47,9 +51,15 @@ Port& Port::operator=(Port&& other) noexcept {
         } catch (...) {
             // A failed close of the old port must not stop the move.
         }
-        connection_ = std::move(other.connection_);
+        link_ = std::move(other.link_);
+        record_ = std::move(other.record_);
         name_ = std::move(other.name_);
+        connection_ = std::move(other.connection_);
         handle_ = other.handle_;
+        generation_ = other.generation_;
+        read_connection_ = std::move(other.read_connection_);
+        read_handle_ = other.read_handle_;
+        read_generation_ = other.read_generation_;
         next_seq_ = other.next_seq_;
         ready_ = std::move(other.ready_);
     }
@@ -65,7 +75,7 @@ Port::~Port() {
 }
 
 void Port::write(const Value& value, bool flush) {
-    if (!connection_)
+    if (!link_)
         throw Error(ErrorCode::usage, "port " + name_ + " is closed");
     thread_local proto::Bytes payload;
     payload.clear();
@@ -75,27 +85,120 @@ void Port::write(const Value& value, bool flush) {
         // is written here, and no copy of it is made on the way to the socket.
         const auto& bytes = value.get_binary();
         proto::append_byte_string_head(payload, bytes.size());
-        connection_->write(handle_, name_, next_seq_++, payload, {bytes.data(), bytes.size()}, flush);
+        send(next_seq_++, payload, {bytes.data(), bytes.size()}, flush);
         return;
     }
     proto::encode_cbor(value, payload);
-    connection_->write(handle_, name_, next_seq_++, payload, {}, flush);
+    send(next_seq_++, payload, {}, flush);
+}
+
+void Port::send(std::uint64_t seq, std::span<const std::uint8_t> payload, std::span<const std::uint8_t> tail,
+                bool flush) {
+    for (;;) {
+        // The hot path: one acquire load compared with the cached generation, no lock.
+        if (connection_ && record_->generation.load(std::memory_order_acquire) == generation_) [[likely]] {
+            try {
+                connection_->write(handle_, name_, seq, payload, tail, flush);
+                return;
+            } catch (const Error&) {
+                if (!connection_->broken())
+                    throw;
+                // The daemon went away: this message is held below and sent after reconnecting.
+                link_->lost(connection_);
+            }
+        }
+        std::lock_guard lock(record_->mutex);
+        generation_ = record_->generation.load(std::memory_order_relaxed);
+        connection_ = record_->connection;
+        handle_ = record_->handle;
+        if (!connection_) {
+            record_->hold_locked(seq, payload, tail);
+            return;
+        }
+    }
 }
 
 void Port::flush() {
-    if (connection_)
+    if (!link_ || !connection_ || record_->generation.load(std::memory_order_acquire) != generation_)
+        return;  // nothing buffered on a connection that is gone can be sent anyway
+    try {
         connection_->flush();
+    } catch (const Error&) {
+        if (!connection_->broken())
+            throw;
+        link_->lost(connection_);
+    }
+}
+
+std::uint64_t Port::dropped_while_disconnected() const {
+    if (!record_)
+        return 0;
+    std::lock_guard lock(record_->mutex);
+    return record_->dropped;
+}
+
+bool Port::take(std::chrono::milliseconds timeout) {
+    if (read_connection_ && record_->generation.load(std::memory_order_acquire) == read_generation_)
+        [[likely]] {
+        try {
+            return read_connection_->read_all(read_handle_, timeout, ready_->segments);
+        } catch (const Error&) {
+            if (!read_connection_->broken())
+                throw;
+            link_->lost(read_connection_);
+        }
+    }
+    return take_slow(std::chrono::steady_clock::now() + timeout);
+}
+
+bool Port::take_slow(std::chrono::steady_clock::time_point deadline) {
+    using std::chrono::milliseconds;
+    auto& segments = ready_->segments;
+    for (;;) {
+        if (read_connection_ && record_->generation.load(std::memory_order_acquire) != read_generation_) {
+            // Messages that reached the old connection before its daemon went are read first. Its
+            // peer is gone, so this does not wait: the socket has data, or it ends (and throws).
+            const auto left =
+                std::max(milliseconds(0),
+                         std::chrono::ceil<milliseconds>(deadline - std::chrono::steady_clock::now()));
+            try {
+                if (read_connection_->read_all(read_handle_, left, segments))
+                    return true;
+            } catch (const Error&) {
+                // Broken, and nothing left in it.
+            }
+        }
+        {
+            std::lock_guard lock(record_->mutex);
+            read_generation_ = record_->generation.load(std::memory_order_relaxed);
+            read_connection_ = record_->connection;
+            read_handle_ = record_->handle;
+        }
+        const auto left = std::max(
+            milliseconds(0), std::chrono::ceil<milliseconds>(deadline - std::chrono::steady_clock::now()));
+        if (!read_connection_) {
+            if (!link_->wait_for_change(*record_, read_generation_, deadline))
+                return false;
+            continue;
+        }
+        try {
+            return read_connection_->read_all(read_handle_, left, segments);
+        } catch (const Error&) {
+            if (!read_connection_->broken())
+                throw;
+            link_->lost(read_connection_);
+        }
+        if (std::chrono::steady_clock::now() >= deadline)
+            return false;
+    }
 }
 
 std::optional<Received> Port::read(std::chrono::milliseconds timeout) {
-    // One look at connection_ (close() resets it); no reference count per read: the Client keeps
-    // the connection alive.
-    detail::Connection* const connection = connection_.get();
-    if (!connection)
+    if (!link_)
         throw Error(ErrorCode::usage, "port " + name_ + " is closed");
     auto& inbox = *ready_;
     if (inbox.segments.empty()) {
-        if (!connection->read_all(handle_, timeout, inbox.segments))
+        if (!take(timeout))
             return std::nullopt;
         inbox.next = 0;
     }
@@ -124,13 +227,13 @@ std::optional<Received> Port::read(std::chrono::milliseconds timeout) {
 }
 
 void Port::close() {
-    if (!connection_)
+    if (!link_)
         return;
-    auto connection = std::move(connection_);
-    connection_ = nullptr;
-    connection->flush();
-    connection->forget(handle_);
-    checked(connection->request({{"op", "close"}, {"handle", handle_}}, std::chrono::milliseconds(10000)));
+    auto link = std::move(link_);
+    link_ = nullptr;
+    connection_.reset();
+    read_connection_.reset();
+    link->close(record_, control_timeout);
 }
 
 // --- Subscription ---
@@ -162,30 +265,27 @@ Client::Client() : Client(Options{}) {}
 
 Client::Client(Options options)
     : socket_(options.socket.empty() ? proto::default_socket() : options.socket),
-      connection_(detail::Connection::to_daemon(socket_)) {}
+      link_(std::make_shared<detail::DaemonLink>(socket_)) {}
 
 std::optional<Value> Client::ask_names(const std::string& names_address, const Value& body) {
     auto connection = detail::Connection::to_tcp(names_address);
-    auto reply = connection->request(body, std::chrono::milliseconds(10000));
+    auto reply = connection->request(body, control_timeout);
     if (reply.code == proto::ReplyCode::no)
         return std::nullopt;
     return checked(reply);
 }
 
-Client::~Client() = default;
+Client::~Client() {
+    // Ports may outlive the Client (they keep the link); reconnection ends with it.
+    link_->stop();
+}
 
 Value Client::request(const Value& body) {
-    return checked(connection_->request(body, std::chrono::milliseconds(10000)));
+    return checked(link_->request(body, control_timeout));
 }
 
 Port Client::open(const std::string& name, PortOptions options) {
-    nlohmann::json body{{"op", "open"},
-                        {"port", name},
-                        {"policy", options.policy == QueuePolicy::strict ? "strict" : "latest"}};
-    if (options.capacity > 0)
-        body["capacity"] = options.capacity;
-    auto reply = request(body);
-    return Port(connection_, name, reply.at("handle").get<std::uint64_t>());
+    return Port(link_, link_->open(name, options, control_timeout));
 }
 
 std::string Client::connect(const std::string& source, const std::string& destination,
@@ -195,11 +295,13 @@ std::string Client::connect(const std::string& source, const std::string& destin
                           {"destination", destination},
                           {"carrier", carrier},
                           {"persist", persist}});
+    link_->remember({source, destination, carrier, persist});
     return reply.value("carrier", carrier);
 }
 
 void Client::disconnect(const std::string& source, const std::string& destination) {
     request({{"op", "disconnect"}, {"source", source}, {"destination", destination}});
+    link_->forget(source, destination);
 }
 
 Value Client::list() {
@@ -207,7 +309,7 @@ Value Client::list() {
 }
 
 std::optional<Value> Client::lookup(const std::string& port) {
-    auto reply = connection_->request({{"op", "lookup"}, {"port", port}}, std::chrono::milliseconds(10000));
+    auto reply = link_->request({{"op", "lookup"}, {"port", port}}, control_timeout);
     if (reply.code == proto::ReplyCode::no)
         return std::nullopt;
     return checked(reply);
@@ -219,6 +321,14 @@ Value Client::stats(const std::string& port) {
 
 Value Client::ping(const std::string& port) {
     return request({{"op", "ping"}, {"port", port}});
+}
+
+void Client::on_state(std::function<void(ConnectionState)> callback) {
+    link_->on_state(std::move(callback));
+}
+
+ConnectionState Client::state() const {
+    return link_->state();
 }
 
 }  // namespace plexus

@@ -70,6 +70,10 @@ public:
     /// Tells the daemon this client maps shared-memory regions (a local daemon only); true if the
     /// daemon shares memory. Large payloads then travel through shared memory where they can.
     bool enable_shm();
+    /// True once the connection failed (the daemon went away, or broke the protocol). One load.
+    bool broken() const { return is_broken_.load(std::memory_order_acquire); }
+    /// The socket, for a watcher that polls it for the peer's hang-up (never read from it).
+    int native_handle() const { return fd_; }
 
 private:
     /// A region the daemon gave this client to write the large payloads of one port into.

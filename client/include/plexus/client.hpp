@@ -5,12 +5,18 @@
 // (writes are serialized by a lock; reads are done by whichever thread is waiting, the others are
 // handed what it reads). One Port is used by one thread at a time for writing and one for reading:
 // its sequence number and its read buffer are its own, without a lock.
+//
+// A Client outlives its daemon: when the daemon goes away, a thread of the Client reconnects to the
+// same socket path (back-off 50 ms doubling to 2 s, +-25% jitter), opens its ports again and makes
+// the connections it made again. Ports keep working meanwhile: writes are held (bounded), reads
+// wait, sequence numbers continue.
 
 #include <chrono>
 #include <cstdint>
 #include <functional>
 #include <memory>
 #include <optional>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -73,9 +79,18 @@ struct PortOptions {
     std::size_t capacity = 0;  ///< 0: the daemon's default
 };
 
+/// The state of a Client's link to its daemon, as told to Client::on_state.
+enum class ConnectionState {
+    connected,     ///< the first connection, made by the constructor
+    disconnected,  ///< the daemon went away; reconnecting in the background
+    reconnected,   ///< the daemon is back: ports open again, connections made again, held writes sent
+};
+
 namespace detail {
 class Connection;
+class DaemonLink;
 struct Inbox;
+struct PortRecord;
 }  // namespace detail
 
 class Client;
@@ -95,21 +110,42 @@ public:
     const std::string& name() const { return name_; }
     /// Writes a value to every connection out of this port. With flush=false the message waits in
     /// a buffer until the next flushing write, flush(), or a full buffer: many messages, one send.
+    /// While the daemon is away the message is held (up to 1,000 messages or 8 MiB per port, the
+    /// oldest dropped beyond) and sent, in order, once reconnected; it neither throws nor blocks.
     void write(const Value& value, bool flush = true);
     /// Sends what write(..., false) buffered.
     void flush();
-    /// Waits up to `timeout` for the next message delivered to this port.
+    /// Waits up to `timeout` for the next message delivered to this port (also while the daemon is
+    /// away: then it waits for the reconnection rather than throwing).
     std::optional<Received> read(std::chrono::milliseconds timeout);
+    /// Messages written while the daemon was away and dropped (the oldest) beyond the bound.
+    std::uint64_t dropped_while_disconnected() const;
     /// Closes the port now (after flushing); further use throws.
     void close();
-    bool is_open() const { return connection_ != nullptr; }
+    bool is_open() const { return link_ != nullptr; }
 
 private:
     friend class Client;
-    Port(std::shared_ptr<detail::Connection> connection, std::string name, std::uint64_t handle);
-    std::shared_ptr<detail::Connection> connection_;
+    Port(std::shared_ptr<detail::DaemonLink> link, std::shared_ptr<detail::PortRecord> record);
+    /// Writes one encoded message, or holds it while the daemon is away.
+    void send(std::uint64_t seq, std::span<const std::uint8_t> payload, std::span<const std::uint8_t> tail,
+              bool flush);
+    /// Fills ready_ from the connection, waiting up to `timeout` (across a reconnection).
+    bool take(std::chrono::milliseconds timeout);
+    bool take_slow(std::chrono::steady_clock::time_point deadline);
+
+    std::shared_ptr<detail::DaemonLink> link_;
+    std::shared_ptr<detail::PortRecord> record_;  ///< what the link re-opens; where the port lives now
     std::string name_;
+    // The writing side's copy of where the port lives, valid while record_'s generation equals
+    // generation_: a write checks with one load instead of a lock. The reading side has its own
+    // copy, because a port is written by one thread and read by another.
+    std::shared_ptr<detail::Connection> connection_;
     std::uint64_t handle_ = 0;
+    std::uint64_t generation_ = 0;
+    std::shared_ptr<detail::Connection> read_connection_;
+    std::uint64_t read_handle_ = 0;
+    std::uint64_t read_generation_ = 0;
     std::uint64_t next_seq_ = 1;
     /// Messages taken from the connection in one go and not yet read: one lock per batch of
     /// messages instead of one per message.
@@ -167,10 +203,17 @@ public:
     static std::optional<Value> ask_names(const std::string& names_address, const Value& body);
     /// The socket path this client is connected to.
     const std::string& socket_path() const { return socket_; }
+    /// Calls `callback` (on the Client's reconnection thread) when the daemon goes away
+    /// (disconnected) and when it is back and the ports and connections are restored (reconnected).
+    /// While disconnected, control requests (open, connect, stats, ...) throw Error (refused, "the
+    /// daemon at PATH is gone; reconnecting").
+    void on_state(std::function<void(ConnectionState)> callback);
+    /// The link's state now.
+    ConnectionState state() const;
 
 private:
     std::string socket_;
-    std::shared_ptr<detail::Connection> connection_;
+    std::shared_ptr<detail::DaemonLink> link_;
 };
 
 }  // namespace plexus
