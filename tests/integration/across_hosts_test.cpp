@@ -10,24 +10,6 @@ namespace {
 
 using nlohmann::json;
 
-/// The stats entry of the connection into `port` from `source`, on `daemon`; null if absent.
-json inbound_stats(const TempDir& dir, const Daemon& daemon, const std::string& port,
-                   const std::string& source) {
-    auto stats = run_cli(dir, daemon, {"stats", port, "--json"});
-    if (stats.status != 0)
-        return nullptr;
-    const auto parsed = json::parse(stats.out);  // named: a temporary would dangle in the loop
-    for (const auto& p : parsed["ports"]) {
-        if (p["name"] != port)
-            continue;
-        for (const auto& entry : p["inbound"]) {
-            if (entry["source"] == source)
-                return entry;
-        }
-    }
-    return nullptr;
-}
-
 TEST(AcrossHosts_test, UdpCarriesMessagesWithAMonitorOnEachSide) {
     PLEXUS_NEEDS_NETNS();
     Network net(3);

@@ -365,4 +365,41 @@ int wait_child(pid_t pid, std::chrono::milliseconds timeout) {
     return status;
 }
 
+nlohmann::json port_stats(const TempDir& dir, const Daemon& daemon, const std::string& port) {
+    auto stats = run_cli(dir, daemon, {"stats", port, "--json"});
+    if (stats.status != 0)
+        return nullptr;
+    const auto parsed = nlohmann::json::parse(stats.out);  // named: a temporary would dangle in the loop
+    for (const auto& p : parsed["ports"]) {
+        if (p["name"] == port)
+            return p;
+    }
+    return nullptr;
+}
+
+namespace {
+/// The entry of `port`'s `side` ("inbound" or "outgoing") whose `key` is `value`; null if none.
+nlohmann::json connection_stats(const TempDir& dir, const Daemon& daemon, const std::string& port,
+                                const char* side, const char* key, const std::string& value) {
+    const auto p = port_stats(dir, daemon, port);
+    if (p.is_null())
+        return nullptr;
+    for (const auto& entry : p[side]) {
+        if (entry[key] == value)
+            return entry;
+    }
+    return nullptr;
+}
+}  // namespace
+
+nlohmann::json inbound_stats(const TempDir& dir, const Daemon& daemon, const std::string& port,
+                             const std::string& source) {
+    return connection_stats(dir, daemon, port, "inbound", "source", source);
+}
+
+nlohmann::json outgoing_stats(const TempDir& dir, const Daemon& daemon, const std::string& port,
+                              const std::string& destination) {
+    return connection_stats(dir, daemon, port, "outgoing", "destination", destination);
+}
+
 }  // namespace plexus::test

@@ -172,6 +172,15 @@ std::string numbered_lines(int from, int count);
 /// running at the deadline.
 int wait_child(pid_t pid, std::chrono::milliseconds timeout = 20s);
 
+/// `plexus stats PORT --json` on `daemon`: that port's entry, or null.
+nlohmann::json port_stats(const TempDir& dir, const Daemon& daemon, const std::string& port);
+/// The stats of the connection into `port` from `source` on `daemon`; null if there is none.
+nlohmann::json inbound_stats(const TempDir& dir, const Daemon& daemon, const std::string& port,
+                             const std::string& source);
+/// The stats of the connection out of `port` to `destination` on `daemon`; null if there is none.
+nlohmann::json outgoing_stats(const TempDir& dir, const Daemon& daemon, const std::string& port,
+                              const std::string& destination);
+
 /// One JSON value per complete, non-empty line (the output of `plexus read`).
 std::vector<nlohmann::json> json_lines(const std::string& text);
 

@@ -29,45 +29,6 @@ int port_of(const Daemon& daemon) {
     return std::stoi(daemon.address().substr(daemon.address().rfind(':') + 1));
 }
 
-/// `plexus stats PORT --json` on `daemon`, parsed; null if it failed.
-json port_stats(const TempDir& dir, const Daemon& daemon, const std::string& port) {
-    auto stats = run_cli(dir, daemon, {"stats", port, "--json"});
-    if (stats.status != 0)
-        return nullptr;
-    const auto parsed = json::parse(stats.out);
-    for (const auto& p : parsed["ports"]) {
-        if (p["name"] == port)
-            return p;
-    }
-    return nullptr;
-}
-
-/// The stats of the connection into `port` from `source`; null if there is none.
-json inbound_stats(const TempDir& dir, const Daemon& daemon, const std::string& port,
-                   const std::string& source) {
-    const auto p = port_stats(dir, daemon, port);
-    if (p.is_null())
-        return nullptr;
-    for (const auto& entry : p["inbound"]) {
-        if (entry["source"] == source)
-            return entry;
-    }
-    return nullptr;
-}
-
-/// The stats of the connection out of `port` to `destination`; null if there is none.
-json outgoing_stats(const TempDir& dir, const Daemon& daemon, const std::string& port,
-                    const std::string& destination) {
-    const auto p = port_stats(dir, daemon, port);
-    if (p.is_null())
-        return nullptr;
-    for (const auto& entry : p["outgoing"]) {
-        if (entry["destination"] == destination)
-            return entry;
-    }
-    return nullptr;
-}
-
 /// Loads an nftables table `inet plx` with one input chain holding `rules` into `host`.
 void nft_install(const Host& host, const std::vector<std::string>& rules) {
     std::string script =
