@@ -61,27 +61,12 @@ Counts counts_for(const HostsOptions& options) {
 
 // --- the deployments ---------------------------------------------------------------------
 
-/// Starts a process and waits until its ready file parses as JSON; returns that text. `argv` is
-/// wrapped (`ip netns exec NS PROGRAM ...`): its 4th and 5th words say what and where.
+/// start_when_ready for a wrapped argv (`ip netns exec NS PROGRAM ...`): its 4th and 5th words
+/// say what and where.
 std::string start_ready(std::vector<std::unique_ptr<ChildProcess>>& processes,
                         const std::vector<std::string>& argv, const std::string& ready_file,
                         const std::string& log) {
-    processes.push_back(std::make_unique<ChildProcess>(argv, log));
-    auto& process = *processes.back();
-    std::string ready;
-    const bool started = poll_until(
-        [&] {
-            if (!std::filesystem::exists(ready_file))
-                return !process.running();
-            ready = read_file(ready_file);
-            return nlohmann::json::accept(ready);
-        },
-        20s);
-    if (!started || ready.empty()) {
-        throw std::runtime_error(argv.at(4) + " on " + argv.at(3) + " did not become ready (" + ready_file +
-                                 "):\n" + process.log_tail());
-    }
-    return ready;
+    return start_when_ready(processes, argv, ready_file, log, argv.at(4) + " on " + argv.at(3));
 }
 
 /// plexus-names on host 0 and plexusd on some hosts, with or without the deployment secret.

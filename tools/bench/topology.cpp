@@ -23,10 +23,11 @@ std::string own_executable() {
 
 }  // namespace
 
-std::string Topology::start(const std::vector<std::string>& argv, const std::string& ready_file,
-                            const std::string& log) {
-    processes_.push_back(std::make_unique<ChildProcess>(argv, log));
-    auto& process = *processes_.back();
+std::string start_when_ready(std::vector<std::unique_ptr<ChildProcess>>& processes,
+                             const std::vector<std::string>& argv, const std::string& ready_file,
+                             const std::string& log, const std::string& what) {
+    processes.push_back(std::make_unique<ChildProcess>(argv, log));
+    auto& process = *processes.back();
     std::string ready;
     const bool started = poll_until(
         [&] {
@@ -36,11 +37,14 @@ std::string Topology::start(const std::vector<std::string>& argv, const std::str
             return nlohmann::json::accept(ready);
         },
         20s);
-    if (!started || ready.empty()) {
-        throw std::runtime_error(argv.front() + " did not become ready (" + ready_file + "):\n" +
-                                 process.log_tail());
-    }
+    if (!started || ready.empty())
+        throw std::runtime_error(what + " did not become ready (" + ready_file + "):\n" + process.log_tail());
     return ready;
+}
+
+std::string Topology::start(const std::vector<std::string>& argv, const std::string& ready_file,
+                            const std::string& log) {
+    return start_when_ready(processes_, argv, ready_file, log, argv.front());
 }
 
 std::unique_ptr<Topology> Topology::plexus(const TempDir& dir, const std::string& plexusd, int hops,

@@ -12,6 +12,12 @@
 
 namespace plexus::bench {
 
+/// Starts a process (kept in `processes`) and waits until its ready file parses as JSON; returns
+/// that JSON text. Throws naming `what` (and the process's last log lines) if it never does.
+std::string start_when_ready(std::vector<std::unique_ptr<ChildProcess>>& processes,
+                             const std::vector<std::string>& argv, const std::string& ready_file,
+                             const std::string& log, const std::string& what);
+
 class Topology {
 public:
     /// One plexusd with its embedded name server; with hops == 2 a second one that uses it.
