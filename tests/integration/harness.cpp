@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -40,6 +41,11 @@ TempDir::TempDir() {
 }
 
 TempDir::~TempDir() {
+    // PLEXUS_KEEP_TEST_DIRS=1 keeps the logs of the processes for a look after a failure.
+    if (const char* keep = std::getenv("PLEXUS_KEEP_TEST_DIRS"); keep && std::string(keep) == "1") {
+        std::fprintf(stderr, "kept %s\n", path_.c_str());
+        return;
+    }
     std::error_code ignored;
     std::filesystem::remove_all(path_, ignored);
 }
@@ -190,26 +196,49 @@ Daemon::Daemon(const TempDir& dir, const Host& host, const std::string& node, co
 
 void Daemon::start(const TempDir& dir, const std::string& node, const std::string& names,
                    const std::vector<std::string>& extra) {
-    const std::string ready = dir.file(node + ".ready");
-    std::vector<std::string> argv{plexusd_path(),  "--node",       node,  "--socket",    socket_, "--listen",
-                                  any_port(host_), "--ready-file", ready, "--log-level", "debug"};
+    node_ = node;
+    ready_ = dir.file(node + ".ready");
+    log_prefix_ = dir.file(node);
+    argv_ = {plexusd_path(),  "--node",       node,   "--socket",    socket_, "--listen",
+             any_port(host_), "--ready-file", ready_, "--log-level", "debug"};
     if (names.empty()) {
-        argv.insert(argv.end(), {"--embedded-names", "--names", any_port(host_)});
+        argv_.insert(argv_.end(), {"--embedded-names", "--names", any_port(host_)});
     } else if (names == discover_names) {
         discovers_ = true;
     } else {
-        argv.insert(argv.end(), {"--names", names});
+        argv_.insert(argv_.end(), {"--names", names});
     }
-    argv.insert(argv.end(), extra.begin(), extra.end());
-    process_ =
-        std::make_unique<Process>(placed(host_, argv), std::map<std::string, std::string>{}, dir.file(node));
-    if (!eventually([&] { return std::filesystem::exists(ready) || !process_->running(); }, 20s) ||
-        !std::filesystem::exists(ready)) {
-        throw std::runtime_error("plexusd " + node + " did not become ready: " + process_->err());
-    }
-    auto info = nlohmann::json::parse(read_file(ready));
+    argv_.insert(argv_.end(), extra.begin(), extra.end());
+    launch();
+    auto info = nlohmann::json::parse(read_file(ready_));
     names_ = info.at("names");
     address_ = info.at("address");
+    // From now on the same addresses, not new free ports: a restarted daemon is found where the
+    // first one was.
+    for (std::size_t i = 0; i + 1 < argv_.size(); ++i) {
+        if (argv_[i] == "--listen")
+            argv_[i + 1] = address_;
+        else if (argv_[i] == "--names" && names.empty())
+            argv_[i + 1] = names_;
+    }
+}
+
+void Daemon::launch() {
+    std::filesystem::remove(ready_);
+    const std::string log = starts_++ == 0 ? log_prefix_ : log_prefix_ + "-" + std::to_string(starts_);
+    process_ = std::make_unique<Process>(placed(host_, argv_), std::map<std::string, std::string>{}, log);
+    if (!eventually([&] { return std::filesystem::exists(ready_) || !process_->running(); }, 20s) ||
+        !std::filesystem::exists(ready_)) {
+        throw std::runtime_error("plexusd " + node_ + " did not become ready: " + process_->err());
+    }
+}
+
+void Daemon::start_again() {
+    if (process_->running()) {
+        process_->signal(SIGKILL);
+        process_->wait(10s);
+    }
+    launch();
 }
 
 long Daemon::rss_kib() const {

@@ -96,6 +96,9 @@ public:
     const std::string& names() const { return names_; }
     const std::string& address() const { return address_; }
     Process& process() { return *process_; }
+    /// Starts the daemon again after its process ended (kill -9 it first): the same node, socket,
+    /// listening address, name server and flags, as a supervisor restarting it would.
+    void start_again();
     /// Resident memory of the daemon, in KiB (from /proc).
     long rss_kib() const;
     /// Environment that points the CLI at this daemon.
@@ -104,9 +107,15 @@ public:
 private:
     void start(const TempDir& dir, const std::string& node, const std::string& names,
                const std::vector<std::string>& extra);
+    void launch();
 
     const Host* host_ = nullptr;
     bool discovers_ = false;
+    std::string node_;
+    std::string ready_;
+    std::string log_prefix_;
+    std::vector<std::string> argv_;
+    int starts_ = 0;
     std::string socket_;
     std::string names_;
     std::string address_;

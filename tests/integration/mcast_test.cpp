@@ -96,7 +96,7 @@ TEST(Mcast_test, MonitorsOfOnePortsMcastConnectionsMustAgree) {
     auto without = run_cli(dir, writer_side, {"connect", "/a/out", "/r/two", "mcast"});
     EXPECT_EQ(without.status, 4);
     EXPECT_NE(without.err.find("share one stream"), std::string::npos) << without.err;
-    EXPECT_EQ(writer.finish(), 0);
+    EXPECT_EQ(writer.finish(), 0) << writer.process().err();
 }
 
 }  // namespace

@@ -41,22 +41,6 @@ private:
     std::vector<ConnectionState> states_;
 };
 
-/// plexusd started again where `first` ran: same node, socket, listening address and embedded
-/// name server address.
-std::unique_ptr<Process> restart(const TempDir& dir, const Daemon& first, const std::string& node) {
-    const std::string ready = dir.file(node + ".ready-again");
-    auto process = std::make_unique<Process>(
-        std::vector<std::string>{plexusd_path(), "--node", node, "--socket", first.socket(), "--listen",
-                                 first.address(), "--ready-file", ready, "--log-level", "debug",
-                                 "--embedded-names", "--names", first.names()},
-        std::map<std::string, std::string>{}, dir.file(node + "-again"));
-    if (!eventually([&] { return std::filesystem::exists(ready) || !process->running(); }, 20s) ||
-        !std::filesystem::exists(ready)) {
-        throw std::runtime_error("plexusd did not start again: " + process->err());
-    }
-    return process;
-}
-
 void expect_gone_error(const std::function<void()>& request, const std::string& socket) {
     try {
         request();
@@ -124,10 +108,10 @@ TEST(Reconnect_test, AStreamResumesByItselfAfterItsDaemonIsKilledAndStartedAgain
     EXPECT_GE(Clock::now() - waited, 50ms);
 
     const auto restarted = Clock::now();
-    auto again = restart(dir, daemon, "node");
+    daemon.start_again();
     std::optional<Clock::time_point> first_after;
     ASSERT_TRUE(read_until(350, 30s, &first_after, 300))
-        << "received up to " << (seqs.empty() ? 0 : seqs.back()) << "; " << again->err();
+        << "received up to " << (seqs.empty() ? 0 : seqs.back()) << "; " << daemon.process().err();
     ASSERT_TRUE(first_after.has_value());
     const auto resumed_ms =
         std::chrono::duration_cast<std::chrono::milliseconds>(*first_after - restarted).count();
