@@ -76,6 +76,7 @@ nlohmann::json ControlPlane::stats_json(const std::string& only_port) const {
                          {"bytes", queue.bytes()},
                          {"depth", queue.depth()},
                          {"written", port->written},
+                         {"unconnected", port->unconnected},
                          {"received", port->received},
                          {"delivered", port->delivered},
                          {"dropped_queue", queue.dropped()},

@@ -106,6 +106,8 @@ std::size_t Router::room(const Port& source) {
 
 void Router::route(Port& source, const Message& message) {
     source.written += message.count();
+    if (source.outgoing.empty())
+        source.unconnected += message.count();  // pub-sub: nobody to send to, but say how many
     for (auto& connection : source.outgoing) {
         connection->sent += message.count();
         if (!connection->send_chain) {
