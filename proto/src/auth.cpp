@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <fstream>
 #include <iterator>
+#include <mutex>
 #include <stdexcept>
 
 #include <openssl/crypto.h>
@@ -49,6 +50,12 @@ struct Secret::Keys {
     Bytes proof_key;     ///< the secret itself: proofs are HMACs keyed by it
     Proof datagram_key;  ///< HMAC(secret, datagram label): datagrams never use the secret directly
     std::unique_ptr<EVP_MAC_CTX, MacContextFree> datagram_context;  ///< HMAC-SHA256 keyed with it
+    /// Every datagram's MAC is computed in this one context, re-initialised with the same key:
+    /// no allocation per datagram, and half the time of copying the keyed context (245 against
+    /// 530 ns for a 100-byte datagram, measured with a loop of 200,000 on this machine). The mutex
+    /// makes a Secret shared by threads safe; the daemon calls it from its one I/O thread only.
+    mutable std::mutex working_mutex;
+    mutable std::unique_ptr<EVP_MAC_CTX, MacContextFree> working_context;
 };
 
 Result<Secret> Secret::from_bytes(std::string_view bytes) {
@@ -70,6 +77,9 @@ Result<Secret> Secret::from_bytes(std::string_view bytes) {
                                                   keys->datagram_key.size(), parameters) != 1) {
         return Error{"OpenSSL has no HMAC-SHA256 here"};
     }
+    keys->working_context.reset(::EVP_MAC_CTX_dup(keys->datagram_context.get()));
+    if (!keys->working_context)
+        return Error{"OpenSSL could not copy an HMAC context"};
     Secret secret;
     secret.keys_ = std::move(keys);
     return secret;
@@ -101,16 +111,17 @@ Proof Secret::prove(Party party, const Nonce& challenge, const Nonce& own, std::
 }
 
 void Secret::datagram_mac(ByteView head, ByteView body, std::uint8_t* out16) const {
-    // A keyed context made once and copied per datagram: the key's two padded blocks are hashed
-    // once per secret, not once per datagram.
-    EVP_MAC_CTX* context = ::EVP_MAC_CTX_dup(keys_->datagram_context.get());
+    std::lock_guard lock(keys_->working_mutex);
+    EVP_MAC_CTX* context = keys_->working_context.get();
+    // A null key re-initialises HMAC with the key it already holds (its padded blocks hashed once
+    // per secret, not once per datagram).
+    ::EVP_MAC_init(context, nullptr, 0, nullptr);
     ::EVP_MAC_update(context, head.data(), head.size());
     if (!body.empty())
         ::EVP_MAC_update(context, body.data(), body.size());
     Proof full{};
     std::size_t size = 0;
     ::EVP_MAC_final(context, full.data(), &size, full.size());
-    ::EVP_MAC_CTX_free(context);
     std::copy_n(full.begin(), 16, out16);
 }
 

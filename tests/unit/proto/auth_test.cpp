@@ -8,6 +8,9 @@
 #include <cstdio>
 #include <fstream>
 
+#include <openssl/evp.h>
+#include <openssl/hmac.h>
+
 namespace plexus::proto {
 namespace {
 
@@ -50,6 +53,32 @@ TEST(Auth_test, ADatagramMacFailsOnAnyChangedByte) {
     }
     EXPECT_FALSE(secret_of("another-secret-of-16").datagram_mac_ok(datagram, {mac, 16}));
     EXPECT_FALSE(secret.datagram_mac_ok(datagram, {mac, 15}));
+}
+
+TEST(Auth_test, ADatagramMacIsTheDocumentedHmacEveryTime) {
+    // PROTOCOL.md: the first 16 bytes of HMAC-SHA256(HMAC-SHA256(secret, "plexus-datagram-v1"),
+    // datagram), computed here with OpenSSL's one-shot HMAC. Repeated, because one context is
+    // re-initialised for every datagram: nothing of one may leak into the next.
+    const std::string secret_bytes = "0123456789abcdef-secret";
+    const auto secret = secret_of(secret_bytes);
+    const std::string label = "plexus-datagram-v1";
+    std::uint8_t key[32];
+    unsigned int size = 0;
+    ::HMAC(EVP_sha256(), secret_bytes.data(), static_cast<int>(secret_bytes.size()),
+           reinterpret_cast<const std::uint8_t*>(label.data()), label.size(), key, &size);
+    for (std::size_t length : {1u, 100u, 1400u, 100u}) {
+        Bytes datagram(length);
+        for (std::size_t i = 0; i < length; ++i)
+            datagram[i] = static_cast<std::uint8_t>(i * 31 + length);
+        std::uint8_t expected[32];
+        ::HMAC(EVP_sha256(), key, sizeof key, datagram.data(), datagram.size(), expected, &size);
+        std::uint8_t mac[16];
+        secret.datagram_mac(datagram, mac);
+        EXPECT_EQ(Bytes(mac, mac + 16), Bytes(expected, expected + 16)) << length;
+        // Head and body hashed as one.
+        secret.datagram_mac(ByteView(datagram).first(length / 2), ByteView(datagram).subspan(length / 2), mac);
+        EXPECT_EQ(Bytes(mac, mac + 16), Bytes(expected, expected + 16)) << length;
+    }
 }
 
 TEST(Auth_test, ShortSecretsAndOpenFilesAreRefused) {
