@@ -119,7 +119,9 @@ Json hand_message(const WorldModel& world) {
 
 Json phase_message(const WorldModel& world) {
     return Json{{"phase", std::string(to_string(world.phase()))},
-                {"t", world.time()},
+                // Microseconds: sim time is a sum of dt steps, whose rounding noise
+                // (7.279999999999933) says nothing.
+                {"t", std::round(world.time() * 1e6) / 1e6},
                 {"deliveries", world.deliveries()}};
 }
 
