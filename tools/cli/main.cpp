@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "apps/app_commands.hpp"
 #include "commands.hpp"
 #include "plexus/client.hpp"
 #include "plexus/proto/defaults.hpp"
@@ -134,6 +135,56 @@ int main(int argc, char** argv) {
     param_set->add_option("DST", destination, "destination port")->required();
     param_set->add_option("KEY=VALUE", assignments, "VALUE is JSON if it parses, else a string")->required();
     param_set->callback([&] { status = param(common, "set", source, destination, assignments); });
+
+    std::string app_file;
+    auto* check_cmd = app.add_subcommand(
+        "check",
+        "validate an application file without touching the system (no daemon needed): its fields, variables, "
+        "carriers, scripts, ports named twice, and the arbitration of every port several connections feed "
+        "(constraints that can both be true, singular stimulation weights). Exit 0 when fine, 2 with every "
+        "problem listed. See docs/APPLICATIONS.md");
+    check_cmd->add_option("FILE", app_file, "application file (JSON)")->required();
+    check_cmd->callback([&] { status = check_app_file(app_file); });
+
+    UpOptions up_options;
+    std::vector<std::string> node_sockets;
+    auto* up_cmd = app.add_subcommand(
+        "up",
+        "bring an application up: check it, start the components that are not running (each in its own "
+        "process group, output to a log file beside the daemon's socket, in apps/NAME/), wait for their ports, "
+        "make the connections that are missing and replace those with another carrier. Running it again "
+        "changes nothing. Exit 2 for a bad file (nothing changed), 3 when ports do not appear in time, 4 when "
+        "something fails midway (what this up did is undone first)");
+    up_cmd->add_option("FILE", up_options.file, "application file (JSON)")->required();
+    up_cmd->add_flag("--diff", up_options.diff,
+                     "change nothing: print what differs from the live system (components not running, "
+                     "connections missing or with another carrier, connections into the file's ports that it "
+                     "does not have); exit 0 when nothing, 1 when there is drift");
+    up_cmd->add_option("--node-socket", node_sockets,
+                       "NODE=PATH: the socket of the daemon of node NODE on this machine, for components "
+                       "whose \"node\" is not the local daemon's (repeatable)");
+    up_cmd->add_option("--only-node", up_options.only_node,
+                       "start only the components of node NODE (on a machine of a several-machine application) "
+                       "and make the connections whose ports are all registered");
+    up_cmd->add_option("--timeout", up_options.timeout, "seconds to wait for the components' ports")
+        ->check(CLI::PositiveNumber)
+        ->capture_default_str();
+    up_cmd->callback([&] {
+        for (const auto& pair : node_sockets) {
+            const auto equals = pair.find('=');
+            if (equals == std::string::npos || equals == 0 || equals + 1 == pair.size())
+                throw CLI::ValidationError("--node-socket", "expected NODE=PATH, got '" + pair + "'");
+            up_options.node_sockets[pair.substr(0, equals)] = pair.substr(equals + 1);
+        }
+        status = up(common, up_options);
+    });
+
+    auto* down_cmd = app.add_subcommand(
+        "down",
+        "take an application down: remove its connections (those present), then stop the components "
+        "`up` started (SIGTERM to each process group, SIGKILL after 5 s) and forget them");
+    down_cmd->add_option("FILE", app_file, "application file (JSON)")->required();
+    down_cmd->callback([&] { status = down(common, app_file); });
 
     try {
         app.parse(argc, argv);
