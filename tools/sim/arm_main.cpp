@@ -12,10 +12,11 @@ int main(int argc, char** argv) {
     app.add_option("--out", out, "output port: {\"x\",\"y\"}")->capture_default_str();
     CLI11_PARSE(app, argc, argv);
     using namespace plexus::sim;
-    return run_forwarder("plexus-sim-arm", in, out, [](const plexus::Value& message) -> Parsed<plexus::Value> {
-        const auto point = parse_point(message);
-        if (!point)
-            return {std::nullopt, point.error};
-        return {plexus::Value{{"x", point.value->x}, {"y", point.value->y}}, {}};
-    });
+    return run_forwarder("plexus-sim-arm", in, out,
+                         [](const plexus::Value& message) -> Parsed<plexus::Value> {
+                             const auto point = parse_point(message);
+                             if (!point)
+                                 return {std::nullopt, point.error};
+                             return {plexus::Value{{"x", point.value->x}, {"y", point.value->y}}, {}};
+                         });
 }

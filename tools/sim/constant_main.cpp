@@ -18,7 +18,9 @@ int main(int argc, char** argv) {
     CLI::App app{"plexus-sim-constant: publishes a fixed JSON value at a rate."};
     app.add_option("--out", out, "output port")->required();
     app.add_option("--value", text, "the JSON value to publish")->required();
-    app.add_option("--rate", rate, "messages per real second")->check(CLI::Range(0.1, 10000.0))->capture_default_str();
+    app.add_option("--rate", rate, "messages per real second")
+        ->check(CLI::Range(0.1, 10000.0))
+        ->capture_default_str();
     CLI11_PARSE(app, argc, argv);
 
     const plexus::Value value = plexus::Value::parse(text, nullptr, false);
@@ -31,7 +33,8 @@ int main(int argc, char** argv) {
         plexus::Client client;
         plexus::Port port = client.open(out);
         using Clock = std::chrono::steady_clock;
-        const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / rate));
+        const auto period =
+            std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / rate));
         auto next = Clock::now();
         while (!plexus::sim::stop_requested()) {
             port.write(value);

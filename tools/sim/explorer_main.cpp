@@ -27,8 +27,12 @@ int main(int argc, char** argv) {
     double speed = 1;
     CLI::App app{"plexus-sim-explorer: publishes random points to look at, each held for a while."};
     app.add_option("--out", out, "output port: {\"x\",\"y\"}")->capture_default_str();
-    app.add_option("--rate", rate, "messages per real second")->check(CLI::Range(0.1, 10000.0))->capture_default_str();
-    app.add_option("--hold", hold, "sim seconds before a new point")->check(CLI::PositiveNumber)->capture_default_str();
+    app.add_option("--rate", rate, "messages per real second")
+        ->check(CLI::Range(0.1, 10000.0))
+        ->capture_default_str();
+    app.add_option("--hold", hold, "sim seconds before a new point")
+        ->check(CLI::PositiveNumber)
+        ->capture_default_str();
     app.add_option("--seed", seed, "random seed")->capture_default_str();
     app.add_option("--speed", speed, "sim seconds per real second (as the world's)")
         ->check(CLI::Range(0.01, 1000.0))
@@ -42,8 +46,10 @@ int main(int argc, char** argv) {
         std::mt19937_64 random(seed);
         std::uniform_real_distribution<double> angles(-angle_limit, angle_limit);
         using Clock = std::chrono::steady_clock;
-        const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / rate));
-        const auto hold_for = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(hold / speed));
+        const auto period =
+            std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / rate));
+        const auto hold_for =
+            std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(hold / speed));
         auto next = Clock::now();
         auto change_at = next;
         plexus::Value point;

@@ -15,13 +15,15 @@ int main(int argc, char** argv) {
     app.add_option("--out", out, "output port: {\"angle\"}")->capture_default_str();
     CLI11_PARSE(app, argc, argv);
     using namespace plexus::sim;
-    return run_forwarder("plexus-sim-gaze", in, out, [](const plexus::Value& message) -> Parsed<plexus::Value> {
-        const auto target = parse_gaze_target(message);
-        if (!target)
-            return {std::nullopt, target.error};
-        const double angle = std::holds_alternative<double>(*target.value)
-                                 ? std::get<double>(*target.value)
-                                 : std::atan2(std::get<Point>(*target.value).y, std::get<Point>(*target.value).x);
-        return {plexus::Value{{"angle", angle}}, {}};
-    });
+    return run_forwarder(
+        "plexus-sim-gaze", in, out, [](const plexus::Value& message) -> Parsed<plexus::Value> {
+            const auto target = parse_gaze_target(message);
+            if (!target)
+                return {std::nullopt, target.error};
+            const double angle =
+                std::holds_alternative<double>(*target.value)
+                    ? std::get<double>(*target.value)
+                    : std::atan2(std::get<Point>(*target.value).y, std::get<Point>(*target.value).x);
+            return {plexus::Value{{"angle", angle}}, {}};
+        });
 }

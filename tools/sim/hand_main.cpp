@@ -11,10 +11,11 @@ int main(int argc, char** argv) {
     app.add_option("--out", out, "output port: {\"close\": bool}")->capture_default_str();
     CLI11_PARSE(app, argc, argv);
     using namespace plexus::sim;
-    return run_forwarder("plexus-sim-hand", in, out, [](const plexus::Value& message) -> Parsed<plexus::Value> {
-        const auto close = parse_hand_command(message);
-        if (!close)
-            return {std::nullopt, close.error};
-        return {plexus::Value{{"close", *close.value}}, {}};
-    });
+    return run_forwarder("plexus-sim-hand", in, out,
+                         [](const plexus::Value& message) -> Parsed<plexus::Value> {
+                             const auto close = parse_hand_command(message);
+                             if (!close)
+                                 return {std::nullopt, close.error};
+                             return {plexus::Value{{"close", *close.value}}, {}};
+                         });
 }

@@ -42,7 +42,8 @@ public:
     /// Everything that arrived since the last call, oldest first.
     std::vector<Value> take() {
         std::lock_guard lock(mutex_);
-        std::vector<Value> taken(std::make_move_iterator(waiting_.begin()), std::make_move_iterator(waiting_.end()));
+        std::vector<Value> taken(std::make_move_iterator(waiting_.begin()),
+                                 std::make_move_iterator(waiting_.end()));
         waiting_.clear();
         return taken;
     }

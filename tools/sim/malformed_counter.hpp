@@ -9,7 +9,8 @@ namespace plexus::sim {
 
 class MalformedCounter {
 public:
-    MalformedCounter(std::string program, std::string port) : program_(std::move(program)), port_(std::move(port)) {}
+    MalformedCounter(std::string program, std::string port)
+        : program_(std::move(program)), port_(std::move(port)) {}
 
     void count(const std::string& why) {
         ++count_;

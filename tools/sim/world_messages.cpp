@@ -41,8 +41,8 @@ Parsed<std::variant<double, Point>> parse_gaze_target(const Json& message) {
     }
     auto point = parse_point(message);
     if (!point)
-        return {std::nullopt, "expected {\"angle\": number} or {\"x\": number, \"y\": number}, got " +
-                                  message.dump()};
+        return {std::nullopt,
+                "expected {\"angle\": number} or {\"x\": number, \"y\": number}, got " + message.dump()};
     return {*point.value, {}};
 }
 
@@ -66,17 +66,23 @@ Parsed<Disturbance> parse_disturbance(const Json& message) {
         if (message.value("person", Json()) == Json("back"))
             return {Disturbance::person_back, {}};
     }
-    return {std::nullopt,
-            "expected one of {\"drop\": true}, {\"hide\": true}, {\"person\": \"away\"}, {\"person\": \"back\"}, "
-            "got " + message.dump()};
+    return {
+        std::nullopt,
+        "expected one of {\"drop\": true}, {\"hide\": true}, {\"person\": \"away\"}, {\"person\": \"back\"}, "
+        "got " +
+            message.dump()};
 }
 
 Outcome apply(WorldModel& world, Disturbance disturbance) {
     switch (disturbance) {
-        case Disturbance::drop: return world.drop();
-        case Disturbance::hide: return world.hide();
-        case Disturbance::person_away: return world.person_away();
-        case Disturbance::person_back: return world.person_back();
+        case Disturbance::drop:
+            return world.drop();
+        case Disturbance::hide:
+            return world.hide();
+        case Disturbance::person_away:
+            return world.person_away();
+        case Disturbance::person_back:
+            return world.person_back();
     }
     return {false, "unknown disturbance"};
 }

@@ -30,32 +30,46 @@ double distance(Point a, Point b) {
 
 std::string_view to_string(HandState state) {
     switch (state) {
-        case HandState::open: return "open";
-        case HandState::closing: return "closing";
-        case HandState::closed: return "closed";
-        case HandState::opening: return "opening";
+        case HandState::open:
+            return "open";
+        case HandState::closing:
+            return "closing";
+        case HandState::closed:
+            return "closed";
+        case HandState::opening:
+            return "opening";
     }
     return "?";
 }
 
 std::string_view to_string(ObjectState state) {
     switch (state) {
-        case ObjectState::on_table: return "on_table";
-        case ObjectState::held: return "held";
-        case ObjectState::hidden: return "hidden";
-        case ObjectState::absent: return "absent";
+        case ObjectState::on_table:
+            return "on_table";
+        case ObjectState::held:
+            return "held";
+        case ObjectState::hidden:
+            return "hidden";
+        case ObjectState::absent:
+            return "absent";
     }
     return "?";
 }
 
 std::string_view to_string(Phase phase) {
     switch (phase) {
-        case Phase::search_object: return "search_object";
-        case Phase::reach: return "reach";
-        case Phase::grasp: return "grasp";
-        case Phase::search_person: return "search_person";
-        case Phase::approach: return "approach";
-        case Phase::release: return "release";
+        case Phase::search_object:
+            return "search_object";
+        case Phase::reach:
+            return "reach";
+        case Phase::grasp:
+            return "grasp";
+        case Phase::search_person:
+            return "search_person";
+        case Phase::approach:
+            return "approach";
+        case Phase::release:
+            return "release";
     }
     return "?";
 }
@@ -64,8 +78,8 @@ WorldModel::WorldModel(std::uint64_t seed, WorldRules rules)
     : rules_(rules), random_(seed), hand_(rules.hand_home), arm_target_(rules.hand_home) {
     // The order of the draws is part of the seed's meaning: object first, then the person.
     object_ = random_table_point();
-    person_angle_ =
-        std::uniform_real_distribution<double>(-rules_.person_angle_limit, rules_.person_angle_limit)(random_);
+    person_angle_ = std::uniform_real_distribution<double>(-rules_.person_angle_limit,
+                                                           rules_.person_angle_limit)(random_);
 }
 
 void WorldModel::step(double dt) {
@@ -139,18 +153,21 @@ Outcome WorldModel::person_back() {
     if (person_present_)
         return {false, "the person is already here"};
     person_present_ = true;
-    person_angle_ =
-        std::uniform_real_distribution<double>(-rules_.person_angle_limit, rules_.person_angle_limit)(random_);
+    person_angle_ = std::uniform_real_distribution<double>(-rules_.person_angle_limit,
+                                                           rules_.person_angle_limit)(random_);
     person_speed_ = 0;
     return {};
 }
 
 std::optional<Point> WorldModel::object() const {
     switch (object_state_) {
-        case ObjectState::on_table: return object_;
-        case ObjectState::held: return hand_;
+        case ObjectState::on_table:
+            return object_;
+        case ObjectState::held:
+            return hand_;
         case ObjectState::hidden:
-        case ObjectState::absent: return std::nullopt;
+        case ObjectState::absent:
+            return std::nullopt;
     }
     return std::nullopt;
 }
@@ -171,7 +188,8 @@ std::optional<double> WorldModel::object_certainty() const {
 std::optional<Point> WorldModel::person() const {
     if (!person_present_)
         return std::nullopt;
-    return Point{rules_.person_radius * std::cos(person_angle_), rules_.person_radius * std::sin(person_angle_)};
+    return Point{rules_.person_radius * std::cos(person_angle_),
+                 rules_.person_radius * std::sin(person_angle_)};
 }
 
 bool WorldModel::person_visible() const {
@@ -209,7 +227,8 @@ Phase WorldModel::phase() const {
         return Phase::release;
     if (person_present_) {
         // The person stands beyond the arm's reach: the arm can only point at where it would be.
-        const Point reachable{rules_.arm_reach * std::cos(person_angle_), rules_.arm_reach * std::sin(person_angle_)};
+        const Point reachable{rules_.arm_reach * std::cos(person_angle_),
+                              rules_.arm_reach * std::sin(person_angle_)};
         if (distance(arm_target_, reachable) <= rules_.approach_tolerance)
             return Phase::approach;
     }

@@ -25,23 +25,23 @@ struct WorldRules {
     double table_x_min = 0.3, table_x_max = 0.6;
     double table_y_min = -0.4, table_y_max = 0.4;
     double person_radius = 1.0;
-    double person_angle_limit = 1.2;     ///< phi in [-limit, limit]
-    double person_max_speed = 0.15;      ///< rad/s
-    double person_acceleration = 0.3;    ///< rad/s^2, the largest random change of its angular speed
-    double gaze_limit = 1.5;             ///< g in [-limit, limit]
-    double gaze_speed = 2.0;             ///< rad/s
-    double field_of_view = 0.3;          ///< half-angle, rad
+    double person_angle_limit = 1.2;   ///< phi in [-limit, limit]
+    double person_max_speed = 0.15;    ///< rad/s
+    double person_acceleration = 0.3;  ///< rad/s^2, the largest random change of its angular speed
+    double gaze_limit = 1.5;           ///< g in [-limit, limit]
+    double gaze_speed = 2.0;           ///< rad/s
+    double field_of_view = 0.3;        ///< half-angle, rad
     Point hand_home{0.15, 0.0};
-    double arm_speed = 0.5;              ///< m/s
-    double arm_reach = 0.75;             ///< m from the origin
-    double hand_transition = 0.3;        ///< s to close or to open
-    double grasp_distance = 0.04;        ///< m between hand and object to grasp it
-    double release_distance = 0.35;      ///< m between hand and person to hand the object over
-    double respawn_delay = 1.0;          ///< s after a delivery until a new object appears
-    double hide_duration = 3.0;          ///< s
-    double drop_scatter = 0.1;           ///< m, the largest random offset of a dropped object
-    double reach_tolerance = 0.1;        ///< m between arm target and object for "reach"
-    double approach_tolerance = 0.15;    ///< m between arm target and person for "approach"
+    double arm_speed = 0.5;            ///< m/s
+    double arm_reach = 0.75;           ///< m from the origin
+    double hand_transition = 0.3;      ///< s to close or to open
+    double grasp_distance = 0.04;      ///< m between hand and object to grasp it
+    double release_distance = 0.35;    ///< m between hand and person to hand the object over
+    double respawn_delay = 1.0;        ///< s after a delivery until a new object appears
+    double hide_duration = 3.0;        ///< s
+    double drop_scatter = 0.1;         ///< m, the largest random offset of a dropped object
+    double reach_tolerance = 0.1;      ///< m between arm target and object for "reach"
+    double approach_tolerance = 0.15;  ///< m between arm target and person for "approach"
 };
 
 enum class HandState { open, closing, closed, opening };

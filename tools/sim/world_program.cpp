@@ -131,7 +131,8 @@ private:
                 return disturbance.error;
             const Outcome outcome = apply(world_, *disturbance.value);
             std::cerr << program << ": t=" << world_.time() << " control " << data.dump()
-                      << (outcome.applied ? std::string(" applied") : " ignored: " + std::string(outcome.reason))
+                      << (outcome.applied ? std::string(" applied")
+                                          : " ignored: " + std::string(outcome.reason))
                       << '\n';
             return std::string();
         });
@@ -181,10 +182,11 @@ private:
         const auto object = world_.object();
         const auto person = world_.person();
         std::cerr << program << ": t=" << world_.time() << " phase=" << to_string(world_.phase())
-                  << " gaze=" << world_.gaze() << " hand=(" << world_.hand().x << "," << world_.hand().y << ") "
-                  << to_string(world_.hand_state()) << " object=" << to_string(world_.object_state());
+                  << " gaze=" << world_.gaze() << " hand=(" << world_.hand().x << "," << world_.hand().y
+                  << ") " << to_string(world_.hand_state()) << " object=" << to_string(world_.object_state());
         if (object)
-            std::cerr << "(" << object->x << "," << object->y << ")" << (world_.object_visible() ? " seen" : "");
+            std::cerr << "(" << object->x << "," << object->y << ")"
+                      << (world_.object_visible() ? " seen" : "");
         std::cerr << " person=";
         if (person)
             std::cerr << world_.person_angle() << (world_.person_visible() ? " seen" : "");
