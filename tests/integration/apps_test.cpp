@@ -167,7 +167,7 @@ TEST(Apps_test, UpStartsAndConnectsIsIdempotentRepairsDriftAndDownLeavesNothing)
 
     auto down = run_cli(dir, daemon, {"down", file});
     ASSERT_EQ(down.status, 0) << down.err;
-    EXPECT_NE(down.out.find("removed 1 connections, stopped 2 components"), std::string::npos) << down.out;
+    EXPECT_NE(down.out.find("removed 1 connection, stopped 2 components"), std::string::npos) << down.out;
     for (const pid_t pid : pids)
         EXPECT_TRUE(gone(pid)) << "pid " << pid << " still runs after down";
     EXPECT_EQ(carrier_of(dir, daemon, "/demo/sensor/out", "/demo/sink/in"), "");

@@ -162,7 +162,9 @@ int main(int argc, char** argv) {
                      "does not have); exit 0 when nothing, 1 when there is drift");
     up_cmd->add_option("--node-socket", node_sockets,
                        "NODE=PATH: the socket of the daemon of node NODE on this machine, for components "
-                       "whose \"node\" is not the local daemon's (repeatable)");
+                       "whose \"node\" is not the local daemon's (repeatable)")
+        ->type_size(1)
+        ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
     up_cmd->add_option("--only-node", up_options.only_node,
                        "start only the components of node NODE (on a machine of a several-machine application) "
                        "and make the connections whose ports are all registered");

@@ -1,5 +1,7 @@
 #include "diff.hpp"
 
+#include "load.hpp"
+
 #include <iostream>
 
 namespace plexus::cli {
@@ -32,8 +34,8 @@ int print_diff(const app::App& app, const std::vector<ComponentStep>& components
         ++differences;
     }
     if (differences == 0) {
-        std::cout << "application '" << app.name << "': no drift (" << components.size() << " components, "
-                  << app.connections.size() << " connections as the file says)\n";
+        std::cout << "application '" << app.name << "': no drift (" << counted(components.size(), "component")
+                  << ", " << counted(app.connections.size(), "connection") << " as the file says)\n";
         return 0;
     }
     std::cout << "application '" << app.name << "': " << differences

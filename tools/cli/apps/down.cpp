@@ -66,8 +66,8 @@ int down(const Common& common, const std::string& file) {
     }
     std::error_code ec;
     std::filesystem::remove(state_file, ec);
-    std::cout << "application '" << app->name << "': removed " << removed << " connections, stopped "
-              << stopped_count << " components" << (removed == 0 && stopped_count == 0 ? " (nothing was up)" : "")
+    std::cout << "application '" << app->name << "': removed " << counted(removed, "connection") << ", stopped "
+              << counted(stopped_count, "component") << (removed == 0 && stopped_count == 0 ? " (nothing was up)" : "")
               << '\n';
     return status;
 }

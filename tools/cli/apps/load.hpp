@@ -13,4 +13,9 @@ namespace plexus::cli {
 /// printed too. `full_check` false reads the schema only (down works with what it can read).
 std::optional<app::App> load_checked_app(const std::string& file, bool full_check = true);
 
+/// "1 connection", "3 connections".
+inline std::string counted(std::size_t n, const std::string& noun) {
+    return std::to_string(n) + " " + noun + (n == 1 ? "" : "s");
+}
+
 }  // namespace plexus::cli
