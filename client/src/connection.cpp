@@ -536,19 +536,24 @@ void Connection::forget(std::uint64_t handle) {
 
 template <typename Ready>
 bool Connection::wait_until(std::unique_lock<std::mutex>& lock, Ready ready, Clock::time_point deadline) {
+    // A deadline already past (read(0ms): a poll) still looks at the socket once, without
+    // blocking: otherwise a poll would only ever see what another call happened to receive.
+    bool polled = false;
     while (!ready()) {
         if (!broken_.empty())
             return false;
-        if (Clock::now() >= deadline)
+        const bool late = Clock::now() >= deadline;
+        if (late && (polled || reading_))
             return false;
         if (reading_) {
             changed_.wait_until(lock, deadline);
             continue;
         }
         reading_ = true;
+        polled = late;
         lock.unlock();
         try {
-            receive(deadline);
+            receive(deadline, late ? MSG_DONTWAIT : 0);
             flush_releases();
         } catch (...) {
             lock.lock();

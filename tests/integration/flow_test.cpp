@@ -26,6 +26,23 @@ nlohmann::json port_stats(Client& client, const std::string& port) {
     return nullptr;
 }
 
+TEST(Flow_test, AReadWithAZeroTimeoutPollsTheSocket) {
+    // A component stepping its own loop polls its inputs with read(0ms): that must take what the
+    // daemon has sent, not only what some other, blocking call happened to receive.
+    TempDir dir;
+    Daemon daemon(dir, "solo");
+    Client reading({daemon.socket()});
+    auto sink = reading.open("/polled");
+    Client writing({daemon.socket()});
+    auto source = writing.open("/polling/source");
+    writing.connect("/polling/source", "/polled");
+    source.write(42);
+    std::optional<Received> got;
+    ASSERT_TRUE(eventually([&] { return (got = sink.read(std::chrono::milliseconds(0))).has_value(); }));
+    EXPECT_EQ(got->data, 42);
+    EXPECT_FALSE(sink.read(std::chrono::milliseconds(0)).has_value());  // and returns at once when empty
+}
+
 TEST(Flow_test, LatestPolicyNeverBlocksTheWriterAndCountsEveryDrop) {
     TempDir dir;
     Daemon daemon(dir, "solo");
