@@ -40,6 +40,9 @@ class RefusedError(Error, ConnectionError):
     code = 4
 
 
+for _cls in (Error, NotFoundError, UsageError, TimeoutError, RefusedError):
+    _cls.__module__ = "plexus"  # tracebacks say plexus.UsageError, the name users import
+
 _BY_CODE = {cls.code: cls for cls in (NotFoundError, UsageError, TimeoutError, RefusedError)}
 
 

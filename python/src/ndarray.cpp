@@ -1,6 +1,7 @@
 #include "ndarray.hpp"
 
 #include <pybind11/numpy.h>
+#include <pybind11/stl.h>
 
 #include <cstring>
 #include <string_view>
