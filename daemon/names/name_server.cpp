@@ -8,6 +8,7 @@
 #include "../net/framed_connection.hpp"
 #include "../net/keepalive.hpp"
 #include "name_protocol.hpp"
+#include "request_parser.hpp"
 #include "plexus/proto/discovery.hpp"
 #include "plexus/proto/frame.hpp"
 
@@ -26,14 +27,9 @@ public:
 protected:
     proto::Status on_hello(const proto::Hello&) override { return proto::Ok{}; }
     Task<bool> on_frame(InFrame frame) override {
-        if (frame.type != proto::FrameType::request) {
-            fail("the name server only takes requests, not " +
-                 proto::frame_type_name(static_cast<std::uint8_t>(frame.type)) + " frames");
-            co_return false;
-        }
-        auto request = proto::decode_request(frame.fields);
+        auto request = parse_session_request(frame.type, frame.fields);
         if (!request) {
-            fail("bad request: " + request.error().message);
+            fail(request.error().message);
             co_return false;
         }
         send(proto::encode_reply(server_.answer(*request, id_)));
@@ -149,7 +145,6 @@ proto::Status NameServer::start_discovery() {
 
 Task<void> NameServer::discovery_loop() {
     std::vector<std::uint8_t> buffer(2048);
-    proto::FrameDecoder decoder(buffer.size());
     while (!stopped_) {
         asio::ip::udp::endpoint from;
         auto [ec, n] = co_await discovery_.async_receive_from(asio::buffer(buffer), from, use_nothrow);
@@ -158,11 +153,9 @@ Task<void> NameServer::discovery_loop() {
                 co_return;
             continue;
         }
-        const auto decoded = decoder.decode({buffer.data(), n});
-        if (decoded.status != proto::DecodeStatus::frame || decoded.type != proto::FrameType::request)
-            continue;  // not a query: no answer, so a stray datagram cannot make us send anything
-        auto request = proto::decode_request(decoded.fields);
-        if (!request || request->body.value("op", std::string{}) != op::discover)
+        // Not a query: no answer, so a stray datagram cannot make us send anything.
+        const auto request = parse_discovery_query({buffer.data(), n}, buffer.size());
+        if (!request)
             continue;
         spdlog::debug("names: discovery query from {}", from.address().to_string());
         const auto answer = proto::discovery_reply(request->id, endpoint());
@@ -208,7 +201,6 @@ Task<void> NameServer::udp_loop() {
     // Largest UDP payload; a reply that does not fit says so (use TCP for big lists).
     constexpr std::size_t max_datagram = 65507;
     std::vector<std::uint8_t> buffer(max_datagram);
-    proto::FrameDecoder decoder(max_datagram);
     while (!stopped_) {
         asio::ip::udp::endpoint from;
         auto [ec, n] = co_await udp_.async_receive_from(asio::buffer(buffer), from, use_nothrow);
@@ -217,15 +209,10 @@ Task<void> NameServer::udp_loop() {
                 co_return;
             continue;
         }
-        auto decoded = decoder.decode({buffer.data(), n});
+        const auto request = parse_datagram_request({buffer.data(), n}, max_datagram);
         proto::Bytes answer;
-        if (decoded.status != proto::DecodeStatus::frame || decoded.used != n ||
-            decoded.type != proto::FrameType::request) {
-            answer = proto::make_error_frame(decoded.status == proto::DecodeStatus::bad
-                                                 ? decoded.error
-                                                 : "a datagram must hold exactly one request frame");
-        } else if (auto request = proto::decode_request(decoded.fields); !request) {
-            answer = proto::make_error_frame("bad request: " + request.error().message);
+        if (!request) {
+            answer = proto::make_error_frame(request.error().message);
         } else if (config_.secret) {
             // A datagram cannot prove it holds the secret: with one, look-ups are for TCP peers.
             answer = proto::encode_reply(proto::make_refusal(
