@@ -223,7 +223,12 @@ class Soak:
                 self.chaos_step()
                 next_chaos = time.monotonic() + self.rng.uniform(0.5, 2.0)
             time.sleep(0.25)  # the loop's pace
-        # Calm: traffic without chaos, so that every connection is back and flowing.
+        # Calm: traffic without chaos, so that every connection is back and flowing. Every client is
+        # replaced first, so that each has lived only with the daemons as they are now and its own
+        # count can be checked against the daemon's.
+        for client in self.writers + self.readers:
+            client.kill()
+            client.start()
         calm_until = time.monotonic() + self.args.calm
         while time.monotonic() < calm_until:
             self.sample()
