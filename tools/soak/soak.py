@@ -187,25 +187,20 @@ class Soak:
         return stats
 
     def client_balances(self, stats):
-        """Clients that started after the last start of their daemon saw what it counted."""
+        """Clients that started after the last start of their daemon saw what it counted: a writer
+        handed its port as many lines as the port says were written, a reader printed as many as
+        the port says it delivered."""
         checked, problems = 0, []
         ports = {(node, p["name"]): p for node, s in stats.items() for p in s["ports"]}
-        for writer in self.writers:
-            port = ports.get((writer.node, writer.port))
-            if port is None or writer.started_at < self.daemons[writer.node].started_at:
+        views = [(w, "written", w.sent, "writer %s: handed %d lines, port written %d") for w in self.writers]
+        views += [(r, "delivered", r.read, "reader %s: printed %d, port delivered %d") for r in self.readers]
+        for client, counter, seen, text in views:
+            port = ports.get((client.node, client.port))
+            if port is None or client.started_at < self.daemons[client.node].started_at:
                 continue
             checked += 1
-            if port["written"] != writer.sent:
-                problems.append("writer %s: handed %d lines, port written %d" % (writer.port, writer.sent,
-                                                                                 port["written"]))
-        for reader in self.readers:
-            port = ports.get((reader.node, reader.port))
-            if port is None or reader.started_at < self.daemons[reader.node].started_at:
-                continue
-            checked += 1
-            if port["delivered"] != reader.read:
-                problems.append("reader %s: printed %d, port delivered %d" % (reader.port, reader.read,
-                                                                              port["delivered"]))
+            if port[counter] != seen:
+                problems.append(text % (client.port, seen, port[counter]))
         return checked, problems
 
     def run(self):
