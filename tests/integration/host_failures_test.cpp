@@ -14,6 +14,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <functional>
 #include <iostream>
 #include <mutex>
 #include <set>
@@ -84,6 +85,32 @@ long long ms_since(Clock::time_point start, Clock::time_point end) {
     return std::chrono::duration_cast<std::chrono::milliseconds>(end - start).count();
 }
 
+/// Writes 1, 2, 3... with `write` every `pace` on a thread of its own, until destroyed (also when
+/// a test fails): the pace of a sensor, not a wait for anything.
+class PacedWriter {
+public:
+    PacedWriter(std::function<void(std::uint64_t)> write, std::chrono::milliseconds pace)
+        : thread_([this, write = std::move(write), pace] {
+              while (!stop_) {
+                  write(written_ + 1);
+                  ++written_;
+                  std::this_thread::sleep_for(pace);
+              }
+          }) {}
+    ~PacedWriter() { stop(); }
+    void stop() {
+        stop_ = true;
+        if (thread_.joinable())
+            thread_.join();
+    }
+    std::uint64_t written() const { return written_; }
+
+private:
+    std::atomic<std::uint64_t> written_{0};
+    std::atomic<bool> stop_{false};
+    std::thread thread_;
+};
+
 TEST(HostFailures_test, KillingTheWritersDaemonLosesOnlyWhatItHeldAndTheStreamResumes) {
     PLEXUS_NEEDS_NETNS();
     ThreeHosts hosts;
@@ -146,24 +173,8 @@ TEST(HostFailures_test, KillingTheReadersDaemonResumesAPersistentStreamAndCounts
     writing.connect("/k/out", "/k/in", "tcp", true);
     std::vector<std::uint64_t> seqs;
 
-    // The writer writes all along, one message per millisecond: the pace of a sensor, not a wait.
-    std::atomic<std::uint64_t> written{0};
-    std::atomic<bool> stop{false};
-    std::thread writer([&] {
-        while (!stop) {
-            source.write(written + 1);
-            ++written;
-            std::this_thread::sleep_for(1ms);
-        }
-    });
-    struct Join {
-        std::thread& thread;
-        std::atomic<bool>& stop;
-        ~Join() {
-            stop = true;
-            thread.join();
-        }
-    } join{writer, stop};
+    // The writer writes all along, one message per millisecond.
+    PacedWriter writer([&](std::uint64_t seq) { source.write(seq); }, 1ms);
 
     ASSERT_TRUE(read_until(sink, seqs, 300, 20s));
     two.process().signal(SIGKILL);
@@ -176,12 +187,12 @@ TEST(HostFailures_test, KillingTheReadersDaemonResumesAPersistentStreamAndCounts
     ASSERT_TRUE(eventually([&] { return reading.state() == ConnectionState::disconnected; }));
 
     const auto restarted = Clock::now();
-    const std::uint64_t written_at_restart = written;
+    const std::uint64_t written_at_restart = writer.written();
     two.start_again();
     std::optional<Clock::time_point> first_after;
     ASSERT_TRUE(read_until(sink, seqs, written_at_restart + 500, 60s, &first_after, had_before_kill))
         << "received up to " << seqs.back() << "; " << two.process().err();
-    stop = true;
+    writer.stop();
     const std::uint64_t last = written_at_restart + 500;
 
     EXPECT_TRUE(std::is_sorted(seqs.begin(), seqs.end()));
@@ -227,25 +238,12 @@ TEST(HostFailures_test, ACableCutForAMinuteHealsAndPersistentConnectionsComeBack
     std::vector<std::uint64_t> udp_seqs;
 
     // Both writers write the same numbers all along, one message each per 10 ms.
-    std::atomic<std::uint64_t> written{0};
-    std::atomic<bool> stop{false};
-    std::thread writer([&] {
-        while (!stop) {
-            const std::uint64_t next = written + 1;
-            tcp_source.write(next);
-            udp_source.write(next);
-            written = next;
-            std::this_thread::sleep_for(10ms);
-        }
-    });
-    struct Join {
-        std::thread& thread;
-        std::atomic<bool>& stop;
-        ~Join() {
-            stop = true;
-            thread.join();
-        }
-    } join{writer, stop};
+    PacedWriter writer(
+        [&](std::uint64_t seq) {
+            tcp_source.write(seq);
+            udp_source.write(seq);
+        },
+        10ms);
     ASSERT_TRUE(read_until(tcp_sink, tcp_seqs, 100, 20s));
     ASSERT_TRUE(read_until(udp_sink, udp_seqs, 100, 20s));
     const long rss_one_before = one.rss_kib();
@@ -257,7 +255,7 @@ TEST(HostFailures_test, ACableCutForAMinuteHealsAndPersistentConnectionsComeBack
     const std::string cable = "ip link set " + net.host(2).bridge_port();
     net.bridge().run_checked(cable + " down");
     const auto cut_at = Clock::now();
-    const std::uint64_t written_at_cut = written;
+    const std::uint64_t written_at_cut = writer.written();
     long rss_one_most = 0;
     long rss_two_most = 0;
     // The fault's duration: polled every second, for memory, while the writer goes on.
@@ -267,7 +265,7 @@ TEST(HostFailures_test, ACableCutForAMinuteHealsAndPersistentConnectionsComeBack
         rss_two_most = std::max(rss_two_most, two.rss_kib());
     }
     // What reached host 2's daemon before the cut is read meanwhile.
-    const std::uint64_t written_at_heal = written;
+    const std::uint64_t written_at_heal = writer.written();
     net.bridge().run_checked(cable + " up");
     const auto healed_at = Clock::now();
 
@@ -278,7 +276,7 @@ TEST(HostFailures_test, ACableCutForAMinuteHealsAndPersistentConnectionsComeBack
         << "\ntwo: " << two.process().err();
     ASSERT_TRUE(read_until(udp_sink, udp_seqs, written_at_heal + 200, 30s, &udp_back, written_at_heal))
         << "udp received up to " << udp_seqs.back();
-    stop = true;
+    writer.stop();
 
     for (const auto* seqs : {&tcp_seqs, &udp_seqs}) {
         EXPECT_TRUE(std::is_sorted(seqs->begin(), seqs->end()));
