@@ -130,12 +130,14 @@ def python(prefix, source):
         return SKIP
     site = os.path.dirname(os.path.dirname(packages[0]))
     env = clean_env(PYTHONPATH=site)
-    where = run([sys.executable, "-c", "import plexus; print(plexus.__file__)"], env=env).strip()
+    # The interpreter python/ builds the module for: Debian's, when there is one.
+    interpreter = "/usr/bin/python3" if os.path.exists("/usr/bin/python3") else sys.executable
+    where = run([interpreter, "-c", "import plexus; print(plexus.__file__)"], env=env).strip()
     if not where.startswith(prefix):
         sys.exit(f"FAILED: import plexus found {where}, not the package under {prefix}")
     with installed_daemon(prefix) as daemon:
         env.update(daemon)
-        run([sys.executable, os.path.join(source, "examples", "python", "counter.py"), "3"], env=env)
+        run([interpreter, os.path.join(source, "examples", "python", "counter.py"), "3"], env=env)
     return 0
 
 
