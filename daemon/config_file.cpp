@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <set>
 #include <stdexcept>
+#include <type_traits>
 
 #include <spdlog/spdlog.h>
 #include <nlohmann/json.hpp>
@@ -15,17 +17,49 @@ namespace plexus::daemon {
 
 namespace {
 
+/// The value of a numeric key, `fallback` when it is absent. json.value() would convert any
+/// number to T without a word: 1e300 into a size_t is undefined behaviour, -1 becomes
+/// 18446744073709551615 (a max_frame of 16 EiB), 4294967297 a uint32 of 1. A value that is not a
+/// whole number within T's range is refused, naming the key.
+template <typename T>
+T whole_number(const nlohmann::json& json, const char* key, T fallback, const std::string& path) {
+    const auto it = json.find(key);
+    if (it == json.end())
+        return fallback;
+    constexpr auto least = std::numeric_limits<T>::min();
+    constexpr auto most = std::numeric_limits<T>::max();
+    const auto refuse = [&] {
+        throw std::runtime_error("config " + path + ": " + key + " must be a whole number from " +
+                                 std::to_string(least) + " to " + std::to_string(most) + ", not " +
+                                 it->dump());
+    };
+    if (it->is_number_unsigned()) {
+        const auto value = it->get<std::uint64_t>();
+        if (value > static_cast<std::uint64_t>(most))
+            refuse();
+        return static_cast<T>(value);
+    }
+    if (it->is_number_integer()) {  // negative: nlohmann keeps non-negative integers unsigned
+        const auto value = it->get<std::int64_t>();
+        if (std::is_unsigned_v<T> || value < static_cast<std::int64_t>(least))
+            refuse();
+        return static_cast<T>(value);
+    }
+    refuse();
+    return fallback;  // not reached
+}
+
 /// The udp carrier's keys of the config file, checked together: a value out of range is refused
 /// with the range, so that a daemon never runs with a carrier that could not carry its own limit.
-void apply_udp_config(const std::string& path, const nlohmann::json& json,
-                      DaemonConfig& config) {
+void apply_udp_config(const std::string& path, const nlohmann::json& json, DaemonConfig& config) {
     auto& udp = config.udp;
-    udp.fragment_bytes = json.value("udp_fragment_bytes", udp.fragment_bytes);
+    udp.fragment_bytes = whole_number(json, "udp_fragment_bytes", udp.fragment_bytes, path);
     // Unless it is given, the largest udp message follows a smaller frame limit down.
-    udp.max_message = json.value("udp_max_message", std::min(udp.max_message, config.max_frame));
-    udp.reassembly_bytes = json.value("udp_reassembly_bytes", udp.reassembly_bytes);
+    udp.max_message =
+        whole_number(json, "udp_max_message", std::min(udp.max_message, config.max_frame), path);
+    udp.reassembly_bytes = whole_number(json, "udp_reassembly_bytes", udp.reassembly_bytes, path);
     udp.reassembly_timeout =
-        std::chrono::milliseconds(json.value("udp_timeout_ms", udp.reassembly_timeout.count()));
+        std::chrono::milliseconds(whole_number(json, "udp_timeout_ms", udp.reassembly_timeout.count(), path));
     const std::string where = "config " + path + ": ";
     // 256 keeps the header's share of a datagram small; 65,000 plus the largest header fits the
     // 65,507 bytes of an IPv4 UDP payload.
@@ -41,12 +75,11 @@ void apply_udp_config(const std::string& path, const nlohmann::json& json,
     }
     const auto fragments = proto::fragment_count(udp.max_message, udp.fragment_bytes);
     if (fragments > proto::max_datagram_fragments) {
-        throw std::runtime_error(where + "udp_max_message " + std::to_string(udp.max_message) +
-                                 " would be cut into " + std::to_string(fragments) +
-                                 " fragments of udp_fragment_bytes " + std::to_string(udp.fragment_bytes) +
-                                 ", more than a datagram may say (" +
-                                 std::to_string(proto::max_datagram_fragments) +
-                                 "): lower it or raise udp_fragment_bytes");
+        throw std::runtime_error(
+            where + "udp_max_message " + std::to_string(udp.max_message) + " would be cut into " +
+            std::to_string(fragments) + " fragments of udp_fragment_bytes " +
+            std::to_string(udp.fragment_bytes) + ", more than a datagram may say (" +
+            std::to_string(proto::max_datagram_fragments) + "): lower it or raise udp_fragment_bytes");
     }
     // Less than one largest message of room and such a message could never be put together.
     if (udp.reassembly_bytes < udp.max_message) {
@@ -83,27 +116,33 @@ void apply_config_text(const std::string& path, std::string_view text, DaemonCon
                                              "udp_max_message",
                                              "udp_reassembly_bytes",
                                              "udp_timeout_ms"};
+    if (!json.is_object())
+        throw std::runtime_error("config " + path + ": expected a JSON object of settings, not " +
+                                 json.type_name());
     for (const auto& [key, value] : json.items()) {
         if (!known.contains(key))
             throw std::runtime_error("config " + path + ": unknown key '" + key + "'");
     }
-    config.max_frame = json.value("max_frame", config.max_frame);
-    config.default_capacity = json.value("default_capacity", config.default_capacity);
-    config.link_capacity = json.value("link_capacity", config.link_capacity);
-    config.queue_bytes = json.value("queue_bytes", config.queue_bytes);
-    config.shm_region_bytes = json.value("shm_region_bytes", config.shm_region_bytes);
-    config.shm_total_bytes = json.value("shm_total_bytes", config.shm_total_bytes);
+    config.max_frame = whole_number(json, "max_frame", config.max_frame, path);
+    config.default_capacity = whole_number(json, "default_capacity", config.default_capacity, path);
+    config.link_capacity = whole_number(json, "link_capacity", config.link_capacity, path);
+    config.queue_bytes = whole_number(json, "queue_bytes", config.queue_bytes, path);
+    config.shm_region_bytes = whole_number(json, "shm_region_bytes", config.shm_region_bytes, path);
+    config.shm_total_bytes = whole_number(json, "shm_total_bytes", config.shm_total_bytes, path);
     if (config.shm_region_bytes != 0 && config.shm_region_bytes < 1024 * 1024)
         throw std::runtime_error("config " + path + ": shm_region_bytes must be 0 (off) or at least 1048576");
-    config.names_grace = std::chrono::milliseconds(json.value("names_grace_ms", config.names_grace.count()));
+    config.names_grace =
+        std::chrono::milliseconds(whole_number(json, "names_grace_ms", config.names_grace.count(), path));
     config.names_state = json.value("names_state", config.names_state);
     for (const auto& dir : json.value("scripts", std::vector<std::string>{}))
         config.script_dirs.push_back(dir);
     auto& monitors = config.monitors;
-    monitors.limits.memory_bytes = json.value("monitor_memory_bytes", monitors.limits.memory_bytes);
-    monitors.limits.budget =
-        std::chrono::milliseconds(json.value("monitor_budget_ms", monitors.limits.budget.count()));
-    monitors.quarantine_after = json.value("monitor_quarantine_after", monitors.quarantine_after);
+    monitors.limits.memory_bytes =
+        whole_number(json, "monitor_memory_bytes", monitors.limits.memory_bytes, path);
+    monitors.limits.budget = std::chrono::milliseconds(
+        whole_number(json, "monitor_budget_ms", monitors.limits.budget.count(), path));
+    monitors.quarantine_after =
+        whole_number(json, "monitor_quarantine_after", monitors.quarantine_after, path);
     if (monitors.limits.memory_bytes < 256 * 1024 || monitors.limits.budget.count() < 1 ||
         monitors.quarantine_after < 1) {
         throw std::runtime_error("config " + path +
@@ -114,7 +153,6 @@ void apply_config_text(const std::string& path, std::string_view text, DaemonCon
     if (json.contains("log_level"))
         spdlog::set_level(spdlog::level::from_str(json["log_level"].get<std::string>()));
 }
-
 
 void apply_config_file(const std::string& path, DaemonConfig& config) {
     std::ifstream in(path);

@@ -10,8 +10,7 @@ namespace {
 
 TEST(ConfigFile_test, AppliesKnownKeysAndAllowsComments) {
     DaemonConfig config;
-    apply_config_text("test.json", "{ // a comment\n \"max_frame\": 1048576, \"link_capacity\": 8 }",
-                              config);
+    apply_config_text("test.json", "{ // a comment\n \"max_frame\": 1048576, \"link_capacity\": 8 }", config);
     EXPECT_EQ(config.max_frame, 1048576u);
     EXPECT_EQ(config.link_capacity, 8u);
 }
@@ -19,6 +18,29 @@ TEST(ConfigFile_test, AppliesKnownKeysAndAllowsComments) {
 TEST(ConfigFile_test, RefusesAnUnknownKey) {
     DaemonConfig config;
     EXPECT_THROW(apply_config_text("test.json", R"({"max_frames": 1})", config), std::runtime_error);
+}
+
+// Found by tests/fuzz/daemon_config_fuzz.cpp: json.value() converted any number to the setting's
+// type, so 1e300 was undefined behaviour (UBSan: "outside the range of representable values"),
+// -1 a max_frame of 16 EiB and 4294967297 a quarantine after 1 failure.
+TEST(ConfigFile_test, RefusesANumberThatIsNotAWholeNumberInRange) {
+    for (const char* text : {R"({"max_frame": 1e300})", R"({"monitor_budget_ms": 1e300})",
+                             R"({"max_frame": -1})", R"({"monitor_quarantine_after": 4294967297})",
+                             R"({"monitor_budget_ms": 20.5})", R"({"udp_timeout_ms": "100"})"}) {
+        DaemonConfig config;
+        try {
+            apply_config_text("test.json", text, config);
+            ADD_FAILURE() << "accepted " << text;
+        } catch (const std::runtime_error& e) {
+            EXPECT_NE(std::string(e.what()).find("must be a whole number from"), std::string::npos)
+                << e.what();
+        }
+    }
+}
+
+TEST(ConfigFile_test, RefusesAFileThatIsNotAnObject) {
+    DaemonConfig config;
+    EXPECT_THROW(apply_config_text("test.json", "null", config), std::runtime_error);
 }
 
 }  // namespace
