@@ -1,0 +1,215 @@
+// The decoders of every frame's fields but data and data_batch (message_fuzz.cpp has those):
+// hello, auth, request, reply, error, the shared-memory frames; and the two datagrams that are not
+// frames on a stream: the udp carrier's datagram (starts with "PLXD") and the discovery answer.
+// The input is a whole frame, as a session reads it. Property, for each decoder: what it decodes,
+// encoded again by the matching encoder, decodes to the same value.
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include "fuzz_check.hpp"
+#include "plexus/proto/control.hpp"
+#include "plexus/proto/datagram.hpp"
+#include "plexus/proto/discovery.hpp"
+#include "plexus/proto/endpoint.hpp"
+#include "plexus/proto/frame.hpp"
+#include "plexus/proto/hello.hpp"
+#include "plexus/proto/message.hpp"
+#include "plexus/proto/shm.hpp"
+#include "same_json.hpp"
+
+namespace proto = plexus::proto;
+using plexus::fuzz::same_json;
+
+namespace {
+
+proto::Bytes copy(proto::ByteView bytes) {
+    return {bytes.begin(), bytes.end()};
+}
+
+/// The fields of the one frame that `frame` holds, with the type it must have.
+proto::ByteView fields_of(const proto::Bytes& frame, proto::FrameType type) {
+    const auto decoded = proto::FrameDecoder().decode(frame);
+    PLEXUS_FUZZ_CHECK(decoded.status == proto::DecodeStatus::frame && decoded.used == frame.size() &&
+                      decoded.type == type);
+    return decoded.fields;
+}
+
+void check_hello(proto::ByteView fields) {
+    const auto hello = proto::decode_hello(fields);
+    if (!hello)
+        return;
+    const auto frame = proto::encode_hello(*hello);
+    const auto again = proto::decode_hello(fields_of(frame, proto::FrameType::hello));
+    PLEXUS_FUZZ_CHECK(again.ok() && again->version == hello->version && again->role == hello->role &&
+                      again->node == hello->node && again->nonce == hello->nonce &&
+                      again->has_secret == hello->has_secret);
+}
+
+void check_auth(proto::ByteView fields) {
+    const auto proof = proto::decode_auth(fields);
+    if (!proof)
+        return;
+    const auto frame = proto::encode_auth(*proof);
+    const auto again = proto::decode_auth(fields_of(frame, proto::FrameType::auth));
+    PLEXUS_FUZZ_CHECK(again.ok() && copy(*again) == copy(*proof));
+}
+
+void check_request(proto::ByteView fields) {
+    const auto request = proto::decode_request(fields);
+    if (!request)
+        return;
+    PLEXUS_FUZZ_CHECK(request->body.is_object() && request->body["op"].is_string());
+    const auto frame = proto::encode_request(*request);
+    const auto again = proto::decode_request(fields_of(frame, proto::FrameType::request));
+    PLEXUS_FUZZ_CHECK(again.ok() && again->id == request->id && same_json(again->body, request->body));
+}
+
+void check_reply(proto::ByteView fields) {
+    const auto reply = proto::decode_reply(fields);
+    if (!reply)
+        return;
+    const auto frame = proto::encode_reply(*reply);
+    const auto again = proto::decode_reply(fields_of(frame, proto::FrameType::reply));
+    PLEXUS_FUZZ_CHECK(again.ok() && again->id == reply->id && again->code == reply->code &&
+                      same_json(again->body, reply->body));
+}
+
+void check_error(proto::ByteView fields) {
+    const auto reason = proto::decode_error(fields);
+    if (!reason)
+        return;
+    // make_error_frame cuts reasons longer than max_error_reason.
+    const auto frame = proto::make_error_frame(*reason);
+    const auto again = proto::decode_error(fields_of(frame, proto::FrameType::error));
+    PLEXUS_FUZZ_CHECK(again.ok());
+    if (reason->size() <= proto::max_error_reason)
+        PLEXUS_FUZZ_CHECK(*again == *reason);
+    else
+        PLEXUS_FUZZ_CHECK(again->size() <= proto::max_error_reason + 16);
+}
+
+void check_shm_data(proto::ByteView fields) {
+    const auto data = proto::decode_shm_data(fields);
+    if (!data)
+        return;
+    const auto head = proto::decode_record(data->head);
+    PLEXUS_FUZZ_CHECK(head.ok() && head->payload.empty());
+    proto::Bytes rest;
+    proto::append_shm_place(rest, data->place, head->source, head->seq, head->time_ns);
+    proto::Bytes frame;
+    proto::append_shm_frame_prefix(frame, data->handle, rest.size());
+    frame.insert(frame.end(), rest.begin(), rest.end());
+    const auto again = proto::decode_shm_data(fields_of(frame, proto::FrameType::data_shm));
+    PLEXUS_FUZZ_CHECK(again.ok() && again->handle == data->handle &&
+                      again->place.region == data->place.region &&
+                      again->place.offset == data->place.offset && again->place.length == data->place.length);
+    const auto again_head = proto::decode_record(again->head);
+    PLEXUS_FUZZ_CHECK(again_head.ok() && again_head->source == head->source && again_head->seq == head->seq &&
+                      again_head->time_ns == head->time_ns);
+}
+
+void check_shm_region(proto::ByteView fields) {
+    const auto region = proto::decode_shm_region(fields);
+    if (!region)
+        return;
+    const auto frame = proto::make_shm_region_frame(*region);
+    const auto again = proto::decode_shm_region(fields_of(frame, proto::FrameType::shm_region));
+    PLEXUS_FUZZ_CHECK(again.ok() && again->region == region->region && again->size == region->size &&
+                      again->writable == region->writable);
+}
+
+void check_shm_number(proto::ByteView fields, proto::FrameType type) {
+    const auto number = proto::decode_shm_number(fields, "count");
+    if (!number)
+        return;
+    const auto frame = proto::make_shm_number_frame(type, *number);
+    const auto again = proto::decode_shm_number(fields_of(frame, type), "count");
+    PLEXUS_FUZZ_CHECK(again.ok() && *again == *number);
+}
+
+void check_shm_free(proto::ByteView fields) {
+    const auto free = proto::decode_shm_free(fields);
+    if (!free)
+        return;
+    const auto frame = proto::make_shm_free_frame(free->first, free->second);
+    const auto again = proto::decode_shm_free(fields_of(frame, proto::FrameType::shm_free));
+    PLEXUS_FUZZ_CHECK(again.ok() && *again == *free);
+}
+
+void check_datagram(proto::ByteView datagram) {
+    constexpr std::uint64_t max_message = 1u << 20;
+    const auto decoded = proto::decode_datagram(datagram, max_message);
+    if (!decoded)
+        return;
+    const auto& header = decoded->header;
+    PLEXUS_FUZZ_CHECK(header.length <= max_message);
+    PLEXUS_FUZZ_CHECK(header.index < proto::fragment_count(header.length, header.fragment_size));
+    PLEXUS_FUZZ_CHECK(decoded->mac.size() == (header.has_mac ? proto::datagram_mac_size : 0));
+    proto::Bytes again;
+    proto::append_datagram_header(again, header);
+    again.insert(again.end(), decoded->fragment.begin(), decoded->fragment.end());
+    again.insert(again.end(), decoded->mac.begin(), decoded->mac.end());
+    const auto reread = proto::decode_datagram(again, max_message);
+    PLEXUS_FUZZ_CHECK(reread.ok());
+    const auto& h = reread->header;
+    PLEXUS_FUZZ_CHECK(h.stream == header.stream && h.message == header.message && h.length == header.length &&
+                      h.fragment_size == header.fragment_size && h.index == header.index &&
+                      h.has_mac == header.has_mac);
+    PLEXUS_FUZZ_CHECK(copy(reread->fragment) == copy(decoded->fragment) &&
+                      copy(reread->mac) == copy(decoded->mac));
+}
+
+void check_discovery_answer(proto::ByteView datagram) {
+    const auto names = proto::discovery_answer(datagram, "192.0.2.1");
+    if (!names)
+        return;
+    // What a program then connects to must be an address it can parse.
+    const auto endpoint = proto::parse_endpoint(*names);
+    PLEXUS_FUZZ_CHECK(endpoint.ok() && endpoint->port != 0);
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+    const proto::ByteView input(data, size);
+    check_datagram(input);
+    check_discovery_answer(input);
+    const auto frame = proto::FrameDecoder().decode(input);
+    if (frame.status != proto::DecodeStatus::frame)
+        return 0;
+    switch (frame.type) {
+        case proto::FrameType::hello:
+            check_hello(frame.fields);
+            break;
+        case proto::FrameType::auth:
+            check_auth(frame.fields);
+            break;
+        case proto::FrameType::request:
+            check_request(frame.fields);
+            break;
+        case proto::FrameType::reply:
+            check_reply(frame.fields);
+            break;
+        case proto::FrameType::error:
+            check_error(frame.fields);
+            break;
+        case proto::FrameType::data_shm:
+            check_shm_data(frame.fields);
+            break;
+        case proto::FrameType::shm_region:
+            check_shm_region(frame.fields);
+            break;
+        case proto::FrameType::shm_release:
+        case proto::FrameType::shm_region_gone:
+            check_shm_number(frame.fields, frame.type);
+            break;
+        case proto::FrameType::shm_free:
+            check_shm_free(frame.fields);
+            break;
+        case proto::FrameType::data:
+        case proto::FrameType::data_batch:
+            break;  // message_fuzz.cpp
+    }
+    return 0;
+}
