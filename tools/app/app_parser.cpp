@@ -312,8 +312,10 @@ Loaded parse_app(const std::string& text, const std::string& path, const Variabl
     Json root;
     try {
         root = Json::parse(text);
-    } catch (const Json::parse_error& e) {
-        // nlohmann's text names the byte: "parse error at line 3, column 7: syntax error ...".
+    } catch (const Json::exception& e) {
+        // nlohmann's text names the byte: "parse error at line 3, column 7: syntax error ...". Not
+        // only parse_error: a number too large for a double ("4E4448") is an out_of_range, which
+        // used to escape parse_app and end `plexus check` with nlohmann's text and no file name.
         reader.problem("", std::string("not valid JSON: ") + e.what());
         loaded.problems = std::move(reader.problems);
         return loaded;

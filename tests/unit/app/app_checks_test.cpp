@@ -169,6 +169,14 @@ TEST(AppCheck_test, NamesBadJson) {
     expect_one_problem(problems_of(path), {path, "not valid JSON", "line 2"});
 }
 
+// Found by tests/fuzz/app_file_fuzz.cpp: a number too large for a double is nlohmann's
+// out_of_range, not a parse_error, and escaped parse_app instead of becoming a problem.
+TEST(AppCheck_test, NamesANumberTooLargeAsBadJson) {
+    const auto loaded = parse_app("4E4448hh-${S:c]}", "/apps/app.json", variables({}));
+    EXPECT_FALSE(loaded.app);
+    expect_one_problem(loaded.problems, {"/apps/app.json", "not valid JSON", "number overflow"});
+}
+
 TEST(AppCheck_test, ReadsTheShippedFetchApplication) {
     // configs/apps/fetch.json is another engineer's; reading it must not fail on its schema.
     const std::string fetch = std::string(PLEXUS_SOURCE_DIR) + "/configs/apps/fetch.json";
