@@ -146,6 +146,8 @@ TEST_P(Fetch_test, TheSixPhasesHappenInOrderAtLeastTwice) {
     const auto began = Clock::now();
     ASSERT_TRUE(phases.read_until([](const auto& seen) { return complete_cycles(seen) >= 2; }, 150s))
         << phases.history();
+    // A delivery shows in the message after its release (the world counts it as the hand opens).
+    ASSERT_TRUE(phases.next("search_object", 60s)) << phases.history();
     const auto& seen = phases.seen();
     EXPECT_GE(seen.back().deliveries, 2) << phases.history();
     for (const auto& phase : in_order) {
@@ -162,7 +164,8 @@ TEST_P(Fetch_test, TheSixPhasesHappenInOrderAtLeastTwice) {
     robot.up.status = -1;  // already down
     auto list = run_cli(robot.dir, robot.daemon, {"list", "--json"});
     ASSERT_EQ(list.status, 0);
-    for (const auto& port : json::parse(list.out)["ports"]) {
+    const auto listed = json::parse(list.out);  // named: a range-for over a temporary's member dangles
+    for (const auto& port : listed["ports"]) {
         const std::string name = port["name"];
         EXPECT_TRUE(name.rfind("/test/", 0) == 0) << name << " is still there after down";
     }
@@ -205,15 +208,26 @@ TEST(FetchDisturbance_test, APersonWhoLeavesIsSearchedForWhileTheObjectIsHeld) {
     FetchRobot robot(5);
     ASSERT_EQ(robot.up.status, 0) << robot.up.out << robot.up.err;
     PhaseWatch phases(robot.daemon);
-    ASSERT_TRUE(phases.next("approach", 120s)) << phases.history();
-    const std::size_t at_leave = phases.seen().size();
-    phases.disturb({{"person", "away"}});
-    ASSERT_TRUE(phases.next("search_person", 30s)) << phases.history(at_leave);
+    // The person leaves while the robot carries the object to them. If the release came first
+    // (the world is fast, the test may be slow), the object is gone: try again with the next one.
+    std::size_t at_leave = 0;
+    for (int attempt = 0;; ++attempt) {
+        ASSERT_LT(attempt, 5) << "the person never left while the object was held: " << phases.history();
+        ASSERT_TRUE(phases.next("approach", 120s)) << phases.history();
+        const int deliveries = phases.seen().back().deliveries;
+        at_leave = phases.seen().size();
+        phases.disturb({{"person", "away"}});
+        ASSERT_TRUE(phases.next("search_person", 60s)) << phases.history(at_leave);
+        if (phases.seen().back().deliveries == deliveries)
+            break;
+        phases.disturb({{"person", "back"}});
+    }
+    const std::size_t searching_at = phases.seen().size() - 1;
     const double searching_since = phases.seen().back().t;
     // While the person is away the robot keeps the object and searches: 20 s of world time (2 s
     // real) with no approach and no release. Read for that long; nothing else may happen.
     phases.read_for(2s);
-    for (std::size_t i = at_leave; i < phases.seen().size(); ++i) {
+    for (std::size_t i = searching_at; i < phases.seen().size(); ++i) {
         EXPECT_NE(phases.seen()[i].phase, "approach") << phases.history(at_leave);
         EXPECT_NE(phases.seen()[i].phase, "release") << phases.history(at_leave);
     }
@@ -259,7 +273,8 @@ TEST(FetchTwoDaemons_test, SensorsOnOneNodeAndActuatorsOnAnotherBehaveTheSame) {
     // The arbitrated ports live on the actuators' daemon, the sensors on the other.
     auto list = run_cli(dir, sensors, {"list", "--json"});
     ASSERT_EQ(list.status, 0);
-    for (const auto& port : json::parse(list.out)["ports"]) {
+    const auto listed = json::parse(list.out);  // named: a range-for over a temporary's member dangles
+    for (const auto& port : listed["ports"]) {
         const std::string name = port["name"];
         if (name == "/arm/in" || name == "/gaze/in" || name == "/hand/in")
             EXPECT_EQ(port["node"], "actuators") << name;
