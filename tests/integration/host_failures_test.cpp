@@ -31,14 +31,23 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using nlohmann::json;
 
+/// The hosts, their daemons, and a component on each daemon: `writing` on one, `reading` on two
+/// (destroyed before the daemons).
 struct ThreeHosts {
-    ThreeHosts() : net(3), names(dir, net.host(0)), one(dir, net.host(1), "one", names.address()),
-                   two(dir, net.host(2), "two", names.address()) {}
+    ThreeHosts()
+        : net(3),
+          names(dir, net.host(0)),
+          one(dir, net.host(1), "one", names.address()),
+          two(dir, net.host(2), "two", names.address()),
+          writing({one.socket()}),
+          reading({two.socket()}) {}
     Network net;
     TempDir dir;
     NameServerProcess names;
     Daemon one;
     Daemon two;
+    Client writing;
+    Client reading;
 };
 
 /// Sequence numbers in 1..last that `seqs` (increasing) does not hold.
@@ -114,9 +123,7 @@ private:
 TEST(HostFailures_test, KillingTheWritersDaemonLosesOnlyWhatItHeldAndTheStreamResumes) {
     PLEXUS_NEEDS_NETNS();
     ThreeHosts hosts;
-    auto& [net, dir, names, one, two] = hosts;
-    Client writing({one.socket()});
-    Client reading({two.socket()});
+    auto& [net, dir, names, one, two, writing, reading] = hosts;
     auto source = writing.open("/k/out");
     auto sink = reading.open("/k/in");
     writing.connect("/k/out", "/k/in", "tcp");
@@ -165,9 +172,7 @@ TEST(HostFailures_test, KillingTheWritersDaemonLosesOnlyWhatItHeldAndTheStreamRe
 TEST(HostFailures_test, KillingTheReadersDaemonResumesAPersistentStreamAndCountsWhatWentNowhere) {
     PLEXUS_NEEDS_NETNS();
     ThreeHosts hosts;
-    auto& [net, dir, names, one, two] = hosts;
-    Client writing({one.socket()});
-    Client reading({two.socket()});
+    auto& [net, dir, names, one, two, writing, reading] = hosts;
     auto source = writing.open("/k/out");
     auto sink = reading.open("/k/in");
     writing.connect("/k/out", "/k/in", "tcp", true);
@@ -225,9 +230,7 @@ TEST(HostFailures_test, KillingTheReadersDaemonResumesAPersistentStreamAndCounts
 TEST(HostFailures_test, ACableCutForAMinuteHealsAndPersistentConnectionsComeBackByThemselves) {
     PLEXUS_NEEDS_NETNS();
     ThreeHosts hosts;
-    auto& [net, dir, names, one, two] = hosts;
-    Client writing({one.socket()});
-    Client reading({two.socket()});
+    auto& [net, dir, names, one, two, writing, reading] = hosts;
     auto tcp_source = writing.open("/t/out");
     auto udp_source = writing.open("/u/out");
     auto tcp_sink = reading.open("/t/in", {.capacity = 8192});
