@@ -47,10 +47,10 @@ public:
     /// first connection into the port.
     std::shared_ptr<arbitration::Arbiter> arbiter;
 
-    std::uint64_t written = 0;    ///< messages its client wrote into it
+    std::uint64_t written = 0;      ///< messages its client wrote into it
     std::uint64_t unconnected = 0;  ///< of those, written while no connection went out of it
-    std::uint64_t received = 0;   ///< messages that arrived through connections
-    std::uint64_t delivered = 0;  ///< messages handed to its client's socket
+    std::uint64_t received = 0;     ///< messages that arrived through connections
+    std::uint64_t delivered = 0;    ///< messages handed to its client's socket
 
     void mark_closed();
 

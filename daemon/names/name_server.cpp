@@ -8,9 +8,9 @@
 #include "../net/framed_connection.hpp"
 #include "../net/keepalive.hpp"
 #include "name_protocol.hpp"
-#include "request_parser.hpp"
 #include "plexus/proto/discovery.hpp"
 #include "plexus/proto/frame.hpp"
+#include "request_parser.hpp"
 
 namespace plexus::daemon::names {
 

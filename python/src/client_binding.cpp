@@ -63,7 +63,8 @@ bool exists(Client& client, const std::string& port, const std::optional<std::st
     }
     // As `plexus exists SRC DST`: a connection the name server knows and that is up.
     for (const auto& c : answer.value("connections", Value::array())) {
-        if (c.value("source", "") == port && c.value("destination", "") == *destination && c.value("live", false))
+        if (c.value("source", "") == port && c.value("destination", "") == *destination &&
+            c.value("live", false))
             return true;
     }
     return false;
@@ -79,7 +80,8 @@ void bind_client(py::module_& module) {
                        "restarts.")
         .def(py::init(&make_client), py::arg("socket") = py::none(), py::arg("request_timeout") = 10.0,
              "Connects to the local daemon.")
-        .def_property_readonly("socket_path", &Client::socket_path, "The socket path this client is connected to.")
+        .def_property_readonly("socket_path", &Client::socket_path,
+                               "The socket path this client is connected to.")
         .def("open", &open, py::arg("name"), py::arg("policy") = "strict", py::arg("capacity") = 0,
              py::keep_alive<0, 1>(),
              "Opens a port on the local daemon and registers it with the name server. policy: \"strict\" "
@@ -95,7 +97,8 @@ void bind_client(py::module_& module) {
                 return client.connect(source, destination, carrier, persist);
             },
             py::arg("source"), py::arg("destination"), py::arg("carrier") = "", py::arg("persist") = false,
-            "Connects two ports (anywhere); carrier \"\" chooses local or tcp by where they live. Returns the "
+            "Connects two ports (anywhere); carrier \"\" chooses local or tcp by where they live. Returns "
+            "the "
             "carrier used. Raises RefusedError when the daemon refuses (e.g. a port that does not exist).")
         .def(
             "disconnect",
@@ -120,10 +123,15 @@ void bind_client(py::module_& module) {
                 }
                 return where ? to_python(*where) : py::none();
             },
-            py::arg("port"), "Where a port lives ({\"port\", \"node\", \"address\"}), or None if it is not registered.")
+            py::arg("port"),
+            "Where a port lives ({\"port\", \"node\", \"address\"}), or None if it is not registered.")
         .def(
-            "list", [](Client& client) { return ask(client, {{"op", "list"}}); },
-            "Ports and connections as the name server knows them: {\"ports\": [...], \"connections\": [...]}.")
+            "list",
+            [](Client& client) {
+                return ask(client, {{"op", "list"}});
+            },
+            "Ports and connections as the name server knows them: {\"ports\": [...], \"connections\": "
+            "[...]}.")
         .def(
             "stats",
             [](Client& client, const std::string& port) {
@@ -143,7 +151,8 @@ void bind_client(py::module_& module) {
             "The arbitration of an input port (as `plexus events PORT --json`): event container, "
             "constraints, stimulation, counters; check=True adds the constraints' overlaps.")
         .def(
-            "ping", [](Client& client, const std::string& port) {
+            "ping",
+            [](Client& client, const std::string& port) {
                 require_port_name(port);
                 return ask(client, {{"op", "ping"}, {"port", port}});
             },

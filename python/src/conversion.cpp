@@ -113,7 +113,8 @@ py::object to_python(Value& value) {
         case Value::value_t::string: {
             const auto& text = value.get_ref<const std::string&>();
             // "replace", like the CLI's dump: text from elsewhere need not be valid UTF-8.
-            PyObject* decoded = PyUnicode_DecodeUTF8(text.data(), static_cast<Py_ssize_t>(text.size()), "replace");
+            PyObject* decoded =
+                PyUnicode_DecodeUTF8(text.data(), static_cast<Py_ssize_t>(text.size()), "replace");
             if (!decoded)
                 throw py::error_already_set();
             return py::reinterpret_steal<py::object>(decoded);

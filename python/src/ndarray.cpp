@@ -105,8 +105,8 @@ py::object blob_to_ndarray(std::vector<std::uint8_t>& bytes) {
     if (body_size > bytes.size() - body_at)
         return {};
     const std::size_t data_at = body_at + body_size;
-    const py::object decoded = decode_header()(
-        py::bytes(reinterpret_cast<const char*>(bytes.data() + body_at), body_size));
+    const py::object decoded =
+        decode_header()(py::bytes(reinterpret_cast<const char*>(bytes.data() + body_at), body_size));
     if (decoded.is_none())
         return {};
     const auto fields = py::reinterpret_borrow<py::tuple>(decoded);

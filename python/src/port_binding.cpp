@@ -75,7 +75,8 @@ void close(PythonPort& self) {
 }  // namespace
 
 void bind_port(py::module_& module) {
-    py::class_<Envelope>(module, "Envelope", "Where a message comes from: its source port, sequence number and time.")
+    py::class_<Envelope>(module, "Envelope",
+                         "Where a message comes from: its source port, sequence number and time.")
         .def_readonly("source", &Envelope::source, "The port that wrote the message.")
         .def_readonly("seq", &Envelope::seq, "The source's sequence number, from 1.")
         .def_readonly("time_ns", &Envelope::time_ns, "Send time, ns since the Unix epoch.")
@@ -88,11 +89,12 @@ void bind_port(py::module_& module) {
         });
 
     py::class_<Message>(module, "Message", "A received message: `data` and `envelope`.")
-        .def_readonly("data", &Message::data, "The payload, as Python objects (blobs as bytes or numpy.ndarray).")
+        .def_readonly("data", &Message::data,
+                      "The payload, as Python objects (blobs as bytes or numpy.ndarray).")
         .def_readonly("envelope", &Message::envelope, "Source, sequence number and send time.")
         .def("__repr__", [](const Message& m) {
-            return "Message(data=" + py::repr(m.data).cast<std::string>() + ", envelope=" +
-                   py::repr(py::cast(m.envelope)).cast<std::string>() + ")";
+            return "Message(data=" + py::repr(m.data).cast<std::string>() +
+                   ", envelope=" + py::repr(py::cast(m.envelope)).cast<std::string>() + ")";
         });
 
     // dynamic_attr: the asyncio methods (plexus/_asyncio.py) keep a reader thread per port.
@@ -100,9 +102,7 @@ void bind_port(py::module_& module) {
                            "A port opened by a Client (Client.open). Closing it flushes what was written.")
         .def_property_readonly(
             "name", [](const PythonPort& self) { return self.port.name(); }, "The port's name.")
-        .def_property_readonly(
-            "is_open", &is_open,
-            "False once closed.")
+        .def_property_readonly("is_open", &is_open, "False once closed.")
         .def("write", &write, py::arg("data"), py::arg("flush") = true,
              "Writes a message to every connection out of this port. data: dict (str keys), list, "
              "tuple, str, int, float, bool, None, bytes/bytearray/memoryview (a blob) or numpy.ndarray "

@@ -123,13 +123,15 @@ TEST(Apps_test, UpStartsAndConnectsIsIdempotentRepairsDriftAndDownLeavesNothing)
     EXPECT_EQ(carrier_of(dir, daemon, "/demo/sensor/out", "/demo/sink/in"), "tcp");
     // Data flows: the reader's log fills with detections.
     const std::string sink_log = apps_dir(daemon) + "/demo/sink.log";
-    EXPECT_TRUE(eventually([&] { return read_file(sink_log).find("\"kind\":\"object\"") != std::string::npos; }))
-        << read_file(sink_log);
+    EXPECT_TRUE(eventually([&] {
+        return read_file(sink_log).find("\"kind\":\"object\"") != std::string::npos;
+    })) << read_file(sink_log);
 
     auto again = run_cli(dir, daemon, {"up", file});
     ASSERT_EQ(again.status, 0) << again.err;
     EXPECT_NE(again.out.find("started 0"), std::string::npos) << again.out;
-    EXPECT_NE(again.out.find("made 0, already there 1, replaced 0 (nothing to do)"), std::string::npos) << again.out;
+    EXPECT_NE(again.out.find("made 0, already there 1, replaced 0 (nothing to do)"), std::string::npos)
+        << again.out;
     EXPECT_EQ(recorded_pids(daemon, "demo"), pids);
     EXPECT_EQ(run_cli(dir, daemon, {"up", file, "--diff"}).status, 0);
 
@@ -158,7 +160,8 @@ TEST(Apps_test, UpStartsAndConnectsIsIdempotentRepairsDriftAndDownLeavesNothing)
     write_file(dir, "demo.json", changed);
     auto drift = run_cli(dir, daemon, {"up", file, "--diff"});
     EXPECT_EQ(drift.status, 1);
-    EXPECT_NE(drift.out.find("carrier tcp, the file has tcp+recv.priority+tc.0.5"), std::string::npos) << drift.out;
+    EXPECT_NE(drift.out.find("carrier tcp, the file has tcp+recv.priority+tc.0.5"), std::string::npos)
+        << drift.out;
     auto replace = run_cli(dir, daemon, {"up", file});
     ASSERT_EQ(replace.status, 0) << replace.err;
     EXPECT_NE(replace.out.find("replaced 1"), std::string::npos) << replace.out;
@@ -181,14 +184,16 @@ TEST(Apps_test, ABadFileMakesCheckAndUpExit2AndChangesNothing) {
     Daemon daemon(dir, "alpha");
     StartedComponents cleanup(daemon, {"demo"});
     std::string bad = sensor_app();
-    bad.replace(bad.find("\"carrier\": \"tcp\""), 16, "\"carrier\": \"tcp+recv.bogus\", \"persistent\": true");
+    bad.replace(bad.find("\"carrier\": \"tcp\""), 16,
+                "\"carrier\": \"tcp+recv.bogus\", \"persistent\": true");
     const auto file = write_file(dir, "bad.json", bad);
 
     auto check = run_cli(dir, daemon, {"check", file});
     EXPECT_EQ(check.status, 2);
-    EXPECT_NE(check.err.find(file + ": connections[0] /demo/sensor/out -> /demo/sink/in: \"carrier\": unknown "
-                                    "modifier 'recv.bogus'"),
-              std::string::npos)
+    EXPECT_NE(
+        check.err.find(file + ": connections[0] /demo/sensor/out -> /demo/sink/in: \"carrier\": unknown "
+                              "modifier 'recv.bogus'"),
+        std::string::npos)
         << check.err;
     EXPECT_NE(check.err.find("unknown field \"persistent\""), std::string::npos) << check.err;
 
@@ -221,8 +226,9 @@ TEST(Apps_test, AComponentWhosePortsNeverAppearTimesOutAndUpUndoesItself) {
     const auto file = write_file(dir, "demo.json", app);
     auto up = run_cli(dir, daemon, {"up", file, "--timeout", "2"});
     EXPECT_EQ(up.status, 3) << up.err;
-    EXPECT_NE(up.err.find("/demo/never (of component sink; see its log " + apps_dir(daemon) + "/demo/sink.log)"),
-              std::string::npos)
+    EXPECT_NE(
+        up.err.find("/demo/never (of component sink; see its log " + apps_dir(daemon) + "/demo/sink.log)"),
+        std::string::npos)
         << up.err;
     EXPECT_NE(up.err.find("undo: stopped sensor"), std::string::npos) << up.err;
     EXPECT_FALSE(std::filesystem::exists(apps_dir(daemon) + "/demo.json"));
@@ -270,7 +276,8 @@ TEST(Apps_test, ComponentsOfAnotherNodeStartUnderItsDaemonWithNodeSocket) {
     EXPECT_EQ(nodes["/demo/sensor/out"], "alpha");
     EXPECT_EQ(nodes["/demo/sink/in"], "beta");
     EXPECT_EQ(carrier_of(dir, alpha, "/demo/sensor/out", "/demo/sink/in"), "tcp");
-    EXPECT_EQ(run_cli(dir, alpha, {"up", file, "--node-socket", "beta=" + beta.socket(), "--diff"}).status, 0);
+    EXPECT_EQ(run_cli(dir, alpha, {"up", file, "--node-socket", "beta=" + beta.socket(), "--diff"}).status,
+              0);
 
     const auto pids = recorded_pids(alpha, "demo");
     auto down = run_cli(dir, alpha, {"down", file});

@@ -31,7 +31,8 @@ std::string fetch_app() {
 
 /// `plexus up|down|check FILE` against `daemon`, with SPEED/SEED (and more) in its environment.
 CliResult app_command(const TempDir& dir, const Daemon& daemon, const std::string& command,
-                      const std::map<std::string, std::string>& vars, const std::vector<std::string>& more = {}) {
+                      const std::map<std::string, std::string>& vars,
+                      const std::vector<std::string>& more = {}) {
     static int counter = 0;
     auto env = daemon.env();
     env.insert(vars.begin(), vars.end());
@@ -157,8 +158,8 @@ TEST_P(Fetch_test, TheSixPhasesHappenInOrderAtLeastTwice) {
             << phase;
     }
     std::printf("[ fetch seed %d ] two full cycles in %.1f s of world time (%.1f s real): %s\n", GetParam(),
-                seen.back().t - seen.front().t,
-                std::chrono::duration<double>(Clock::now() - began).count(), phases.history().c_str());
+                seen.back().t - seen.front().t, std::chrono::duration<double>(Clock::now() - began).count(),
+                phases.history().c_str());
 
     // down takes it all away: no port of the application is left.
     auto down = app_command(robot.dir, robot.daemon, "down", robot.vars);
@@ -238,10 +239,11 @@ TEST(FetchDisturbance_test, APersonWhoLeavesIsSearchedForWhileTheObjectIsHeld) {
     phases.disturb({{"person", "back"}});
     ASSERT_TRUE(phases.next("release", 60s)) << phases.history(at_back);
     const auto released = phases.seen().back();
-    std::printf("[ person away ] searched %.1f s of world time while holding; released %.0f ms (real) after "
-                "the person came back: %s\n",
-                released.t - searching_since, std::chrono::duration<double, std::milli>(released.at - back).count(),
-                phases.history(at_leave).c_str());
+    std::printf(
+        "[ person away ] searched %.1f s of world time while holding; released %.0f ms (real) after "
+        "the person came back: %s\n",
+        released.t - searching_since, std::chrono::duration<double, std::milli>(released.at - back).count(),
+        phases.history(at_leave).c_str());
 }
 
 TEST(FetchDisturbance_test, AHiddenObjectIsSearchedForAgain) {
@@ -255,9 +257,10 @@ TEST(FetchDisturbance_test, AHiddenObjectIsSearchedForAgain) {
     ASSERT_TRUE(phases.next("search_object", 30s)) << phases.history(at_hide);
     ASSERT_TRUE(phases.next("grasp", 60s)) << phases.history(at_hide);
     const auto grasped = phases.seen().back();
-    std::printf("[ hide ] grasped %.0f ms (real) after the object was hidden (3 s of world time hidden): %s\n",
-                std::chrono::duration<double, std::milli>(grasped.at - hidden).count(),
-                phases.history(at_hide).c_str());
+    std::printf(
+        "[ hide ] grasped %.0f ms (real) after the object was hidden (3 s of world time hidden): %s\n",
+        std::chrono::duration<double, std::milli>(grasped.at - hidden).count(),
+        phases.history(at_hide).c_str());
 }
 
 TEST(FetchTwoDaemons_test, SensorsOnOneNodeAndActuatorsOnAnotherBehaveTheSame) {

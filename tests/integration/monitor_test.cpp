@@ -171,15 +171,18 @@ TEST(Monitor_test, WhenRaisesAnEventWhileAFieldHoldsAndFiltersOnRequest) {
     TempDir dir;
     Daemon daemon(dir, "solo", "", with_scripts());
     // Two clauses in a chain on one connection: each its own condition and event, neither filters.
-    auto p = make_pipeline(dir, daemon, daemon, "/hand/proximity", "/hand/in",
-                           "local+recv.portmonitor+type.lua+file.when+field.object+below.0.03+event.e_at_object"
-                           "+recv.portmonitor+type.lua+file.when+field.person+below.0.35+event.e_at_person",
-                           5);
+    auto p =
+        make_pipeline(dir, daemon, daemon, "/hand/proximity", "/hand/in",
+                      "local+recv.portmonitor+type.lua+file.when+field.object+below.0.03+event.e_at_object"
+                      "+recv.portmonitor+type.lua+file.when+field.person+below.0.35+event.e_at_person",
+                      5);
     ASSERT_EQ(p.connected.status, 0) << p.connected.err;
     p.writer->send("{\"object\": 0.01, \"person\": 1.0}\n");
-    ASSERT_TRUE(eventually([&] { return events_of(dir, daemon, "/hand/in") == std::set<std::string>{"e_at_object"}; }));
+    ASSERT_TRUE(eventually(
+        [&] { return events_of(dir, daemon, "/hand/in") == std::set<std::string>{"e_at_object"}; }));
     p.writer->send("{\"object\": 0.5, \"person\": 0.2}\n");
-    ASSERT_TRUE(eventually([&] { return events_of(dir, daemon, "/hand/in") == std::set<std::string>{"e_at_person"}; }));
+    ASSERT_TRUE(eventually(
+        [&] { return events_of(dir, daemon, "/hand/in") == std::set<std::string>{"e_at_person"}; }));
     // A missing field (null) does not hold: the event goes.
     p.writer->send("{\"object\": null, \"person\": 0.2}\n{\"object\": null, \"person\": null}\n");
     EXPECT_TRUE(eventually([&] { return events_of(dir, daemon, "/hand/in").empty(); }));
@@ -195,15 +198,18 @@ TEST(Monitor_test, WhenRaisesAnEventWhileAFieldHoldsAndFiltersOnRequest) {
     // A clause without a condition is refused at connect time, with the script's reason.
     auto other = start_cli(dir, daemon, {"read", "/other", "--timeout", "60"}, "other");
     ASSERT_TRUE(wait_port(dir, daemon, "/other"));
-    auto refused = run_cli(dir, daemon, {"connect", "/touch", "/other", "local+recv.portmonitor+type.lua+file.when+field.held"});
+    auto refused = run_cli(
+        dir, daemon, {"connect", "/touch", "/other", "local+recv.portmonitor+type.lua+file.when+field.held"});
     EXPECT_EQ(refused.status, 4);
     EXPECT_NE(refused.err.find("script 'when' refused the connection"), std::string::npos) << refused.err;
-    EXPECT_TRUE(eventually([&] { return daemon.process().out().find("give equals.VALUE") != std::string::npos; }));
+    EXPECT_TRUE(
+        eventually([&] { return daemon.process().out().find("give equals.VALUE") != std::string::npos; }));
 
     q.writer->send("{\"held\": false}\n{\"held\": true}\n{\"held\": 1}\n\"held\"\n{\"held\": true}\n");
     ASSERT_EQ(q.writer->finish(), 0);
     ASSERT_EQ(q.reader->wait(60s), 0) << q.reader->err();
-    EXPECT_EQ(json_lines(q.reader->out()), (std::vector<json>{json::parse(R"({"held":true})"), json::parse(R"({"held":true})")}));
+    EXPECT_EQ(json_lines(q.reader->out()),
+              (std::vector<json>{json::parse(R"({"held":true})"), json::parse(R"({"held":true})")}));
 }
 
 TEST(Monitor_test, QualityOfServiceMonitorPublishesWhenItsSourceGoesSilent) {

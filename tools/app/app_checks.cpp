@@ -20,8 +20,8 @@ void check_duplicates(const App& app, CheckReport& report) {
     std::map<std::string, const Component*> claimed;
     for (const auto& component : app.components) {
         if (auto [it, fresh] = names.emplace(component.name, &component); !fresh)
-            report.problems.push_back(app.file + ": " + component.label() + ": \"name\": " + it->second->label() +
-                                      " has the same name");
+            report.problems.push_back(app.file + ": " + component.label() +
+                                      ": \"name\": " + it->second->label() + " has the same name");
         std::set<std::string> own;
         for (const auto& port : component.ports) {
             if (!own.insert(port).second) {

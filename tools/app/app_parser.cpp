@@ -21,7 +21,8 @@ namespace {
 
 using Json = nlohmann::json;
 
-const std::vector<std::string> top_fields{"name", "description", "scripts", "components", "wait", "connections"};
+const std::vector<std::string> top_fields{"name",       "description", "scripts",
+                                          "components", "wait",        "connections"};
 const std::vector<std::string> component_fields{"name", "command", "args", "env", "node", "ports"};
 const std::vector<std::string> connection_fields{"source", "destination", "carrier", "persist"};
 
@@ -46,7 +47,8 @@ bool safe_name(const std::string& name) {
 /// Walks the JSON and records problems; one per file.
 class Reader {
 public:
-    Reader(std::string file, const VariableLookup& variables) : file_(std::move(file)), variables_(variables) {}
+    Reader(std::string file, const VariableLookup& variables)
+        : file_(std::move(file)), variables_(variables) {}
 
     std::vector<std::string> problems;
 
@@ -156,7 +158,8 @@ public:
         if (value.contains("env")) {
             const Json& env = value["env"];
             if (!env.is_object()) {
-                problem(entry, "\"env\": expected an object of strings, found " + std::string(env.type_name()));
+                problem(entry,
+                        "\"env\": expected an object of strings, found " + std::string(env.type_name()));
                 whole = false;
             } else {
                 for (const auto& [key, item] : env.items()) {
@@ -244,7 +247,10 @@ public:
         App a;
         a.file = path;
         std::error_code ec;
-        a.directory = std::filesystem::absolute(std::filesystem::path(path), ec).parent_path().lexically_normal().string();
+        a.directory = std::filesystem::absolute(std::filesystem::path(path), ec)
+                          .parent_path()
+                          .lexically_normal()
+                          .string();
         only_known(root, top_fields, "");
         if (!root.contains("name")) {
             problem("", "missing field \"name\" (it names the state `up` keeps)");
@@ -256,7 +262,8 @@ public:
         if (root.contains("description"))
             a.description = string(root["description"], "", "description", false).value_or("");
         if (root.contains("scripts")) {
-            for (const auto& dir : strings(root["scripts"], "", "scripts", true).value_or(std::vector<std::string>{}))
+            for (const auto& dir :
+                 strings(root["scripts"], "", "scripts", true).value_or(std::vector<std::string>{}))
                 a.scripts.push_back((std::filesystem::path(a.directory) / dir).lexically_normal().string());
         }
         if (root.contains("wait")) {

@@ -46,8 +46,8 @@ void check_arbitration(const App& app, const std::map<std::size_t, proto::Carrie
                 continue;  // reported by check_carriers
             // As `connect` does for each new connection: the weights with it must stay solvable.
             if (auto weights = arbiter->check_weights(*member); !weights) {
-                report.problems.push_back(where + connection->label() + ": \"carrier\": " +
-                                          weights.error().message);
+                report.problems.push_back(where + connection->label() +
+                                          ": \"carrier\": " + weights.error().message);
                 continue;
             }
             arbiter->join(*member);
@@ -58,8 +58,9 @@ void check_arbitration(const App& app, const std::map<std::size_t, proto::Carrie
         if (!arbiter->uses_constraints())
             continue;
         for (const auto& pair : arbiter->overlaps()) {
-            report.problems.push_back(where + label_of(into, pair.first) + " and " + label_of(into, pair.second) +
-                                      " can both deliver, " + daemon::describe_witness(pair.witness) +
+            report.problems.push_back(where + label_of(into, pair.first) + " and " +
+                                      label_of(into, pair.second) + " can both deliver, " +
+                                      daemon::describe_witness(pair.witness) +
                                       " (at most one non-auxiliary connection's constraint may be true)");
         }
     }

@@ -61,7 +61,8 @@ void check_scripts(const App& app, const AppConnection& connection, const proto:
             for (const auto& dir : app.scripts)
                 dirs += (dirs.empty() ? "" : ", ") + dir;
             report.problems.push_back(
-                where + "script file." + name + ": no " + file_name + " in the file's \"scripts\" directories (" +
+                where + "script file." + name + ": no " + file_name +
+                " in the file's \"scripts\" directories (" +
                 (dirs.empty() ? "none given: add \"scripts\": [\"DIR\"], relative to the file" : dirs) + ")");
         }
     }

@@ -259,7 +259,8 @@ int stats(const Common& common, const std::string& port, bool json) {
                   << pad(std::to_string(p.value("received", 0)), 10)
                   << pad(std::to_string(p.value("delivered", 0)), 10) << p.value("dropped_queue", 0) << '\n';
         if (p.value("unconnected", 0) > 0)
-            std::cout << "    written with no connection out (went nowhere): " << p.value("unconnected", 0) << '\n';
+            std::cout << "    written with no connection out (went nowhere): " << p.value("unconnected", 0)
+                      << '\n';
         for (const auto& c : p.value("outgoing", Value::array())) {
             std::cout << "    -> " << pad(c.value("destination", ""), 24) << pad(c.value("carrier", ""), 10)
                       << "sent " << c.value("sent", 0) << ", dropped by monitors "

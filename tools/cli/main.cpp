@@ -151,23 +151,27 @@ int main(int argc, char** argv) {
     auto* up_cmd = app.add_subcommand(
         "up",
         "bring an application up: check it, start the components that are not running (each in its own "
-        "process group, output to a log file beside the daemon's socket, in apps/NAME/), wait for their ports, "
+        "process group, output to a log file beside the daemon's socket, in apps/NAME/), wait for their "
+        "ports, "
         "make the connections that are missing and replace those with another carrier. Running it again "
-        "changes nothing. Exit 2 for a bad file (nothing changed), 3 when ports do not appear in time, 4 when "
+        "changes nothing. Exit 2 for a bad file (nothing changed), 3 when ports do not appear in time, 4 "
+        "when "
         "something fails midway (what this up did is undone first)");
     up_cmd->add_option("FILE", up_options.file, "application file (JSON)")->required();
     up_cmd->add_flag("--diff", up_options.diff,
                      "change nothing: print what differs from the live system (components not running, "
                      "connections missing or with another carrier, connections into the file's ports that it "
                      "does not have); exit 0 when nothing, 1 when there is drift");
-    up_cmd->add_option("--node-socket", node_sockets,
-                       "NODE=PATH: the socket of the daemon of node NODE on this machine, for components "
-                       "whose \"node\" is not the local daemon's (repeatable)")
+    up_cmd
+        ->add_option("--node-socket", node_sockets,
+                     "NODE=PATH: the socket of the daemon of node NODE on this machine, for components "
+                     "whose \"node\" is not the local daemon's (repeatable)")
         ->type_size(1)
         ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
-    up_cmd->add_option("--only-node", up_options.only_node,
-                       "start only the components of node NODE (on a machine of a several-machine application) "
-                       "and make the connections whose ports are all registered");
+    up_cmd->add_option(
+        "--only-node", up_options.only_node,
+        "start only the components of node NODE (on a machine of a several-machine application) "
+        "and make the connections whose ports are all registered");
     up_cmd->add_option("--timeout", up_options.timeout, "seconds to wait for the components' ports")
         ->check(CLI::PositiveNumber)
         ->capture_default_str();

@@ -94,12 +94,12 @@ TEST(AppCheck_test, NamesAPortClaimedTwiceAndAConnectionTwice) {
     AppDir dir;
     const auto claimed = dir.write("claimed.json", app_text("", R"(,
     {"name": "other", "command": "/bin/true", "ports": ["/sensor/out"]})"));
-    expect_one_problem(problems_of(claimed),
-                       {claimed, "components[2] \"other\"", "\"ports\"", "/sensor/out", "components[0] \"sensor\""});
+    expect_one_problem(problems_of(claimed), {claimed, "components[2] \"other\"", "\"ports\"", "/sensor/out",
+                                              "components[0] \"sensor\""});
     const auto twice = dir.write("twice.json", app_text(R"(,
     {"source": "/sensor/out", "destination": "/sink/in", "carrier": "udp"})"));
-    expect_one_problem(problems_of(twice),
-                       {twice, "connections[1] /sensor/out -> /sink/in", "same connection as connections[0]"});
+    expect_one_problem(problems_of(twice), {twice, "connections[1] /sensor/out -> /sink/in",
+                                            "same connection as connections[0]"});
 }
 
 TEST(AppCheck_test, NamesSingularWeights) {
@@ -108,8 +108,9 @@ TEST(AppCheck_test, NamesSingularWeights) {
     const auto path = dir.write("app.json", app_text(R"(,
     {"source": "/face/out", "destination": "/gaze/in", "carrier": "tcp+recv.priority+ex./obj/out:1"},
     {"source": "/obj/out", "destination": "/gaze/in", "carrier": "tcp+recv.priority+ex./face/out:1"})"));
-    expect_one_problem(problems_of(path), {path, "connections into /gaze/in", "connections[2] /obj/out -> /gaze/in",
-                                           "\"carrier\"", "inconsistent weights", "/face/out, /obj/out"});
+    expect_one_problem(problems_of(path),
+                       {path, "connections into /gaze/in", "connections[2] /obj/out -> /gaze/in",
+                        "\"carrier\"", "inconsistent weights", "/face/out, /obj/out"});
 }
 
 TEST(AppCheck_test, NamesOverlappingConstraints) {
@@ -117,9 +118,10 @@ TEST(AppCheck_test, NamesOverlappingConstraints) {
     const auto path = dir.write("app.json", app_text(R"(,
     {"source": "/c1/out", "destination": "/head/in", "carrier": "tcp+recv.portmonitor+constraint.e_template_ok"},
     {"source": "/c2/out", "destination": "/head/in", "carrier": "tcp+recv.portmonitor+constraint.e_particle_ok"})"));
-    expect_one_problem(problems_of(path),
-                       {path, "connections into /head/in", "connections[1] /c1/out -> /head/in",
-                        "connections[2] /c2/out -> /head/in", "e_template_ok present", "e_particle_ok present"});
+    expect_one_problem(
+        problems_of(path),
+        {path, "connections into /head/in", "connections[1] /c1/out -> /head/in",
+         "connections[2] /c2/out -> /head/in", "e_template_ok present", "e_particle_ok present"});
     // The paper's fix: C1 only while the particle filter has nothing.
     const auto fixed = dir.write("fixed.json", app_text(R"(,
     {"source": "/c1/out", "destination": "/head/in", "carrier": "tcp+recv.portmonitor+constraint.e_template_ok and not e_particle_ok"},
@@ -140,13 +142,16 @@ TEST(AppCheck_test, NamesABadCarrier) {
     AppDir dir;
     const auto unknown = dir.write("unknown.json", app_text(R"(,
     {"source": "/a/out", "destination": "/b/in", "carrier": "tcp+recv.bogus"})"));
-    expect_one_problem(problems_of(unknown), {unknown, "connections[1] /a/out -> /b/in", "\"carrier\"", "recv.bogus"});
+    expect_one_problem(problems_of(unknown),
+                       {unknown, "connections[1] /a/out -> /b/in", "\"carrier\"", "recv.bogus"});
     const auto constraint = dir.write("constraint.json", app_text(R"(,
     {"source": "/a/out", "destination": "/b/in", "carrier": "tcp+recv.portmonitor+constraint.e_a and"})"));
-    expect_one_problem(problems_of(constraint), {constraint, "connections[1] /a/out -> /b/in", "\"carrier\"", "position"});
+    expect_one_problem(problems_of(constraint),
+                       {constraint, "connections[1] /a/out -> /b/in", "\"carrier\"", "position"});
     const auto priority = dir.write("priority.json", app_text(R"(,
     {"source": "/a/out", "destination": "/b/in", "carrier": "tcp+recv.priority+tc.fast"})"));
-    expect_one_problem(problems_of(priority), {priority, "connections[1] /a/out -> /b/in", "\"carrier\"", "tc"});
+    expect_one_problem(problems_of(priority),
+                       {priority, "connections[1] /a/out -> /b/in", "\"carrier\"", "tc"});
 }
 
 TEST(AppCheck_test, NamesWrongTypesMissingFieldsAndBadPorts) {

@@ -49,7 +49,8 @@ inline VariableLookup variables(std::map<std::string, std::string> values) {
 }
 
 /// Problems of loading and checking the file: what `plexus check` prints.
-inline std::vector<std::string> problems_of(const std::string& path, const VariableLookup& vars = variables({})) {
+inline std::vector<std::string> problems_of(const std::string& path,
+                                            const VariableLookup& vars = variables({})) {
     auto loaded = load_app(path, vars);
     auto problems = loaded.problems;
     if (loaded.app) {

@@ -76,7 +76,8 @@ TEST(Auth_test, ADatagramMacIsTheDocumentedHmacEveryTime) {
         secret.datagram_mac(datagram, mac);
         EXPECT_EQ(Bytes(mac, mac + 16), Bytes(expected, expected + 16)) << length;
         // Head and body hashed as one.
-        secret.datagram_mac(ByteView(datagram).first(length / 2), ByteView(datagram).subspan(length / 2), mac);
+        secret.datagram_mac(ByteView(datagram).first(length / 2), ByteView(datagram).subspan(length / 2),
+                            mac);
         EXPECT_EQ(Bytes(mac, mac + 16), Bytes(expected, expected + 16)) << length;
     }
 }

@@ -13,10 +13,10 @@ namespace plexus::cli {
 
 struct UpOptions {
     std::string file;
-    bool diff = false;                               ///< report drift, change nothing
+    bool diff = false;                                ///< report drift, change nothing
     std::map<std::string, std::string> node_sockets;  ///< --node-socket NODE=PATH
-    std::optional<std::string> only_node;            ///< --only-node NODE
-    double timeout = 30;                             ///< seconds to wait for ports
+    std::optional<std::string> only_node;             ///< --only-node NODE
+    double timeout = 30;                              ///< seconds to wait for ports
 };
 
 int check_app_file(const std::string& file);

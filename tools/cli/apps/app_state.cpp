@@ -61,8 +61,9 @@ void write_state(const std::string& path, const AppState& state) {
     }
     Value json = {{"file", state.file}, {"components", Value::object()}};
     for (const auto& [name, r] : state.components) {
-        json["components"][name] = {{"pid", r.pid},   {"start_time", r.start_time}, {"log", r.log},
-                                    {"node", r.node}, {"socket", r.socket},         {"started_at", r.started_at}};
+        json["components"][name] = {{"pid", r.pid},       {"start_time", r.start_time},
+                                    {"log", r.log},       {"node", r.node},
+                                    {"socket", r.socket}, {"started_at", r.started_at}};
     }
     fs::create_directories(fs::path(path).parent_path(), ec);
     const std::string temporary = path + ".tmp." + std::to_string(::getpid());

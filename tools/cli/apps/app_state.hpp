@@ -12,7 +12,7 @@
 namespace plexus::cli {
 
 struct ComponentRecord {
-    pid_t pid = 0;                   ///< also its process group: it was started in a session of its own
+    pid_t pid = 0;                      ///< also its process group: it was started in a session of its own
     unsigned long long start_time = 0;  ///< field 22 of /proc/PID/stat (clock ticks after boot)
     std::string log;
     std::string node;
@@ -21,7 +21,7 @@ struct ComponentRecord {
 };
 
 struct AppState {
-    std::string file;  ///< the application file `up` read
+    std::string file;                                   ///< the application file `up` read
     std::map<std::string, ComponentRecord> components;  ///< by component name
 };
 

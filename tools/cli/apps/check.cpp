@@ -13,8 +13,8 @@ int check_app_file(const std::string& file) {
     std::size_t ports = app->wait.size();
     for (const auto& component : app->components)
         ports += component.ports.size();
-    std::cout << file << ": application '" << app->name << "' is consistent: "
-              << counted(app->components.size(), "component") << ", "
+    std::cout << file << ": application '" << app->name
+              << "' is consistent: " << counted(app->components.size(), "component") << ", "
               << counted(app->connections.size(), "connection") << ", " << counted(ports, "port")
               << " to wait for\n";
     return 0;

@@ -156,7 +156,8 @@ std::optional<int> exited_child(pid_t pid) {
     return 128 + WTERMSIG(status);
 }
 
-std::vector<Stopped> stop_processes(const std::vector<ComponentRecord>& records, std::chrono::milliseconds grace) {
+std::vector<Stopped> stop_processes(const std::vector<ComponentRecord>& records,
+                                    std::chrono::milliseconds grace) {
     std::vector<Stopped> result(records.size(), Stopped::gone);
     std::vector<bool> signalled(records.size(), false);
     for (std::size_t i = 0; i < records.size(); ++i) {

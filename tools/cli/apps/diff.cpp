@@ -11,7 +11,8 @@ int print_diff(const app::App& app, const std::vector<ComponentStep>& components
     for (const auto& step : components) {
         if (step.action != ComponentStep::Action::start)
             continue;
-        std::cout << "component " << step.component->name << ": not running (" << step.component->label() << ")\n";
+        std::cout << "component " << step.component->name << ": not running (" << step.component->label()
+                  << ")\n";
         ++differences;
     }
     const auto connections = live.connections();
@@ -22,9 +23,10 @@ int print_diff(const app::App& app, const std::vector<ComponentStep>& components
                       << c.index << "])\n";
             ++differences;
         } else if (step.action == ConnectionStep::Action::replace) {
-            std::cout << "connection " << c.source << " -> " << c.destination << ": carrier " << step.live->carrier
-                      << ", the file has " << (c.carrier.empty() ? "none (local or tcp)" : c.carrier)
-                      << " (connections[" << c.index << "])\n";
+            std::cout << "connection " << c.source << " -> " << c.destination << ": carrier "
+                      << step.live->carrier << ", the file has "
+                      << (c.carrier.empty() ? "none (local or tcp)" : c.carrier) << " (connections["
+                      << c.index << "])\n";
             ++differences;
         }
     }

@@ -51,24 +51,25 @@ int down(const Common& common, const std::string& file) {
     int stopped_count = 0;
     for (std::size_t i = 0; i < names.size(); ++i) {
         switch (stopped[i]) {
-        case Stopped::terminated:
-            std::cerr << "stopped " << names[i] << " (pid " << records[i].pid << ")\n";
-            ++stopped_count;
-            break;
-        case Stopped::killed:
-            std::cerr << "killed " << names[i] << " (pid " << records[i].pid << "): still running 5 s after SIGTERM\n";
-            ++stopped_count;
-            break;
-        case Stopped::gone:
-            std::cerr << names[i] << " was not running any more (pid " << records[i].pid << ")\n";
-            break;
+            case Stopped::terminated:
+                std::cerr << "stopped " << names[i] << " (pid " << records[i].pid << ")\n";
+                ++stopped_count;
+                break;
+            case Stopped::killed:
+                std::cerr << "killed " << names[i] << " (pid " << records[i].pid
+                          << "): still running 5 s after SIGTERM\n";
+                ++stopped_count;
+                break;
+            case Stopped::gone:
+                std::cerr << names[i] << " was not running any more (pid " << records[i].pid << ")\n";
+                break;
         }
     }
     std::error_code ec;
     std::filesystem::remove(state_file, ec);
-    std::cout << "application '" << app->name << "': removed " << counted(removed, "connection") << ", stopped "
-              << counted(stopped_count, "component") << (removed == 0 && stopped_count == 0 ? " (nothing was up)" : "")
-              << '\n';
+    std::cout << "application '" << app->name << "': removed " << counted(removed, "connection")
+              << ", stopped " << counted(stopped_count, "component")
+              << (removed == 0 && stopped_count == 0 ? " (nothing was up)" : "") << '\n';
     return status;
 }
 

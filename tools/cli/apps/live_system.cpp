@@ -33,8 +33,8 @@ std::vector<LiveConnection> LiveSystem::connections() {
     return out;
 }
 
-std::optional<LiveConnection> LiveSystem::find(const std::vector<LiveConnection>& all, const std::string& source,
-                                               const std::string& destination) {
+std::optional<LiveConnection> LiveSystem::find(const std::vector<LiveConnection>& all,
+                                               const std::string& source, const std::string& destination) {
     for (const auto& c : all) {
         if (c.source == source && c.destination == destination)
             return c;

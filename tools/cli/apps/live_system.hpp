@@ -32,8 +32,8 @@ public:
     bool port_exists(const std::string& port);
     std::vector<LiveConnection> connections();
     /// The connection SRC -> DST among `all`, if there is one.
-    static std::optional<LiveConnection> find(const std::vector<LiveConnection>& all, const std::string& source,
-                                              const std::string& destination);
+    static std::optional<LiveConnection> find(const std::vector<LiveConnection>& all,
+                                              const std::string& source, const std::string& destination);
     /// Makes a connection; returns the daemon's warnings. Throws Error when refused.
     std::vector<std::string> connect(const std::string& source, const std::string& destination,
                                      const std::string& carrier, bool persist);

@@ -24,13 +24,16 @@ std::vector<ComponentStep> plan_components(const app::App& app, const Where& whe
         } else if (auto it = where.node_sockets.find(step.node); it != where.node_sockets.end()) {
             step.socket = it->second;
         } else {
-            problems.push_back(app.file + ": " + component.label() + ": \"node\": no daemon socket known for node '" +
-                               step.node + "' (the local daemon is node '" + where.local_node +
-                               "'): pass --node-socket " + step.node + "=PATH if its daemon runs on this "
-                               "machine, or run `plexus up " + app.file + " --only-node " + step.node +
-                               "` on the machine where it runs");
+            problems.push_back(app.file + ": " + component.label() +
+                               ": \"node\": no daemon socket known for node '" + step.node +
+                               "' (the local daemon is node '" + where.local_node +
+                               "'): pass --node-socket " + step.node +
+                               "=PATH if its daemon runs on this "
+                               "machine, or run `plexus up " +
+                               app.file + " --only-node " + step.node + "` on the machine where it runs");
         }
-        if (auto it = state.components.find(component.name); it != state.components.end() && still_running(it->second)) {
+        if (auto it = state.components.find(component.name);
+            it != state.components.end() && still_running(it->second)) {
             step.action = ComponentStep::Action::running;
         } else if (!component.ports.empty()) {
             bool all = true;
@@ -61,7 +64,8 @@ std::vector<ConnectionStep> plan_connections(const app::App& app, const std::vec
     return steps;
 }
 
-std::vector<LiveConnection> foreign_connections(const app::App& app, const std::vector<LiveConnection>& live) {
+std::vector<LiveConnection> foreign_connections(const app::App& app,
+                                                const std::vector<LiveConnection>& live) {
     std::set<std::string> destinations;
     std::set<std::pair<std::string, std::string>> ours;
     for (const auto& connection : app.connections) {

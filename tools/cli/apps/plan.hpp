@@ -44,7 +44,6 @@ struct Where {
     std::optional<std::string> only_node;
 };
 
-
 /// What to do with each component, given the state file and the registered ports.
 std::vector<ComponentStep> plan_components(const app::App& app, const Where& where, const AppState& state,
                                            LiveSystem& live, std::vector<std::string>& problems);

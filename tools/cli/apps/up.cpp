@@ -34,19 +34,22 @@ public:
 
     void started(const std::string& name) { started_.push_back(name); }
     void made(const app::AppConnection& c) { made_.push_back(&c); }
-    void replaced(const app::AppConnection& c, const LiveConnection& before) { replaced_.push_back({&c, before}); }
+    void replaced(const app::AppConnection& c, const LiveConnection& before) {
+        replaced_.push_back({&c, before});
+    }
 
     /// Reverses everything, newest first; says what it did on stderr.
     void run() {
         for (auto it = replaced_.rbegin(); it != replaced_.rend(); ++it) {
             try {
                 live_.disconnect(it->first->source, it->first->destination);
-                live_.connect(it->second.source, it->second.destination, it->second.carrier, it->second.persistent);
-                std::cerr << "undo: restored " << it->second.source << " -> " << it->second.destination << " ("
-                          << it->second.carrier << ")\n";
+                live_.connect(it->second.source, it->second.destination, it->second.carrier,
+                              it->second.persistent);
+                std::cerr << "undo: restored " << it->second.source << " -> " << it->second.destination
+                          << " (" << it->second.carrier << ")\n";
             } catch (const std::exception& e) {
-                std::cerr << "undo: could not restore " << it->second.source << " -> " << it->second.destination
-                          << ": " << e.what() << '\n';
+                std::cerr << "undo: could not restore " << it->second.source << " -> "
+                          << it->second.destination << ": " << e.what() << '\n';
             }
         }
         for (auto it = made_.rbegin(); it != made_.rend(); ++it) {
@@ -54,8 +57,8 @@ public:
                 live_.disconnect((*it)->source, (*it)->destination);
                 std::cerr << "undo: removed " << (*it)->source << " -> " << (*it)->destination << '\n';
             } catch (const std::exception& e) {
-                std::cerr << "undo: could not remove " << (*it)->source << " -> " << (*it)->destination << ": "
-                          << e.what() << '\n';
+                std::cerr << "undo: could not remove " << (*it)->source << " -> " << (*it)->destination
+                          << ": " << e.what() << '\n';
             }
         }
         std::vector<ComponentRecord> records;
@@ -95,7 +98,8 @@ struct Waited {
 
 Waited wait_for_ports(LiveSystem& live, std::vector<std::string> ports, double timeout,
                       const std::vector<std::pair<std::string, pid_t>>& started) {
-    const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeout));
+    const auto deadline =
+        Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeout));
     auto pause = std::chrono::milliseconds(10);
     for (;;) {
         std::erase_if(ports, [&](const std::string& port) { return live.port_exists(port); });
@@ -185,16 +189,17 @@ int up(const Common& common, const UpOptions& options) {
         undo.started(component.name);
         started.push_back(component.name);
         started_pids.emplace_back(component.name, record->pid);
-        std::cerr << "started " << component.name << " (pid " << record->pid << ", log " << record->log << ")\n";
+        std::cerr << "started " << component.name << " (pid " << record->pid << ", log " << record->log
+                  << ")\n";
     }
     if (!options.only_node)
         ports.insert(ports.end(), app->wait.begin(), app->wait.end());
 
     auto waited = wait_for_ports(live, ports, options.timeout, started_pids);
     if (!waited.missing.empty()) {
-        std::string reason = waited.exited ? *waited.exited + "; missing:" : "timed out after " +
-                                                                                 std::to_string(options.timeout) +
-                                                                                 " s waiting for ports:";
+        std::string reason =
+            waited.exited ? *waited.exited + "; missing:"
+                          : "timed out after " + std::to_string(options.timeout) + " s waiting for ports:";
         for (const auto& port : waited.missing) {
             reason += "\n    " + port;
             for (const auto& component : app->components) {
@@ -230,8 +235,8 @@ int up(const Common& common, const UpOptions& options) {
                 live.disconnect(c.source, c.destination);
                 undo.replaced(c, *step.live);
                 std::cerr << "replacing " << c.source << " -> " << c.destination << ": carrier was "
-                          << step.live->carrier << ", the file has " << (c.carrier.empty() ? "none" : c.carrier)
-                          << '\n';
+                          << step.live->carrier << ", the file has "
+                          << (c.carrier.empty() ? "none" : c.carrier) << '\n';
             }
             for (const auto& warning : live.connect(c.source, c.destination, c.carrier, c.persist))
                 std::cerr << "warning: " << c.label() << ": " << warning << '\n';
@@ -246,9 +251,9 @@ int up(const Common& common, const UpOptions& options) {
         }
     }
 
-    std::cout << "application '" << app->name << "': components: started " << started.size() << names_of(started)
-              << ", already running " << running.size() << names_of(running) << "; connections: made " << made
-              << ", already there " << present << ", replaced " << replaced;
+    std::cout << "application '" << app->name << "': components: started " << started.size()
+              << names_of(started) << ", already running " << running.size() << names_of(running)
+              << "; connections: made " << made << ", already there " << present << ", replaced " << replaced;
     if (!deferred.empty())
         std::cout << ", left for the other nodes' `up --only-node` " << deferred.size() << names_of(deferred);
     std::cout << (started.empty() && made == 0 && replaced == 0 ? " (nothing to do)" : "") << '\n';
