@@ -1,12 +1,17 @@
 #include "arbiter.hpp"
 
+#include <mutex>
+
 #include <algorithm>
 
 namespace plexus::daemon::arbitration {
 
 Member::~Member() {
-    if (joined_)
-        arbiter_->leave(*this);
+    if (!joined_)
+        return;
+    // The last reference may go on a monitor worker: the arbiter is shared, so under its lock.
+    std::lock_guard lock(arbiter_->mutex());
+    arbiter_->leave(*this);
 }
 
 bool Arbiter::constraint_value(const Member& member) const {

@@ -1,5 +1,7 @@
 #pragma once
-// Threading: the daemon's one thread.
+// Threading: an Arbiter and its Members are shared by the daemon's thread and the monitor workers
+// of the port's connections: every use holds mutex() (a leaf lock: nothing else is taken while it is
+// held, and no script runs under it). Only Member's destructor takes it by itself.
 //
 // The arbitration of one input port: its event container, and for each connection into it
 // (a Member) the constraint, the auxiliary flag and the stimulation state that decide whether a
@@ -7,6 +9,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -72,6 +75,9 @@ class Arbiter {
 public:
     explicit Arbiter(const Clock& clock) : clock_(clock) {}
 
+    /// Held by every caller of what follows (see the top of this file).
+    std::mutex& mutex() const { return mutex_; }
+
     enum class Verdict { deliver, constraint, priority, auxiliary };
     /// For a message from `member` that passed accept: its constraint, then the stimulation
     /// selection. Counts the drops on the member.
@@ -107,6 +113,7 @@ private:
     static std::vector<std::vector<double>> weight_matrix(const std::vector<const Member*>& members);
     void refresh_weights();
 
+    mutable std::mutex mutex_;
     const Clock& clock_;
     EventContainer events_;
     std::vector<Member*> members_;  ///< in connection order: ties go to the earliest

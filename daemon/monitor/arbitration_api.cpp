@@ -1,5 +1,7 @@
 // The functions a script uses to take part in its input port's arbitration (DESIGN, "Port
 // monitors"): setEvent, unsetEvent, hasEvent, setConstraint, getConstraint.
+#include <mutex>
+
 #include <spdlog/spdlog.h>
 
 #include "lua_guard.hpp"
@@ -23,8 +25,10 @@ arbitration::Member& Monitor::member_of(lua_State* L, const char* function) {
 }
 
 void Monitor::release_events() {
-    if (spec_.member)
-        spec_.member->arbiter().events().remove_owner(id_);
+    if (!spec_.member)
+        return;
+    std::lock_guard lock(spec_.member->arbiter().mutex());
+    spec_.member->arbiter().events().remove_owner(id_);
 }
 
 int Monitor::api_set_event(lua_State* L) {
@@ -42,6 +46,7 @@ int Monitor::api_set_event(lua_State* L) {
     return guard(L, [&] {
         Monitor& monitor = self(L);
         auto& arbiter = member.arbiter();
+        std::lock_guard lock(arbiter.mutex());
         arbiter.events().set(name, monitor.id_, member.source() + " (" + monitor.spec_.script.name + ")",
                              lifetime, arbiter.now());
         return 0;
@@ -52,6 +57,7 @@ int Monitor::api_unset_event(lua_State* L) {
     const std::string name = luaL_checkstring(L, 1);
     auto& member = member_of(L, "unsetEvent");
     return guard(L, [&] {
+        std::lock_guard lock(member.arbiter().mutex());
         member.arbiter().events().unset(name, self(L).id_);
         return 0;
     });
@@ -60,23 +66,33 @@ int Monitor::api_unset_event(lua_State* L) {
 int Monitor::api_has_event(lua_State* L) {
     const std::string name = luaL_checkstring(L, 1);
     auto& member = member_of(L, "hasEvent");
-    lua_pushboolean(L, member.arbiter().has_event(name) ? 1 : 0);
+    bool has = false;
+    {
+        std::lock_guard lock(member.arbiter().mutex());
+        has = member.arbiter().has_event(name);
+    }
+    lua_pushboolean(L, has ? 1 : 0);
     return 1;
 }
 
 int Monitor::api_set_constraint(lua_State* L) {
     auto& member = member_of(L, "setConstraint");
     if (lua_isnoneornil(L, 1)) {
+        std::lock_guard lock(member.arbiter().mutex());
         member.constraint.reset();
         return 0;
     }
     const std::string text = luaL_checkstring(L, 1);
-    if (member.constraint && member.constraint->text() == text)
-        return 0;  // scripts often set the same constraint on every message: no reparse, no warning
+    {
+        std::lock_guard lock(member.arbiter().mutex());
+        if (member.constraint && member.constraint->text() == text)
+            return 0;  // scripts often set the same constraint on every message: no reparse, no warning
+    }
     auto parsed = arbitration::Constraint::parse(text);
     if (!parsed)
         return luaL_error(L, "setConstraint: %s", parsed.error().message.c_str());
     return guard(L, [&] {
+        std::lock_guard lock(member.arbiter().mutex());
         member.constraint = std::move(*parsed);
         for (const auto& pair : member.arbiter().overlaps(&member)) {
             if (pair.first == member.source() || pair.second == member.source())
@@ -90,10 +106,16 @@ int Monitor::api_set_constraint(lua_State* L) {
 
 int Monitor::api_get_constraint(lua_State* L) {
     auto& member = member_of(L, "getConstraint");
-    if (!member.constraint)
+    std::optional<std::string> text;
+    {
+        std::lock_guard lock(member.arbiter().mutex());
+        if (member.constraint)
+            text = member.constraint->text();
+    }
+    if (!text)
         lua_pushnil(L);
     else
-        lua_pushlstring(L, member.constraint->text().data(), member.constraint->text().size());
+        lua_pushlstring(L, text->data(), text->size());
     return 1;
 }
 
