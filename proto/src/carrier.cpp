@@ -65,6 +65,10 @@ const CarrierParam* Clause::find(std::string_view key) const {
 
 std::string Carrier::text() const {
     std::string out = base;
+    if (qos.dscp)
+        out += "+qos.dscp." + std::to_string(*qos.dscp);
+    if (qos.prio)
+        out += "+qos.prio." + std::to_string(*qos.prio);
     for (const auto& clause : clauses) {
         out += '+';
         out += side_name(clause.side);
@@ -145,6 +149,13 @@ Result<Carrier> parse_carrier(std::string_view text) {
         }
         if (auto error = name_error("key", key, part.position)) {
             return Error{*error};
+        }
+        if (key == "qos") {
+            // The connection's, not a clause's: allowed before, between and after clauses.
+            if (auto read = parse_qos_part(value.value_or(""), carrier.qos); !read) {
+                return Error{read.error().message + at(part.position)};
+            }
+            continue;
         }
         if (carrier.clauses.empty()) {
             return Error{quoted(part.text) + at(part.position) + " comes before any send./recv. clause"};

@@ -15,7 +15,7 @@ const std::string_view design_examples[] = {
 };
 
 bool same(const Carrier& a, const Carrier& b) {
-    if (a.base != b.base || a.clauses.size() != b.clauses.size()) {
+    if (a.base != b.base || a.clauses.size() != b.clauses.size() || a.qos != b.qos) {
         return false;
     }
     for (std::size_t i = 0; i < a.clauses.size(); ++i) {
@@ -258,6 +258,57 @@ TEST(ValidateCarrier_test, AcceptsModifiersTheBuildImplements) {
     EXPECT_TRUE(validate_carrier(parse("tcp+send.portmonitor+file.a+recv.portmonitor+file.b"), support));
     EXPECT_EQ(validate_error("tcp+recv.portmonitor+recv.priority", support),
               "modifier 'recv.priority' is not supported by this build");
+}
+
+
+TEST(CarrierQos_test, ReadsDscpAndPrioAnywhereAsTheConnections) {
+    const Carrier before = parse("tcp+qos.dscp.46+qos.prio.7+recv.portmonitor+file.x");
+    EXPECT_EQ(before.qos.dscp, 46);
+    EXPECT_EQ(before.qos.prio, 7);
+    ASSERT_EQ(before.clauses.size(), 1u);
+    EXPECT_EQ(before.clauses[0].params.size(), 1u);  // qos is not handed to the script
+    // After a clause, qos still belongs to the connection, not to the clause.
+    const Carrier after = parse("tcp+recv.portmonitor+file.x+qos.prio.3+threshold.0.5+qos.dscp.0");
+    EXPECT_EQ(after.qos.prio, 3);
+    EXPECT_EQ(after.qos.dscp, 0);
+    EXPECT_EQ(after.clauses[0].params.size(), 2u);
+    EXPECT_EQ(after.text(), "tcp+qos.dscp.0+qos.prio.3+recv.portmonitor+file.x+threshold.0.5");
+    EXPECT_TRUE(same(parse(after.text()), after));
+    EXPECT_EQ(parse("udp+qos.prio.0").qos.prio, 0);
+    EXPECT_FALSE(parse("udp").qos.dscp.has_value());
+    EXPECT_EQ(parse("mcast+qos.dscp.63").text(), "mcast+qos.dscp.63");
+}
+
+TEST(CarrierQos_test, RefusesOutOfRangeAndMalformedValuesNamingThePart) {
+    EXPECT_EQ(parse_error("tcp+qos.dscp.64"), "qos.dscp value '64' is out of range (0-63) at position 4");
+    EXPECT_EQ(parse_error("tcp+qos.prio.8"), "qos.prio value '8' is out of range (0-7) at position 4");
+    EXPECT_EQ(parse_error("tcp+qos.prio.-1"), "qos.prio value '-1' is out of range (0-7) at position 4");
+    EXPECT_EQ(parse_error("tcp+qos.dscp.99999999999999"),
+              "qos.dscp value '99999999999999' is out of range (0-63) at position 4");
+    EXPECT_EQ(parse_error("tcp+qos.dscp.EF"), "qos.dscp value 'EF' is not a whole number (0-63) at position 4");
+    EXPECT_EQ(parse_error("tcp+qos.prio.1.5"), "qos.prio value '1.5' is not a whole number (0-7) at position 4");
+    EXPECT_EQ(parse_error("tcp+qos.prio. 1"), "qos.prio value ' 1' is not a whole number (0-7) at position 4");
+    EXPECT_EQ(parse_error("tcp+qos.dscp"), "'qos.dscp' needs a value: 'qos.dscp.N' with N 0-63 at position 4");
+    EXPECT_EQ(parse_error("tcp+qos"),
+              "unknown qos setting 'qos.' (use qos.dscp.N with N 0-63, or qos.prio.N with N 0-7) at position 4");
+    EXPECT_EQ(parse_error("tcp+qos.tos.12"),
+              "unknown qos setting 'qos.tos.12' (use qos.dscp.N with N 0-63, or qos.prio.N with N 0-7) at "
+              "position 4");
+    EXPECT_EQ(parse_error("tcp+qos.prio.1+recv.priority+qos.prio.2"), "duplicate 'qos.prio' at position 29");
+}
+
+TEST(CarrierQos_test, SocketPriorityPutsRealTimeClassesIntoPfifoFastsFirstBand) {
+    // pfifo_fast's default priomap: priority -> band.
+    constexpr int band_of[16] = {1, 2, 2, 2, 1, 2, 0, 0, 1, 1, 1, 1, 1, 1, 1, 1};
+    EXPECT_EQ(band_of[socket_priority_for_dscp(46)], 0);  // EF
+    EXPECT_EQ(band_of[socket_priority_for_dscp(40)], 0);  // CS5
+    EXPECT_EQ(band_of[socket_priority_for_dscp(48)], 0);  // CS6
+    EXPECT_EQ(band_of[socket_priority_for_dscp(56)], 0);  // CS7
+    EXPECT_EQ(band_of[socket_priority_for_dscp(0)], 1);   // default
+    EXPECT_EQ(band_of[socket_priority_for_dscp(34)], 1);  // AF41
+    EXPECT_EQ(band_of[socket_priority_for_dscp(8)], 2);   // CS1: lower effort
+    for (int dscp = 0; dscp <= 63; ++dscp)
+        EXPECT_LE(socket_priority_for_dscp(dscp), 6) << "7 would need CAP_NET_ADMIN";
 }
 
 }  // namespace
