@@ -92,6 +92,23 @@ void Port::write(const Value& value, bool flush) {
     send(next_seq_++, payload, {}, flush);
 }
 
+void Port::write_blob(std::span<const std::uint8_t> head, std::span<const std::uint8_t> body, bool flush) {
+    if (!link_)
+        throw Error(ErrorCode::usage, "port " + name_ + " is closed");
+    // The CBOR byte string's head and `head` go first; a large `body` is the tail, sent from where
+    // it is. A small one joins them here, as write() encodes a small blob: one piece, no allocation.
+    thread_local proto::Bytes payload;
+    payload.clear();
+    proto::append_byte_string_head(payload, head.size() + body.size());
+    payload.insert(payload.end(), head.begin(), head.end());
+    if (body.size() < detail::large_payload_frame) {
+        payload.insert(payload.end(), body.begin(), body.end());
+        send(next_seq_++, payload, {}, flush);
+        return;
+    }
+    send(next_seq_++, payload, body, flush);
+}
+
 void Port::send(std::uint64_t seq, std::span<const std::uint8_t> payload, std::span<const std::uint8_t> tail,
                 bool flush) {
     for (;;) {

@@ -62,7 +62,16 @@ bool is_numpy_scalar(py::handle object) {
     return PyObject_TypeCheck(object.ptr(), reinterpret_cast<PyTypeObject*>(generic));
 }
 
-Value ndarray_to_blob(py::handle object) {
+std::span<const std::uint8_t> NpyParts::head() const {
+    return {reinterpret_cast<const std::uint8_t*>(PyBytes_AS_STRING(header.ptr())),
+            static_cast<std::size_t>(PyBytes_GET_SIZE(header.ptr()))};
+}
+
+std::span<const std::uint8_t> NpyParts::body() const {
+    return {static_cast<const std::uint8_t*>(array.data()), static_cast<std::size_t>(array.nbytes())};
+}
+
+NpyParts npy_parts(py::handle object) {
     auto array = py::reinterpret_borrow<py::array>(object);
     const bool c_order = (array.flags() & py::array::c_style) != 0;
     const bool fortran_order = !c_order && (array.flags() & py::array::f_style) != 0;
@@ -72,20 +81,24 @@ Value ndarray_to_blob(py::handle object) {
     py::tuple shape(array.ndim());
     for (py::ssize_t i = 0; i < array.ndim(); ++i)
         shape[static_cast<std::size_t>(i)] = py::int_(array.shape(i));
-    const py::bytes header = encode_header()(array.dtype(), shape, fortran_order);
-    const std::string_view head = header;
-    const auto* data = static_cast<const std::uint8_t*>(array.data());
-    const auto size = static_cast<std::size_t>(array.nbytes());
+    py::bytes header = encode_header()(array.dtype(), shape, fortran_order);
+    return NpyParts{std::move(array), std::move(header)};
+}
+
+Value ndarray_to_blob(py::handle object) {
+    const NpyParts parts = npy_parts(object);
+    const auto head = parts.head();
+    const auto body = parts.body();
     // Straight from the array's buffer into the Value's: no Python bytes object in between, and
     // reserve + insert does not zero the bytes first.
     std::vector<std::uint8_t> bytes;
-    bytes.reserve(head.size() + size);
+    bytes.reserve(head.size() + body.size());
     bytes.insert(bytes.end(), head.begin(), head.end());
-    if (size >= copy_without_gil) {
-        py::gil_scoped_release release;  // `array` is held, so its buffer stays
-        bytes.insert(bytes.end(), data, data + size);
+    if (body.size() >= copy_without_gil) {
+        py::gil_scoped_release release;  // `parts` holds the array, so its buffer stays
+        bytes.insert(bytes.end(), body.begin(), body.end());
     } else {
-        bytes.insert(bytes.end(), data, data + size);
+        bytes.insert(bytes.end(), body.begin(), body.end());
     }
     return Value::binary(std::move(bytes));
 }

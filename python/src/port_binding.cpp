@@ -5,6 +5,7 @@
 #include <chrono>
 #include <optional>
 
+#include "blob_write.hpp"
 #include "conversion.hpp"
 
 namespace py = pybind11;
@@ -54,6 +55,8 @@ py::object read(PythonPort& self, std::optional<double> timeout) {
 }
 
 void write(PythonPort& self, py::handle object, bool flush) {
+    if (write_borrowed_blob(self, object, flush))
+        return;  // an array or bytes alone: sent from its own memory, no Value in between
     Value value = to_value(object);
     py::gil_scoped_release release;  // a strict reader slows writers down: others run meanwhile
     std::lock_guard lock(self.write_mutex);

@@ -113,6 +113,12 @@ public:
     /// While the daemon is away the message is held (up to 1,000 messages or 8 MiB per port, the
     /// oldest dropped beyond) and sent, in order, once reconnected; it neither throws nor blocks.
     void write(const Value& value, bool flush = true);
+    /// Writes a blob, the same message as write(Value::binary(bytes)) where bytes are `head` then
+    /// `body`, read from where they are during the call: no Value is built and the two are not
+    /// joined first, so a large `body` (an image, an array) is copied once, into the socket or the
+    /// shared-memory slot. Neither is used after the call returns. `head` is for a small header
+    /// (a .npy header, say) and may be empty.
+    void write_blob(std::span<const std::uint8_t> head, std::span<const std::uint8_t> body, bool flush = true);
     /// Sends what write(..., false) buffered.
     void flush();
     /// Waits up to `timeout` for the next message delivered to this port (also while the daemon is
