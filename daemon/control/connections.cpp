@@ -40,6 +40,12 @@ std::string send_clauses(const std::string& carrier_text) {
     return sends.clauses.empty() ? std::string{} : sends.text();
 }
 
+/// The carrier's qos settings (none when the text does not parse: it was checked before).
+proto::Qos qos_of(const std::string& carrier_text) {
+    auto parsed = proto::parse_carrier(carrier_text);
+    return parsed ? parsed->qos : proto::Qos{};
+}
+
 /// "A.B.C.D:PORT" as a multicast endpoint; nullopt when it is not one.
 std::optional<asio::ip::udp::endpoint> group_endpoint(const std::string& text) {
     auto parsed = proto::parse_endpoint(text);
@@ -51,24 +57,13 @@ std::optional<asio::ip::udp::endpoint> group_endpoint(const std::string& text) {
         return std::nullopt;
     return asio::ip::udp::endpoint(address, parsed->port);
 }
-/// The send-side monitors of a connection on a worker of their own, in front of its sink; null
-/// without monitors. A sink that never holds the writer back (latest, datagrams) makes the
-/// monitors drop their oldest waiting message when they fall behind, rather than hold it back.
-std::shared_ptr<MessageFilter> send_stage(ScriptHost& scripts, std::shared_ptr<monitor::MonitorChain> chain,
-                                          const std::shared_ptr<Connection>& connection) {
-    if (!chain)
-        return nullptr;
-    monitor::MonitorStage::Options options;
-    options.drop_oldest = connection->sink->room() >= (std::size_t{1} << 30);
-    return scripts.make_stage(std::move(chain), nullptr, options, connection);
-}
-
 }  // namespace
 
 proto::Result<std::shared_ptr<MessageSink>> ControlPlane::udp_sending_end(std::shared_ptr<Peer> link,
                                                                           const proto::Endpoint& endpoint,
                                                                           const proto::Reply& attached,
-                                                                          std::string description) {
+                                                                          std::string description,
+                                                                          std::optional<int> dscp) {
     const auto port = attached.body.value("udp_port", 0);
     const auto stream = attached.body.value("stream", std::uint64_t{0});
     boost::system::error_code ec;
@@ -79,8 +74,8 @@ proto::Result<std::shared_ptr<MessageSink>> ControlPlane::udp_sending_end(std::s
             " gave no usable udp port and stream for this connection (udp needs IP addresses)"};
     }
     asio::ip::udp::endpoint to(address, static_cast<std::uint16_t>(port));
-    std::shared_ptr<MessageSink> sink =
-        std::make_shared<UdpLink>(host_.udp(), to, stream, std::move(link), std::move(description));
+    std::shared_ptr<MessageSink> sink = std::make_shared<UdpLink>(host_.udp(), to, stream, std::move(link),
+                                                                  std::move(description), dscp);
     return sink;
 }
 
@@ -123,13 +118,14 @@ Task<proto::Reply> ControlPlane::connect(std::shared_ptr<Session>, const proto::
         connection->source = source;
         connection->destination = destination;
         connection->carrier = automatic ? "local" : carrier_text;
+        connection->priority = carrier.qos.prio.value_or(0);
         const InletSpec spec{local_destination, source, carrier, connection->carrier,
                              request.body.value("strict", false)};
         // The connection takes the inlet before the inlet joins its port: a pair already
         // connected is refused with nothing joined.
         const InletHandOver hand_over = [&](const std::shared_ptr<Inlet>& inlet) {
             connection->sink = inlet;
-            connection->send_monitors = send_stage(host_.scripts(), std::move(*send_chain), connection);
+            connection->send_chain = std::move(*send_chain);
             return router.add(port, connection);
         };
         auto wired = wire_inlet(host_.scripts(), host_.clock(), spec, hand_over);
@@ -182,16 +178,18 @@ Task<proto::Reply> ControlPlane::connect_remote(const proto::Request& request, s
     connection->destination = destination;
     connection->carrier = carrier;
     connection->remote = true;
+    connection->priority = qos_of(carrier).prio.value_or(0);
     connection->sink = end.sink;
+    connection->send_chain = std::move(send_chain);
     if (auto* mcast = dynamic_cast<McastLink*>(end.sink.get())) {
         // The send-side monitors of mcast run once per message, in the port's one sender, not
         // once per connection: all mcast connections of a port share them.
-        if (auto shared = mcast->share_send_monitors(std::move(send_chain), send_clauses(carrier)); !shared) {
+        if (auto shared =
+                mcast->share_send_monitors(std::move(connection->send_chain), send_clauses(carrier));
+            !shared) {
             end.peer->close("send monitors differ");
             co_return refuse(shared.error().message);
         }
-    } else {
-        connection->send_monitors = send_stage(host_.scripts(), std::move(send_chain), connection);
     }
     if (auto added = host_.router().add(port, connection); !added) {
         end.peer->close("duplicate");
@@ -232,6 +230,16 @@ Task<ControlPlane::SendingEnd> ControlPlane::open_sending_end(std::shared_ptr<Po
     }
     auto link_peer = *peer;
     link_peer->set_description("link " + source + " -> " + destination);
+    // qos.dscp marks the link's socket: every connection has a link socket of its own, so the
+    // mark is this connection's alone (udp and mcast mark their datagrams below).
+    const proto::Qos qos = qos_of(carrier);
+    if (qos.dscp) {
+        if (auto marked = link_peer->mark_packets(*qos.dscp); !marked) {
+            link_peer->close("cannot mark packets");
+            end.answer = refuse(marked.error().message);
+            co_return end;
+        }
+    }
     // The receiving daemon wires its end (monitors, arbitration) while it answers attach.
     nlohmann::json attach_body = {{"op", "attach"},
                                   {"source", source},
@@ -255,6 +263,8 @@ Task<ControlPlane::SendingEnd> ControlPlane::open_sending_end(std::shared_ptr<Po
     if (!group.empty()) {
         // mcast: every message goes once to the source port's group, whatever the connections.
         auto sender = host_.udp().mcast_sender(source, *group_endpoint(group));
+        if (qos.dscp)
+            sender->mark(*qos.dscp);
         end.peer = link_peer;
         end.sink = std::make_shared<McastLink>(std::move(sender), link_peer);
         co_return end;
@@ -262,8 +272,8 @@ Task<ControlPlane::SendingEnd> ControlPlane::open_sending_end(std::shared_ptr<Po
     if (has_base(carrier, "udp")) {
         // udp: every message leaves at once as datagrams to the stream the receiver opened; the
         // link stays open beside it, and its closing ends the connection.
-        auto sink =
-            udp_sending_end(link_peer, endpoint, *attached, "connection " + source + " -> " + destination);
+        auto sink = udp_sending_end(link_peer, endpoint, *attached,
+                                    "connection " + source + " -> " + destination, qos.dscp);
         if (!sink) {
             link_peer->close("bad attach answer");
             end.answer = refuse(sink.error().message);
@@ -379,6 +389,11 @@ Task<proto::Reply> ControlPlane::attach(std::shared_ptr<Session> session, const 
             co_return refuse(joined.error().message);
         wired->inlet->datagrams = UdpCarrier::datagrams(**joined);
         session->hold_while_linked(*joined);
+    }
+    if (carrier->qos.dscp) {
+        // This end sends the acknowledgements and replies of the connection's link: same mark.
+        if (auto marked = session->mark_packets(*carrier->qos.dscp); !marked)
+            spdlog::warn("link {} -> {}: {}", source, destination, marked.error().message);
     }
     session->become_link(wired->inlet);
     std::weak_ptr<Session> weak = session;

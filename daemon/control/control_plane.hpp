@@ -89,7 +89,8 @@ private:
     proto::Result<std::shared_ptr<MessageSink>> udp_sending_end(std::shared_ptr<Peer> link,
                                                                 const proto::Endpoint& endpoint,
                                                                 const proto::Reply& attached,
-                                                                std::string description);
+                                                                std::string description,
+                                                                std::optional<int> dscp = {});
     /// When the link of `connection` closes: counts what it could not send, removes the connection.
     void watch_link(const SendingEnd& end, const std::shared_ptr<Connection>& connection);
     /// The receiving end of a connection from another daemon: the link session feeds an inlet.

@@ -1,5 +1,7 @@
 #include "port.hpp"
 
+#include <algorithm>
+
 namespace plexus::daemon {
 
 void Port::deliver(const Message& message) {
@@ -26,6 +28,20 @@ void Port::mark_closed() {
 void Port::on_close(std::weak_ptr<void> owner, std::function<void()> callback) {
     std::erase_if(on_close_, [](const auto& entry) { return entry.first.expired(); });
     on_close_.emplace_back(std::move(owner), std::move(callback));
+}
+
+void Port::ask_priority(std::weak_ptr<void> connection, int priority) {
+    std::erase_if(priorities_, [](const auto& entry) { return entry.first.expired(); });
+    priorities_.emplace_back(std::move(connection), priority);
+}
+
+int Port::priority() const {
+    int highest = 0;
+    for (const auto& [connection, priority] : priorities_) {
+        if (!connection.expired())
+            highest = std::max(highest, priority);
+    }
+    return highest;
 }
 
 }  // namespace plexus::daemon

@@ -54,12 +54,19 @@ public:
 
     void mark_closed();
 
+    /// A connection into the port asked for `qos.prio.N`: while `connection` lives, the port's
+    /// reader is served at N at least on its client's socket (Outbox's strict priority).
+    void ask_priority(std::weak_ptr<void> connection, int priority);
+    /// The highest qos.prio of the live connections into it; 0 when none asked.
+    int priority() const;
+
 private:
     std::string name_;
     std::uint64_t owner_;
     ReaderQueue queue_;
     bool closed_ = false;
     std::vector<std::pair<std::weak_ptr<void>, std::function<void()>>> on_close_;
+    std::vector<std::pair<std::weak_ptr<void>, int>> priorities_;
 };
 
 }  // namespace plexus::daemon

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <limits>
 
+#include "../monitor/chain.hpp"
 #include "batch.hpp"
 #include "plexus/proto/port_name.hpp"
 
@@ -61,7 +62,13 @@ proto::Status Router::add(const std::shared_ptr<Port>& source, std::shared_ptr<C
                                 " are already connected"};
         }
     }
-    source->outgoing.push_back(std::move(connection));
+    // Kept in descending qos.prio, in the order made among equals: a message reaches (and wakes
+    // the link of) a connection of higher priority before any of lower priority.
+    auto& out = source->outgoing;
+    const auto place = std::find_if(out.begin(), out.end(), [&](const std::shared_ptr<Connection>& c) {
+        return c->priority < connection->priority;
+    });
+    out.insert(place, std::move(connection));
     return proto::Ok{};
 }
 
@@ -93,13 +100,13 @@ bool Router::remove(const std::shared_ptr<Connection>& connection) {
 
 bool Router::blocked(const Port& source) {
     return std::any_of(source.outgoing.begin(), source.outgoing.end(),
-                       [](const auto& c) { return c->room() == 0; });
+                       [](const auto& c) { return c->sink->full(); });
 }
 
 std::size_t Router::room(const Port& source) {
     std::size_t room = std::numeric_limits<std::size_t>::max();
     for (const auto& connection : source.outgoing)
-        room = std::min(room, connection->room());
+        room = std::min(room, connection->sink->room());
     return room;
 }
 
@@ -109,13 +116,17 @@ void Router::route(Port& source, const Message& message) {
         source.unconnected += message.count();  // pub-sub: nobody to send to, but say how many
     for (auto& connection : source.outgoing) {
         connection->sent += message.count();
-        if (!connection->send_monitors) {
+        if (!connection->send_chain) {
             connection->sink->deliver(message);  // a batch stays whole unless the sink splits it
             continue;
         }
-        // The monitors see records one by one; what they pass reaches the sink through
-        // Connection::filtered.
-        connection->send_monitors->submit(message);
+        for_each_record(message, [&](const Message& single) {
+            Message passed = single;
+            if (connection->send_chain->process(passed))
+                connection->sink->deliver(passed);
+            else
+                ++connection->dropped_by_monitor;
+        });
     }
 }
 

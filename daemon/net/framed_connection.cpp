@@ -10,6 +10,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "packet_marks.hpp"
 #include "plexus/proto/frame.hpp"
 
 namespace plexus::daemon {
@@ -94,6 +95,14 @@ void FramedConnection::limit_send_buffer(int bytes) {
     boost::system::error_code ignored;
     socket_.set_option(asio::socket_base::send_buffer_size(bytes), ignored);
     large_send_buffer_ = true;  // never raised again
+}
+
+proto::Status FramedConnection::mark_packets(int dscp) {
+    boost::system::error_code ec;
+    const int family = socket_.local_endpoint(ec).protocol().family();
+    if (ec)
+        return proto::Error{"cannot mark packets: " + ec.message()};
+    return mark_socket(socket_.native_handle(), family, dscp);
 }
 
 std::optional<asio::ip::address> FramedConnection::remote_ip() {

@@ -54,6 +54,9 @@ public:
     /// Keeps the socket's send buffer at `bytes` from now on (never raised for large messages):
     /// for links that must not hold much in the kernel, where it would only add delay.
     void limit_send_buffer(int bytes);
+    /// Marks every packet this socket sends with `dscp` and its socket priority (packet_marks.hpp);
+    /// an Error says why the kernel refused. Nothing to do on a Unix socket.
+    proto::Status mark_packets(int dscp);
     /// True for a Unix-socket peer (a client on this machine), which can be given descriptors.
     bool is_local();
     /// The peer's IP address for a TCP peer; nullopt for a Unix-socket one.

@@ -98,13 +98,26 @@ void Outbox::fill(Batch& batch, std::size_t budget) {
         batch.control.push_back(std::move(frame.bytes));
         control_.pop_front();
     }
+    // Priorities once per batch (a source's may change between batches, not within one).
+    priorities_.assign(sources_.size(), 0);
+    for (std::size_t i = 0; i < sources_.size(); ++i) {
+        if (sources_[i].priority)
+            priorities_[i] = sources_[i].priority();
+    }
     bool progress = true;
     while (progress && batch.bytes < budget && pieces.size() + 2 <= max_buffers &&
            batch.fds.size() < max_fds && !sources_.empty()) {
         progress = false;
+        // Each round serves only the highest priority that has messages.
+        int top = -1;
+        for (std::size_t i = 0; i < sources_.size(); ++i) {
+            if (!sources_[i].queue->empty())
+                top = std::max(top, priorities_[i]);
+        }
         for (std::size_t step = 0; step < sources_.size(); ++step) {
-            auto& source = sources_[(next_source_ + step) % sources_.size()];
-            if (source.queue->empty())
+            const std::size_t index = (next_source_ + step) % sources_.size();
+            auto& source = sources_[index];
+            if (source.queue->empty() || priorities_[index] != top)
                 continue;
             const bool was_full = source.queue->full();
             Message message = source.queue->pop();

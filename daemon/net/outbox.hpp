@@ -24,6 +24,8 @@ struct OutSource {
     ReaderQueue* queue = nullptr;
     std::uint64_t* sent_counter = nullptr;  ///< incremented per message written; may be null
     std::shared_ptr<void> keep_alive;       ///< owns what `queue` points into
+    /// Its qos.prio (0-7, higher first), asked once per fill(); null means 0.
+    std::function<int()> priority;
 };
 
 /// One gathered write: buffers point into `control`, `flat` and the kept messages. Small records
@@ -45,8 +47,13 @@ struct Batch {
     bool empty() const { return buffers.empty(); }
 };
 
-/// Everything waiting to be written on one socket: control frames first, then data frames taken
-/// round-robin from the sources, gathered so that many small frames leave in one system call.
+/// Everything waiting to be written on one socket: control frames first, then data frames,
+/// gathered so that many small frames leave in one system call. Sources are served by strict
+/// priority (`qos.prio`): while a source of a higher priority has messages, no lower one puts any
+/// into the batch; sources of equal priority take turns, one message each (round robin). "Served
+/// first" therefore means: into the same write, and ahead of everything of lower priority in it.
+/// A lower source waits at most for what its higher ones hold when the batch is made; priorities
+/// are read once per batch, so a batch in the making is not reordered.
 class Outbox {
 public:
     /// `on_space` runs when a strict queue drops below capacity (wakes writers held back).
@@ -105,6 +112,7 @@ private:
     std::deque<ControlFrame> control_;
     std::size_t control_bytes_ = 0;
     std::vector<OutSource> sources_;
+    std::vector<int> priorities_;  ///< of sources_, read at the start of fill()
     std::size_t next_source_ = 0;
     std::weak_ptr<FramedConnection> owner_;
     std::deque<std::shared_ptr<const ShmSlot>> lent_;  ///< in the order sent, released in that order

@@ -43,7 +43,8 @@ std::uint64_t Session::add_port(std::shared_ptr<Port> port) {
         if (auto s = weak.lock())
             s->wake();
     };
-    outbox().add_source({handle, &port->queue(), &port->delivered, port});
+    const Port* raw = port.get();  // kept alive by the source's keep_alive
+    outbox().add_source({handle, &port->queue(), &port->delivered, port, [raw] { return raw->priority(); }});
     return handle;
 }
 
@@ -216,10 +217,10 @@ std::optional<Session::Incoming> Session::decode_shm(InFrame& frame) {
 
 bool Session::passes_shm(const Port& port, const ShmRegion& region) const {
     for (const auto& connection : port.outgoing) {
-        if (connection->remote || connection->send_monitors)
+        if (connection->remote || connection->send_chain)
             return false;
         const auto* inlet = dynamic_cast<const Inlet*>(connection->sink.get());
-        if (!inlet || inlet->monitors || !inlet->member().trivial())
+        if (!inlet || inlet->chain || !inlet->member().trivial())
             return false;
         const auto reader = daemon_.session(inlet->port()->owner());
         if (!reader || !reader->maps_shm())

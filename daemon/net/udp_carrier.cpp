@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cerrno>
 
 #include <spdlog/spdlog.h>
 
@@ -200,8 +201,17 @@ std::shared_ptr<const DatagramStream> UdpCarrier::datagrams(const Stream& stream
     return stream.datagrams;
 }
 
+DatagramMarks UdpCarrier::marks_for(int dscp) const {
+    boost::system::error_code ec;
+    const auto local = socket_.local_endpoint(ec);
+    DatagramMarks marks(!ec && local.address().is_v6() ? AF_INET6 : AF_INET, dscp);
+    if (priority_refused_)
+        marks.drop_priority();
+    return marks;
+}
+
 bool UdpCarrier::send(const asio::ip::udp::endpoint& to, std::uint64_t stream, std::uint64_t message,
-                      proto::ByteView record) {
+                      proto::ByteView record, DatagramMarks* marks) {
     const std::size_t fragment = config_.fragment_bytes;
     const auto count = proto::fragment_count(record.size(), fragment);
     const bool signing = secret_.has_value();
@@ -237,9 +247,22 @@ bool UdpCarrier::send(const asio::ip::udp::endpoint& to, std::uint64_t stream, s
             messages[i].msg_hdr.msg_namelen = static_cast<socklen_t>(to.size());
             messages[i].msg_hdr.msg_iov = &pieces[3 * i];
             messages[i].msg_hdr.msg_iovlen = used;
+            if (marks) {
+                messages[i].msg_hdr.msg_control = marks->data();
+                messages[i].msg_hdr.msg_controllen = marks->size();
+            }
         }
-        const int sent =
-            ::sendmmsg(socket_.native_handle(), messages.data(), static_cast<unsigned>(batch), 0);
+        int sent = ::sendmmsg(socket_.native_handle(), messages.data(), static_cast<unsigned>(batch), 0);
+        if (sent < 0 && errno == EINVAL && marks && !priority_refused_) {
+            // Linux before 6.13 takes no SO_PRIORITY as ancillary data: the DSCP alone still goes.
+            priority_refused_ = true;
+            spdlog::warn("this kernel does not take SO_PRIORITY per datagram: udp/mcast connections with "
+                         "qos.dscp carry their DSCP but not the matching socket priority");
+            marks->drop_priority();
+            for (std::size_t i = 0; i < batch; ++i)
+                messages[i].msg_hdr.msg_controllen = marks->size();
+            sent = ::sendmmsg(socket_.native_handle(), messages.data(), static_cast<unsigned>(batch), 0);
+        }
         if (sent <= 0) {
             // Buffer full (EAGAIN) or the network is unreachable: best effort, the receiver will
             // count the message lost. Nothing here may wait: the daemon has one thread.
@@ -254,7 +277,7 @@ bool UdpCarrier::send(const asio::ip::udp::endpoint& to, std::uint64_t stream, s
 
 void UdpCarrier::send_counted(const asio::ip::udp::endpoint& to, std::uint64_t stream,
                               std::uint64_t& next_message, proto::ByteView record, UdpSendCounters& counters,
-                              const std::string& description) {
+                              const std::string& description, DatagramMarks* marks) {
     if (record.size() > config_.max_message) {
         // Never numbered: the receiver sees no gap for it; the sender's counter says it.
         if (counters.dropped_too_large++ == 0) {
@@ -265,7 +288,9 @@ void UdpCarrier::send_counted(const asio::ip::udp::endpoint& to, std::uint64_t s
         }
         return;
     }
-    if (send(to, stream, next_message++, record))
+    if (marks && priority_refused_)
+        marks->drop_priority();
+    if (send(to, stream, next_message++, record, marks))
         ++counters.messages;
     else
         ++counters.dropped_send;
@@ -418,13 +443,22 @@ void McastSender::deliver(const Message& message) {
             ++counters_.dropped_by_monitor;
             return;
         }
-        carrier_.send_counted(group_, 0, next_message_, single.record, counters_, "mcast " + source_);
+        carrier_.send_counted(group_, 0, next_message_, single.record, counters_, "mcast " + source_,
+                              marks_ ? &*marks_ : nullptr);
     });
+}
+
+void McastSender::mark(int dscp) {
+    if (dscp_ && *dscp_ >= dscp)
+        return;
+    dscp_ = dscp;
+    marks_ = carrier_.marks_for(dscp);
 }
 
 void UdpLink::deliver(const Message& message) {
     for_each_record(message, [this](const Message& single) {
-        carrier_.send_counted(to_, stream_, next_message_, single.record, counters_, description_);
+        carrier_.send_counted(to_, stream_, next_message_, single.record, counters_, description_,
+                              marks_ ? &*marks_ : nullptr);
     });
 }
 

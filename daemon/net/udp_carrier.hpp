@@ -11,6 +11,7 @@
 #include "../core/inlet.hpp"
 #include "../core/reassembly.hpp"
 #include "asio.hpp"
+#include "packet_marks.hpp"
 #include "peer.hpp"
 #include "plexus/proto/auth.hpp"
 #include "plexus/proto/bytes.hpp"
@@ -76,14 +77,17 @@ public:
     static std::shared_ptr<const DatagramStream> datagrams(const Stream& stream);
 
     /// Sends one record to `to` as message `message` of `stream`, cut into datagrams (each with a
-    /// MAC when there is a secret). False if the socket did not take all of them (the receiver
-    /// will count the message lost).
+    /// MAC when there is a secret), each marked with `marks` when given (`qos.dscp`). False if the
+    /// socket did not take all of them (the receiver will count the message lost).
     bool send(const asio::ip::udp::endpoint& to, std::uint64_t stream, std::uint64_t message,
-              proto::ByteView record);
+              proto::ByteView record, DatagramMarks* marks = nullptr);
     /// send() with the bookkeeping of a sending end: a record over max_message is dropped (logged
     /// the first time), else numbered `next_message` (then advanced) and counted.
     void send_counted(const asio::ip::udp::endpoint& to, std::uint64_t stream, std::uint64_t& next_message,
-                      proto::ByteView record, UdpSendCounters& counters, const std::string& description);
+                      proto::ByteView record, UdpSendCounters& counters, const std::string& description,
+                      DatagramMarks* marks = nullptr);
+    /// Marks for the datagrams of a connection that asked for `qos.dscp.N`, fit for this socket.
+    DatagramMarks marks_for(int dscp) const;
     /// The multicast sending end of a source port, shared by all of its mcast connections.
     std::shared_ptr<McastSender> mcast_sender(const std::string& source,
                                               const asio::ip::udp::endpoint& group);
@@ -111,6 +115,7 @@ private:
     std::uint64_t next_stream_ = 1;
     UdpCounters counters_;
     bool stopped_ = false;
+    bool priority_refused_ = false;  ///< this kernel takes no SO_PRIORITY as ancillary data
 };
 
 /// The sending end of a udp connection: every record goes out at once as datagrams, best effort.
@@ -119,12 +124,15 @@ private:
 class UdpLink : public MessageSink {
 public:
     UdpLink(UdpCarrier& carrier, asio::ip::udp::endpoint to, std::uint64_t stream,
-            std::shared_ptr<Peer> control, std::string description)
+            std::shared_ptr<Peer> control, std::string description, std::optional<int> dscp = {})
         : carrier_(carrier),
           to_(std::move(to)),
           stream_(stream),
           control_(std::move(control)),
-          description_(std::move(description)) {}
+          description_(std::move(description)) {
+        if (dscp)
+            marks_ = carrier_.marks_for(*dscp);
+    }
     bool full() const override { return false; }
     std::size_t room() const override { return std::size_t{1} << 30; }
     void deliver(const Message& message) override;
@@ -139,6 +147,7 @@ private:
     std::string description_;
     std::uint64_t next_message_ = 0;
     UdpSendCounters counters_;
+    std::optional<DatagramMarks> marks_;  ///< qos.dscp: the shared socket marks each datagram
 };
 
 /// What the multicast sending end of a source port reports (`plexus stats`, on the port):
@@ -164,6 +173,10 @@ public:
     proto::Status share_send_monitors(std::shared_ptr<monitor::MonitorChain> chain,
                                       const std::string& clauses);
     const std::shared_ptr<monitor::MonitorChain>& send_monitors() const { return chain_; }
+    /// A connection of the port asks for `qos.dscp.N`. Its messages are the port's, sent once for
+    /// all connections, so they carry the highest DSCP any connection asked for: the one that
+    /// asked for most gets it, the others get more than they asked, never less.
+    void mark(int dscp);
 
 private:
     UdpCarrier& carrier_;
@@ -176,6 +189,8 @@ private:
     McastSendCounters counters_;
     std::optional<std::string> clauses_;  ///< set by the first connection
     std::shared_ptr<monitor::MonitorChain> chain_;
+    std::optional<int> dscp_;
+    std::optional<DatagramMarks> marks_;
 };
 
 /// The sending end of one mcast connection: hands every message to its port's McastSender. Like

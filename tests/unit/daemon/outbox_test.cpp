@@ -141,5 +141,67 @@ TEST(Outbox_test, StopsNearTheBudgetAndCallsOnSpaceWhenAStrictQueueDropsBelowFul
     EXPECT_EQ(frames_in(written(batch)).size(), 100u - queue.depth());
 }
 
+TEST(Outbox_test, HigherPrioritySourcesAreServedFirstAndEqualOnesTakeTurns) {
+    ReaderQueue low(QueuePolicy::strict, 10);
+    ReaderQueue high_a(QueuePolicy::strict, 10);
+    ReaderQueue high_b(QueuePolicy::strict, 10);
+    for (std::uint8_t i = 0; i < 3; ++i)
+        low.push(record_of(3, static_cast<std::uint8_t>(0x10 + i), i));
+    for (std::uint8_t i = 0; i < 2; ++i) {
+        high_a.push(record_of(3, static_cast<std::uint8_t>(0xa0 + i), i));
+        high_b.push(record_of(3, static_cast<std::uint8_t>(0xb0 + i), i));
+    }
+    int high_priority = 5;
+    Outbox outbox(nullptr);
+    // The low source comes first in the round-robin order: only its priority puts it last.
+    outbox.add_source({1, &low, nullptr, nullptr, [] { return 0; }});
+    outbox.add_source({2, &high_a, nullptr, nullptr, [&] { return high_priority; }});
+    outbox.add_source({3, &high_b, nullptr, nullptr, [&] { return high_priority; }});
+    Batch batch;
+    outbox.fill(batch, 1 << 20);
+    auto frames = frames_in(written(batch));
+    ASSERT_EQ(frames.size(), 7u);
+    const std::vector<std::uint64_t> handles{2, 3, 2, 3, 1, 1, 1};
+    for (std::size_t i = 0; i < frames.size(); ++i)
+        EXPECT_EQ(frames[i].handle, handles[i]) << "frame " << i;
+    EXPECT_EQ(frames[0].record, proto::Bytes(3, 0xa0));
+    EXPECT_EQ(frames[4].record, proto::Bytes(3, 0x10));
+
+    // A one-frame budget: each batch takes the highest source that has messages, read anew.
+    low.push(record_of(3, 0x20, 9));
+    high_a.push(record_of(3, 0xa9, 9));
+    high_priority = 0;  // now below nothing: equal to low, so they take turns
+    batch.clear();
+    outbox.fill(batch, 1);
+    frames = frames_in(written(batch));
+    ASSERT_EQ(frames.size(), 1u);
+    batch.clear();
+    outbox.fill(batch, 1);
+    const auto second = frames_in(written(batch));
+    ASSERT_EQ(second.size(), 1u);
+    EXPECT_NE(frames[0].handle, second[0].handle) << "equal priorities take turns";
+}
+
+TEST(Outbox_test, ALowerSourceIsServedOnceTheHigherOnesAreEmpty) {
+    ReaderQueue low(QueuePolicy::strict, 10);
+    ReaderQueue high(QueuePolicy::strict, 10);
+    low.push(record_of(3, 0x01, 1));
+    high.push(record_of(3, 0x02, 1));
+    Outbox outbox(nullptr);
+    outbox.add_source({1, &low, nullptr, nullptr});  // no priority: 0
+    outbox.add_source({2, &high, nullptr, nullptr, [] { return 7; }});
+    Batch batch;
+    outbox.fill(batch, 1);
+    auto frames = frames_in(written(batch));
+    ASSERT_EQ(frames.size(), 1u);
+    EXPECT_EQ(frames[0].handle, 2u);
+    batch.clear();
+    outbox.fill(batch, 1);
+    frames = frames_in(written(batch));
+    ASSERT_EQ(frames.size(), 1u);
+    EXPECT_EQ(frames[0].handle, 1u);
+    EXPECT_TRUE(outbox.empty());
+}
+
 }  // namespace
 }  // namespace plexus::daemon
