@@ -27,20 +27,24 @@ Daemon::Daemon(asio::io_context& io, DaemonConfig config)
       udp_(io, config_.udp, config_.secret),
       signals_(io, SIGINT, SIGTERM),
       control_(io.get_executor(), *this) {
-    scripts_ = std::make_unique<ScriptHost>(io_, *this);
+    workers_ = std::make_unique<monitor::Workers>(config_.monitor_threads);
+    scripts_ = std::make_unique<ScriptHost>(io_, *this, *workers_);
 }
 
 Daemon::~Daemon() {
     // Monitors call back into the script host when they go: let them go while it still exists,
-    // even those held by sessions that outlive the daemon.
+    // even those held by sessions that outlive the daemon. They go on their workers; wait for that.
     for (const auto& [name, port] : router_.ports()) {
-        for (auto& connection : port->outgoing)
-            connection->send_chain.reset();
+        for (auto& connection : port->outgoing) {
+            if (connection->send_monitors)
+                connection->send_monitors->close();
+        }
         for (const auto& weak : port->inbound) {
-            if (auto inlet = weak.lock())
-                inlet->chain.reset();
+            if (auto inlet = weak.lock(); inlet && inlet->monitors)
+                inlet->monitors->close();
         }
     }
+    workers_->finish();
     if (!config_.socket_path.empty() && unix_acceptor_.is_open()) {
         std::error_code ignored;
         std::filesystem::remove(config_.socket_path, ignored);

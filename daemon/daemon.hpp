@@ -13,6 +13,7 @@
 #include "core/router.hpp"
 #include "daemon_config.hpp"
 #include "monitor/monitor.hpp"
+#include "monitor/workers.hpp"
 #include "names/name_client.hpp"
 #include "names/name_server.hpp"
 #include "net/asio.hpp"
@@ -79,7 +80,8 @@ private:
 
     asio::io_context& io_;
     DaemonConfig config_;
-    std::unique_ptr<ScriptHost> scripts_;  ///< before router_: monitors in connections die first
+    std::unique_ptr<monitor::Workers> workers_;  ///< the threads monitors run on
+    std::unique_ptr<ScriptHost> scripts_;        ///< before router_: monitors in connections die first
     arbitration::SteadyClock clock_;       ///< event lifetimes and stimulation decay
     Router router_;
     Signal space_;

@@ -33,6 +33,7 @@ struct DaemonConfig {
     std::size_t queue_bytes = ReaderQueue::default_max_bytes;  ///< byte bound of every queue
     std::chrono::milliseconds names_grace{2000};
     monitor::MonitorPolicy monitors;  ///< memory cap, time budget, quarantine of every port monitor
+    std::size_t monitor_threads = 0;  ///< worker threads for monitors; 0: one per core
     /// Least size of the shared-memory region a local client may get per port it writes large
     /// payloads through (a region holds at least four of the port's first large payload); 0 turns
     /// shared memory off. Small on purpose: the slots in use stay warm in the cache, and fewer

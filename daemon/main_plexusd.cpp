@@ -62,6 +62,10 @@ int main(int argc, char** argv) {
         ->capture_default_str();
     app.add_option("--node", node, "this daemon's node name, unique among daemons")->capture_default_str();
     app.add_option("--scripts", config.script_dirs, "directory of monitor scripts (repeatable)");
+    app.add_option("--monitor-threads", config.monitor_threads,
+                   "threads that run port monitors, so that a slow script delays only its own "
+                   "connection (0: one per core)")
+        ->capture_default_str();
     app.add_option("--config", config_file,
                    "JSON config file (max_frame, default_capacity, link_capacity, monitor_memory_bytes, "
                    "monitor_budget_ms, monitor_quarantine_after, udp_fragment_bytes, udp_max_message, "

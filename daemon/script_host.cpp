@@ -28,8 +28,9 @@ proto::Result<monitor::MonitorSpec> spec_of(const proto::Clause& clause, const p
     for (const auto& param : clause.params) {
         const std::string value = param.value.value_or("");
         if (param.key == "type") {
-            if (value != "lua")
-                return proto::Error{"portmonitor type '" + value + "' is not supported (only type.lua)"};
+            if (value != "lua" && value != "so")
+                return proto::Error{"portmonitor type '" + value + "' is not supported (type.lua or type.so)"};
+            spec.type = value == "so" ? monitor::MonitorType::plugin : monitor::MonitorType::lua;
         } else if (param.key == "file") {
             file = value;
         } else if (param.key == "onerror") {
@@ -53,7 +54,8 @@ proto::Result<monitor::MonitorSpec> spec_of(const proto::Clause& clause, const p
 
 }  // namespace
 
-ScriptHost::ScriptHost(asio::io_context& io, Daemon& daemon) : io_(io), daemon_(daemon) {}
+ScriptHost::ScriptHost(asio::io_context& io, Daemon& daemon, monitor::Workers& workers)
+    : io_(io), daemon_(daemon), workers_(workers) {}
 
 ScriptHost::~ScriptHost() = default;
 
@@ -67,7 +69,9 @@ proto::Result<std::shared_ptr<monitor::MonitorChain>> ScriptHost::build_chain(
         auto spec = spec_of(clause, carrier, source, destination);
         if (!spec)
             return spec.error();
-        auto script = monitor::find_script(spec->script.name, daemon_.config().script_dirs);
+        auto script = spec->type == monitor::MonitorType::plugin
+                          ? monitor::find_plugin(spec->script.name, daemon_.config().monitor_lib_dirs)
+                          : monitor::find_script(spec->script.name, daemon_.config().script_dirs);
         if (!script)
             return script.error();
         spec->script = std::move(*script);
@@ -83,18 +87,44 @@ proto::Result<std::shared_ptr<monitor::MonitorChain>> ScriptHost::build_chain(
     return chain;
 }
 
+std::shared_ptr<monitor::MonitorStage> ScriptHost::make_stage(std::shared_ptr<monitor::MonitorChain> chain,
+                                                              std::shared_ptr<arbitration::Member> member,
+                                                              monitor::MonitorStage::Options options,
+                                                              std::weak_ptr<FilterClient> client) {
+    std::vector<std::uint64_t> ids;
+    for (const auto& m : chain->monitors)
+        ids.push_back(m->id());
+    auto stage = std::make_shared<monitor::MonitorStage>(workers_.make_strand(), io_.get_executor(),
+                                                         std::move(chain), std::move(member), options,
+                                                         [this] { daemon_.notify_space(); });
+    stage->attach(std::move(client));
+    for (const auto id : ids)
+        stages_[id] = stage;
+    return stage;
+}
+
 double ScriptHost::now() const {
     return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
 
 proto::Status ScriptHost::publish(monitor::Monitor& monitor, const std::string& name,
                                   const nlohmann::json& value) {
+    // On the monitor's worker: check what can be checked here, do the rest on the daemon's thread.
     if (auto error = proto::port_name_error(name))
         return proto::Error{*error};
-    if (publish_depth_ >= max_publish_depth)
+    const int depth = monitor::current_publish_depth();
+    if (depth >= max_publish_depth)
         return proto::Error{"publish loops through monitors more than " + std::to_string(max_publish_depth) +
                             " levels deep"};
-    auto& owned = ports_[monitor.id()];
+    asio::post(io_, [this, id = monitor.id(), description = monitor.description(), name, value, depth] {
+        publish_now(id, description, name, value, depth + 1);
+    });
+    return proto::Ok{};
+}
+
+void ScriptHost::publish_now(std::uint64_t monitor_id, const std::string& description, const std::string& name,
+                             const nlohmann::json& value, int depth) {
+    auto& owned = ports_[monitor_id];
     std::shared_ptr<Port> port;
     for (const auto& candidate : owned) {
         if (candidate->name() == name)
@@ -102,15 +132,18 @@ proto::Status ScriptHost::publish(monitor::Monitor& monitor, const std::string& 
     }
     if (!port) {
         auto opened = daemon_.open_hosted_port(name);
-        if (!opened)
-            return opened.error();
+        if (!opened) {
+            ++publish_dropped_;
+            spdlog::warn("monitor {} cannot publish on {}: {}", description, name, opened.error().message);
+            return;
+        }
         port = *opened;
         owned.push_back(port);
-        spdlog::info("monitor {} publishes on {}", monitor.description(), name);
+        spdlog::info("monitor {} publishes on {}", description, name);
     }
     if (Router::blocked(*port)) {
         ++publish_dropped_;  // a script cannot wait: a full strict reader loses this one, counted
-        return proto::Ok{};
+        return;
     }
     const auto cbor = nlohmann::json::to_cbor(value);
     const auto time_ns = static_cast<std::uint64_t>(now() * 1e9);
@@ -121,25 +154,32 @@ proto::Status ScriptHost::publish(monitor::Monitor& monitor, const std::string& 
     std::memcpy(chunk->data(), bytes.data(), bytes.size());
     const proto::ByteView record(chunk->data(), bytes.size());
     ++published_;
-    ++publish_depth_;
-    Router::route(*port, Message{std::move(chunk), record, seq});
-    --publish_depth_;
-    return proto::Ok{};
+    Message message{std::move(chunk), record, seq};
+    message.publish_depth = static_cast<std::uint8_t>(depth);
+    Router::route(*port, message);
 }
 
 void ScriptHost::set_trig_interval(monitor::Monitor& monitor, double seconds) {
-    trigs_.erase(monitor.id());
+    // From create (the daemon's thread) or a callback (a worker): the timers live on the daemon's.
+    asio::post(io_, [this, id = monitor.id(), seconds] { start_trig(id, seconds); });
+}
+
+void ScriptHost::start_trig(std::uint64_t monitor_id, double seconds) {
+    trigs_.erase(monitor_id);
     if (seconds <= 0)
         return;
+    auto stage = stages_.find(monitor_id);
+    if (stage == stages_.end())
+        return;  // its connection was refused after create, or is gone
     Trig trig;
-    trig.monitor = &monitor;
+    trig.stage = stage->second;
     trig.timer = std::make_unique<asio::steady_timer>(io_);
     trig.period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
         std::chrono::duration<double>(seconds));
     trig.generation = next_generation_++;
     trig.timer->expires_after(trig.period);
-    trigs_.emplace(monitor.id(), std::move(trig));
-    arm(monitor.id());
+    trigs_.emplace(monitor_id, std::move(trig));
+    arm(monitor_id);
 }
 
 void ScriptHost::arm(std::uint64_t monitor_id) {
@@ -156,25 +196,29 @@ void ScriptHost::arm(std::uint64_t monitor_id) {
             const auto next = timer.expiry() + it->second.period;
             const auto now = std::chrono::steady_clock::now();
             timer.expires_at(next > now ? next : now + it->second.period);
-            monitor::Monitor* monitor = it->second.monitor;
+            auto stage = it->second.stage.lock();
             arm(monitor_id);
-            monitor->trig();  // may change or stop its own timer, or be quarantined: all safe here
+            if (stage)
+                stage->trig(monitor_id);  // on the monitor's worker
         });
 }
 
 void ScriptHost::monitor_gone(monitor::Monitor& monitor) {
-    trigs_.erase(monitor.id());
-    auto it = ports_.find(monitor.id());
-    if (it != ports_.end()) {
-        auto ports = std::move(it->second);
-        ports_.erase(it);
-        // Closing ports rewires connections: never under a route() that may be walking them.
-        asio::post(io_, [this, ports = std::move(ports)] {
-            for (const auto& port : ports) {
-                port_seq_.erase(port->name());
-                daemon_.close_hosted_port(port);
-            }
-        });
+    asio::post(io_, [this, id = monitor.id()] { forget_monitor(id); });
+}
+
+void ScriptHost::forget_monitor(std::uint64_t monitor_id) {
+    trigs_.erase(monitor_id);
+    stages_.erase(monitor_id);
+    auto it = ports_.find(monitor_id);
+    if (it == ports_.end())
+        return;
+    auto ports = std::move(it->second);
+    ports_.erase(it);
+    // Posted, not under a route() that may be walking the connections these ports rewire.
+    for (const auto& port : ports) {
+        port_seq_.erase(port->name());
+        daemon_.close_hosted_port(port);
     }
 }
 

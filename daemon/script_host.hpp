@@ -1,5 +1,6 @@
 #pragma once
-// Threading: the daemon's one thread.
+// Threading: the daemon's one thread, except the MonitorHost functions, which monitors call on their
+// workers: those only check their arguments there and post the rest to the daemon's thread.
 
 #include <map>
 #include <memory>
@@ -9,6 +10,8 @@
 #include "core/router.hpp"
 #include "monitor/chain.hpp"
 #include "monitor/monitor.hpp"
+#include "monitor/stage.hpp"
+#include "monitor/workers.hpp"
 #include "net/asio.hpp"
 #include "plexus/proto/carrier.hpp"
 
@@ -20,7 +23,7 @@ class Daemon;
 /// the clock. Also builds the monitor chains of a carrier string.
 class ScriptHost : public monitor::MonitorHost {
 public:
-    ScriptHost(asio::io_context& io, Daemon& daemon);
+    ScriptHost(asio::io_context& io, Daemon& daemon, monitor::Workers& workers);
     ~ScriptHost() override;
 
     /// The monitors of one side of a connection, created in carrier order. Fails (and creates
@@ -29,6 +32,12 @@ public:
     proto::Result<std::shared_ptr<monitor::MonitorChain>> build_chain(
         const proto::Carrier& carrier, proto::Side side, const std::string& source,
         const std::string& destination, const std::shared_ptr<arbitration::Member>& member = nullptr);
+    /// Puts a chain on a worker strand of its own: from here on its monitors run there. `member`
+    /// (recv side) admits what they pass; `client` gets the verdicts.
+    std::shared_ptr<monitor::MonitorStage> make_stage(std::shared_ptr<monitor::MonitorChain> chain,
+                                                      std::shared_ptr<arbitration::Member> member,
+                                                      monitor::MonitorStage::Options options,
+                                                      std::weak_ptr<FilterClient> client);
 
     proto::Status publish(monitor::Monitor& monitor, const std::string& port,
                           const nlohmann::json& value) override;
@@ -41,20 +50,26 @@ public:
 
 private:
     struct Trig {
-        monitor::Monitor* monitor = nullptr;
+        std::weak_ptr<monitor::MonitorStage> stage;  ///< where the monitor runs
         std::unique_ptr<asio::steady_timer> timer;
         std::chrono::steady_clock::duration period{};
         std::uint64_t generation = 0;
     };
     void arm(std::uint64_t monitor_id);
+    // The daemon's-thread halves of the MonitorHost functions.
+    void start_trig(std::uint64_t monitor_id, double seconds);
+    void publish_now(std::uint64_t monitor_id, const std::string& description, const std::string& port,
+                     const nlohmann::json& value, int depth);
+    void forget_monitor(std::uint64_t monitor_id);
 
     asio::io_context& io_;
     Daemon& daemon_;
+    monitor::Workers& workers_;
+    std::map<std::uint64_t, std::weak_ptr<monitor::MonitorStage>> stages_;  ///< by monitor id
     std::map<std::uint64_t, Trig> trigs_;                                ///< by monitor id
     std::map<std::uint64_t, std::vector<std::shared_ptr<Port>>> ports_;  ///< published, by monitor id
     std::map<std::string, std::uint64_t> port_seq_;
     std::uint64_t next_generation_ = 1;
-    int publish_depth_ = 0;  ///< publish -> monitor -> publish ... is cut off past a few levels
     std::uint64_t published_ = 0;
     std::uint64_t publish_dropped_ = 0;
 };

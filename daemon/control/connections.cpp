@@ -57,6 +57,18 @@ std::optional<asio::ip::udp::endpoint> group_endpoint(const std::string& text) {
         return std::nullopt;
     return asio::ip::udp::endpoint(address, parsed->port);
 }
+/// The send-side monitors of a connection on a worker of their own, in front of its sink; null
+/// without monitors. A sink that never holds the writer back (latest, datagrams) makes the
+/// monitors drop their oldest waiting message when they fall behind, rather than hold it back.
+std::shared_ptr<MessageFilter> send_stage(ScriptHost& scripts, std::shared_ptr<monitor::MonitorChain> chain,
+                                          const std::shared_ptr<Connection>& connection) {
+    if (!chain)
+        return nullptr;
+    monitor::MonitorStage::Options options;
+    options.drop_oldest = connection->sink->room() >= (std::size_t{1} << 30);
+    return scripts.make_stage(std::move(chain), nullptr, options, connection);
+}
+
 }  // namespace
 
 proto::Result<std::shared_ptr<MessageSink>> ControlPlane::udp_sending_end(std::shared_ptr<Peer> link,
@@ -125,7 +137,7 @@ Task<proto::Reply> ControlPlane::connect(std::shared_ptr<Session>, const proto::
         // connected is refused with nothing joined.
         const InletHandOver hand_over = [&](const std::shared_ptr<Inlet>& inlet) {
             connection->sink = inlet;
-            connection->send_chain = std::move(*send_chain);
+            connection->send_monitors = send_stage(host_.scripts(), std::move(*send_chain), connection);
             return router.add(port, connection);
         };
         auto wired = wire_inlet(host_.scripts(), host_.clock(), spec, hand_over);
@@ -180,16 +192,15 @@ Task<proto::Reply> ControlPlane::connect_remote(const proto::Request& request, s
     connection->remote = true;
     connection->priority = qos_of(carrier).prio.value_or(0);
     connection->sink = end.sink;
-    connection->send_chain = std::move(send_chain);
     if (auto* mcast = dynamic_cast<McastLink*>(end.sink.get())) {
         // The send-side monitors of mcast run once per message, in the port's one sender, not
         // once per connection: all mcast connections of a port share them.
-        if (auto shared =
-                mcast->share_send_monitors(std::move(connection->send_chain), send_clauses(carrier));
-            !shared) {
+        if (auto shared = mcast->share_send_monitors(std::move(send_chain), send_clauses(carrier)); !shared) {
             end.peer->close("send monitors differ");
             co_return refuse(shared.error().message);
         }
+    } else {
+        connection->send_monitors = send_stage(host_.scripts(), std::move(send_chain), connection);
     }
     if (auto added = host_.router().add(port, connection); !added) {
         end.peer->close("duplicate");

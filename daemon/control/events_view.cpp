@@ -1,6 +1,8 @@
 // `plexus events PORT`: the port's event container, the constraints and stimulation of the
 // connections into it, and their counters. (A connection's place in the arbitration is made in
 // wire_inlet.cpp.)
+#include <mutex>
+
 #include "control_plane.hpp"
 #include "core/router.hpp"
 #include "inlet_counters.hpp"
@@ -25,7 +27,14 @@ nlohmann::json ControlPlane::events_json(const Port& port, bool check) const {
     nlohmann::json overlaps = nlohmann::json::array();
     nlohmann::json winner = nullptr;
     if (port.arbiter) {
+        // The counters first: they take the arbiter's lock themselves.
+        std::vector<std::pair<std::shared_ptr<Inlet>, nlohmann::json>> inlets;
+        for (const auto& weak : port.inbound) {
+            if (auto inlet = weak.lock())
+                inlets.emplace_back(inlet, inlet_counters(*inlet));
+        }
         auto& arbiter = *port.arbiter;
+        std::lock_guard lock(arbiter.mutex());  // the port's monitors may be changing it meanwhile
         for (const auto& entry : arbiter.events().entries(now)) {
             nlohmann::json left = nullptr;
             if (entry.expires)
@@ -37,10 +46,7 @@ nlohmann::json ControlPlane::events_json(const Port& port, bool check) const {
             body["inconsistent"] = *state.error;
         if (state.winner)
             winner = state.members[*state.winner]->source();
-        for (const auto& weak : port.inbound) {
-            auto inlet = weak.lock();
-            if (!inlet)
-                continue;
+        for (const auto& [inlet, counters] : inlets) {
             const auto& member = inlet->member();
             nlohmann::json entry{{"source", inlet->source()},
                                  {"carrier", inlet->carrier()},
@@ -48,7 +54,7 @@ nlohmann::json ControlPlane::events_json(const Port& port, bool check) const {
                                  {"constraint", nullptr},
                                  {"constraint_value", arbiter.constraint_value(member)},
                                  {"priority", nullptr},
-                                 {"counters", inlet_counters(*inlet)}};
+                                 {"counters", counters}};
             if (member.constraint)
                 entry["constraint"] = member.constraint->text();
             for (std::size_t i = 0; i < state.members.size(); ++i) {

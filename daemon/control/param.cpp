@@ -5,7 +5,7 @@
 #include "control_plane.hpp"
 #include "core/inlet.hpp"
 #include "core/router.hpp"
-#include "monitor/chain.hpp"
+#include "monitor/stage.hpp"
 #include "request_fields.hpp"
 
 namespace plexus::daemon {
@@ -15,12 +15,11 @@ namespace {
 using proto::ReplyCode;
 
 /// Runs get or set on every monitor of a chain and appends {script, side, param} per monitor.
-proto::Status apply(monitor::MonitorChain* chain, const nlohmann::json& body, nlohmann::json& results,
+/// On the monitors' worker (see apply_on_worker).
+proto::Status apply(const monitor::MonitorChain& chain, const nlohmann::json& body, nlohmann::json& results,
                     bool& any_setparam) {
-    if (!chain)
-        return proto::Ok{};
     const bool set = text(body, "action") == "set";
-    for (auto& monitor : chain->monitors) {
+    for (const auto& monitor : chain.monitors) {
         if (set) {
             auto called = monitor->setparam(body.value("values", nlohmann::json::object()));
             if (!called)
@@ -34,6 +33,19 @@ proto::Status apply(monitor::MonitorChain* chain, const nlohmann::json& body, nl
         results.push_back({{"script", stats["script"]}, {"side", stats["side"]}, {"param", *param}});
     }
     return proto::Ok{};
+}
+
+/// apply() where the monitors run: their scripts are theirs only, and a slow getparam delays only
+/// this request.
+Task<proto::Status> apply_on_worker(const std::shared_ptr<MessageFilter>& monitors, const nlohmann::json& body,
+                                    nlohmann::json& results, bool& any_setparam) {
+    auto* stage = monitor::stage_of(monitors);
+    if (!stage)
+        co_return proto::Ok{};
+    proto::Status status = proto::Error{"the monitors of this connection are gone"};
+    const std::function<void()> work = [&] { status = apply(stage->chain(), body, results, any_setparam); };
+    co_await stage->run(work);
+    co_return status;
 }
 
 proto::Reply answer(const nlohmann::json& results, bool any_setparam, const nlohmann::json& body) {
@@ -63,12 +75,14 @@ Task<proto::Reply> ControlPlane::param(std::shared_ptr<Session>, const proto::Re
                                       "ports " + source + " and " + destination + " are not connected");
     nlohmann::json results = nlohmann::json::array();
     bool any_setparam = false;
-    if (auto applied = apply(connection->send_chain.get(), request.body, results, any_setparam); !applied)
+    auto applied = co_await apply_on_worker(connection->send_monitors, request.body, results, any_setparam);
+    if (!applied)
         co_return proto::make_refusal(0, ReplyCode::refused, applied.error().message);
     if (!connection->remote) {
         auto* inlet = static_cast<Inlet*>(connection->sink.get());
-        if (auto applied = apply(inlet->chain.get(), request.body, results, any_setparam); !applied)
-            co_return proto::make_refusal(0, ReplyCode::refused, applied.error().message);
+        auto inlet_applied = co_await apply_on_worker(inlet->monitors, request.body, results, any_setparam);
+        if (!inlet_applied)
+            co_return proto::make_refusal(0, ReplyCode::refused, inlet_applied.error().message);
     } else {
         proto::Request recv_half;
         recv_half.body = request.body;
@@ -101,7 +115,8 @@ Task<proto::Reply> ControlPlane::param_recv(std::shared_ptr<Session>, const prot
         auto inlet = weak.lock();
         if (!inlet || inlet->source() != source)
             continue;
-        if (auto applied = apply(inlet->chain.get(), request.body, results, any_setparam); !applied)
+        auto applied = co_await apply_on_worker(inlet->monitors, request.body, results, any_setparam);
+        if (!applied)
             co_return proto::make_refusal(0, ReplyCode::refused, applied.error().message);
     }
     co_return answer(results, any_setparam, request.body);

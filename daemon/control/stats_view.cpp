@@ -3,7 +3,7 @@
 #include "control_plane.hpp"
 #include "core/router.hpp"
 #include "inlet_counters.hpp"
-#include "monitor/chain.hpp"
+#include "monitor/stage.hpp"
 #include "net/link.hpp"
 #include "net/udp_carrier.hpp"
 #include "request_fields.hpp"
@@ -53,8 +53,10 @@ nlohmann::json ControlPlane::stats_json(const std::string& only_port) const {
                                 {"dropped_too_large", sent.dropped_too_large},
                                 {"dropped_send", sent.dropped_send}};
             }
-            if (c->send_chain)
-                entry["monitors"] = c->send_chain->stats();
+            if (const auto* stage = monitor::stage_of(c->send_monitors)) {
+                entry["monitors"] = stage->chain().stats();
+                entry["dropped_monitor_backlog"] = stage->dropped_backlog();
+            }
             connections.push_back(entry);
         }
         nlohmann::json inbound = nlohmann::json::array();
@@ -65,8 +67,10 @@ nlohmann::json ControlPlane::stats_json(const std::string& only_port) const {
             nlohmann::json entry = inlet_counters(*inlet);
             entry["source"] = inlet->source();
             entry["carrier"] = inlet->carrier();
-            if (inlet->chain)
-                entry["monitors"] = inlet->chain->stats();
+            if (const auto* stage = monitor::stage_of(inlet->monitors)) {
+                entry["monitors"] = stage->chain().stats();
+                entry["dropped_monitor_backlog"] = stage->dropped_backlog();
+            }
             inbound.push_back(entry);
         }
         const auto& queue = port->queue();

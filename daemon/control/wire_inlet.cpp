@@ -1,6 +1,8 @@
 // Wiring a connection into a port of this daemon: the steps `connect` (local) and `attach` share.
 #include "wire_inlet.hpp"
 
+#include <mutex>
+
 #include <spdlog/spdlog.h>
 
 #include "arbitration/carrier_rules.hpp"
@@ -58,11 +60,19 @@ proto::Result<WiredInlet> wire_inlet(ScriptHost& scripts, const arbitration::Clo
         scripts.build_chain(spec.carrier, proto::Side::recv, spec.source, port->name(), *member);
     if (!recv_chain)
         return recv_chain.error();
-    auto warnings = check_member(*port, **member, spec.strict);
+    proto::Result<nlohmann::json> warnings = nlohmann::json::array();
+    {
+        std::lock_guard lock(port->arbiter->mutex());
+        warnings = check_member(*port, **member, spec.strict);
+    }
     if (!warnings)
         return warnings.error();
     auto inlet = std::make_shared<Inlet>(port, spec.source, spec.carrier_name, *member);
-    inlet->chain = std::move(*recv_chain);
+    if (*recv_chain) {
+        monitor::MonitorStage::Options options;
+        options.drop_oldest = port->queue().policy() == QueuePolicy::latest;
+        inlet->monitors = scripts.make_stage(std::move(*recv_chain), *member, options, inlet);
+    }
     if (hand_over) {
         if (auto handed = hand_over(inlet); !handed)
             return handed.error();
@@ -72,6 +82,9 @@ proto::Result<WiredInlet> wire_inlet(ScriptHost& scripts, const arbitration::Clo
     port->inbound.push_back(inlet);
     if (spec.carrier.qos.prio)
         port->ask_priority(inlet, *spec.carrier.qos.prio);
+    if (spec.carrier.qos.prio)
+        port->ask_priority(inlet, *spec.carrier.qos.prio);
+    std::lock_guard lock(port->arbiter->mutex());
     port->arbiter->join(**member);
     return WiredInlet{std::move(inlet), std::move(*warnings)};
 }

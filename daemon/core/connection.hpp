@@ -6,12 +6,9 @@
 #include <string>
 
 #include "message.hpp"
+#include "message_filter.hpp"
 
 namespace plexus::daemon {
-
-namespace monitor {
-struct MonitorChain;
-}
 
 /// Where a connection delivers: a port of this daemon, or a link to another daemon.
 class MessageSink {
@@ -27,16 +24,35 @@ public:
 };
 
 /// A directed connection out of a port of this daemon.
-struct Connection {
+struct Connection final : FilterClient {
+    ~Connection() override {
+        if (send_monitors)
+            send_monitors->close();
+    }
+
     std::string source;
     std::string destination;
     std::string carrier;  ///< canonical carrier text
     bool remote = false;  ///< true when the destination lives on another daemon (or the carrier forces tcp)
     int priority = 0;     ///< qos.prio: its port hands each message to higher ones first (Router::add)
     std::shared_ptr<MessageSink> sink;
-    std::shared_ptr<monitor::MonitorChain> send_chain;  ///< send-side monitors; null when there are none
-    std::uint64_t sent = 0;                             ///< messages written into the source
-    std::uint64_t dropped_by_monitor = 0;               ///< dropped by a send-side monitor
+    /// The send-side monitors, before the sink; null when there are none (or when an mcast sender
+    /// runs them for all the port's mcast connections at once).
+    std::shared_ptr<MessageFilter> send_monitors;
+    std::uint64_t sent = 0;                ///< messages written into the source
+    std::uint64_t dropped_by_monitor = 0;  ///< dropped by a send-side monitor
+
+    /// How many more messages the source may write into this connection.
+    std::size_t room() const { return room_after(sink->room(), send_monitors.get()); }
+    /// What the send-side monitors passed goes on to the sink, in order.
+    void filtered(std::vector<Filtered>& results) override {
+        for (auto& result : results) {
+            if (result.verdict == FilterVerdict::pass)
+                sink->deliver(result.message);
+            else
+                dropped_by_monitor += result.message.count();
+        }
+    }
 };
 
 }  // namespace plexus::daemon

@@ -1,8 +1,7 @@
 #include "inlet.hpp"
 
-#include <optional>
+#include <mutex>
 
-#include "../monitor/chain.hpp"
 #include "batch.hpp"
 
 namespace plexus::daemon {
@@ -13,21 +12,41 @@ void Inlet::deliver(const Message& message) {
         return;
     }
     ++received;
-    std::optional<Message> rewritten;  // only with monitors: without, no copy of the message
-    if (chain) {
-        rewritten = message;
-        if (!chain->process(*rewritten)) {
-            ++dropped_by_accept;
-            return;
+    if (monitors) {
+        monitors->submit(message);
+        return;
+    }
+    ++accepted;
+    if (!member_->trivial()) {
+        // The arbiter is shared with the monitors of the port's other connections, on their threads.
+        std::lock_guard lock(member_->arbiter().mutex());
+        if (member_->arbiter().admit(*member_) != arbitration::Arbiter::Verdict::deliver)
+            return;  // counted by the arbiter (constraint, priority) or an auxiliary connection
+    }
+    enqueue(message);
+}
+
+void Inlet::filtered(std::vector<Filtered>& results) {
+    for (auto& result : results) {
+        switch (result.verdict) {
+            case FilterVerdict::dropped:
+                ++dropped_by_accept;
+                break;
+            case FilterVerdict::refused:
+                ++accepted;  // the arbiter counted why
+                break;
+            case FilterVerdict::pass:
+                accepted += result.message.count();
+                enqueue(result.message);
+                break;
         }
     }
-    const Message& passed = rewritten ? *rewritten : message;
-    ++accepted;
-    if (!member_->trivial() && member_->arbiter().admit(*member_) != arbitration::Arbiter::Verdict::deliver)
-        return;  // counted by the arbiter (constraint, priority) or an auxiliary connection
+}
+
+void Inlet::enqueue(const Message& message) {
     const auto dropped_before = port_->queue().dropped();
-    ++delivered;
-    port_->deliver(passed);
+    delivered += message.count();
+    port_->deliver(message);
     dropped_by_queue += port_->queue().dropped() - dropped_before;
 }
 
@@ -37,66 +56,13 @@ void Inlet::deliver_batch(const Message& batch) {
         for_each_record(batch, [this](const Message& single) { deliver(single); });
         return;
     }
-    if (chain) {
-        deliver_batch_through_chain(batch);
+    received += batch.count();
+    if (monitors) {
+        monitors->submit(batch);  // record by record there
         return;
     }
-    received += batch.count();
     accepted += batch.count();
-    delivered += batch.count();
-    port_->deliver(batch);
-}
-
-void Inlet::deliver_batch_through_chain(const Message& batch) {
-    // The monitors see every record on its own; the records they pass unchanged, one after the
-    // other, go on together as a smaller batch (the bytes of a run of records are contiguous), so
-    // that a filter that passes most messages does not cost a queue entry and a frame per message.
-    const std::uint8_t* run_begin = nullptr;
-    const std::uint8_t* run_end = nullptr;
-    std::uint32_t run_count = 0;
-    auto deliver_passed = [this](const Message& passed) {
-        delivered += passed.count();
-        port_->deliver(passed);
-    };
-    auto end_run = [&] {
-        if (run_count > 0)
-            deliver_passed(Message{batch.storage, {run_begin, run_end}, 0, run_count});
-        run_count = 0;
-    };
-    proto::BatchRecords records(batch.record, batch.batch);
-    for (;;) {
-        const std::uint8_t* entry_begin = records.rest().data();
-        const auto record = records.next();
-        if (!record)
-            break;
-        ++received;
-        Message passed{batch.storage, *record, 0, 0};
-        if (!chain->process(passed)) {
-            ++dropped_by_accept;
-            end_run();
-            continue;
-        }
-        ++accepted;
-        if (passed.record.data() != record->data() || passed.record.size() != record->size()) {
-            end_run();  // rewritten: a message of its own
-            deliver_passed(passed);
-            continue;
-        }
-        if (run_count == 0)
-            run_begin = entry_begin;
-        run_end = records.rest().data();
-        ++run_count;
-    }
-    end_run();
-}
-
-std::uint64_t Inlet::script_errors() const {
-    std::uint64_t errors = 0;
-    if (chain) {
-        for (const auto& monitor : chain->monitors)
-            errors += monitor->counters().errors;
-    }
-    return errors;
+    enqueue(batch);
 }
 
 }  // namespace plexus::daemon

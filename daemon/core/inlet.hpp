@@ -1,5 +1,6 @@
 #pragma once
-// Threading: owned by the daemon's one thread; no locking.
+// Threading: owned by the daemon's one thread; no locking. Its monitors may run elsewhere (a
+// MessageFilter): their verdicts come back here, on the daemon's thread, in order.
 
 #include <cstdint>
 #include <memory>
@@ -7,20 +8,17 @@
 
 #include "../arbitration/arbiter.hpp"
 #include "connection.hpp"
+#include "message_filter.hpp"
 #include "port.hpp"
 #include "reassembly.hpp"
 
 namespace plexus::daemon {
 
-namespace monitor {
-struct MonitorChain;
-}
-
 /// A connection as its destination port sees it, whether it comes from a port of this daemon or
 /// from another daemon: where the recv-side monitors and the port's arbitration run, with the
 /// counters `plexus stats` and `plexus events` show. Owned by the connection (local) or by the
 /// link session (remote); the port only watches it.
-class Inlet : public MessageSink {
+class Inlet : public MessageSink, public FilterClient {
 public:
     Inlet(std::shared_ptr<Port> port, std::string source, std::string carrier,
           std::shared_ptr<arbitration::Member> member)
@@ -29,22 +27,27 @@ public:
           carrier_(std::move(carrier)),
           member_(std::move(member)) {}
     /// The monitors go first: they take their events out of the port's container as they go.
-    ~Inlet() override { chain.reset(); }
+    ~Inlet() override {
+        if (monitors)
+            monitors->close();
+    }
 
-    bool full() const override { return port_->full(); }
-    std::size_t room() const override { return port_->room(); }
-    /// Runs the recv chain (accept, update), then the arbitration (constraint, stimulation), then
-    /// hands what passes to the port's reader queue.
+    bool full() const override { return room() == 0; }
+    /// The port's room, less what is still in the monitors on its way there.
+    std::size_t room() const override { return room_after(port_->room(), monitors.get()); }
+    /// Without monitors: the arbitration (constraint, stimulation), then the port's reader queue.
+    /// With monitors: to them first (accept, update, and the arbitration after them); what they
+    /// pass reaches the port through filtered().
     void deliver(const Message& message) override;
+    void filtered(std::vector<Filtered>& results) override;
 
     const std::shared_ptr<Port>& port() const { return port_; }
     const std::string& source() const { return source_; }
     const std::string& carrier() const { return carrier_; }
     const arbitration::Member& member() const { return *member_; }
-    /// Failed calls of the recv-side monitors' callbacks.
-    std::uint64_t script_errors() const;
 
-    std::shared_ptr<monitor::MonitorChain> chain;  ///< recv-side monitors; null when there are none
+    /// The recv-side monitors; null when there are none. They decide with the arbitration.
+    std::shared_ptr<MessageFilter> monitors;
 
     std::uint64_t received = 0;           ///< messages that arrived on this connection
     std::uint64_t dropped_by_accept = 0;  ///< dropped by a recv-side monitor
@@ -59,7 +62,8 @@ public:
 private:
     /// A batch passes whole when nothing here looks at single messages; else record by record.
     void deliver_batch(const Message& batch);
-    void deliver_batch_through_chain(const Message& batch);
+    /// To the port's reader queue, counted.
+    void enqueue(const Message& message);
 
     std::shared_ptr<Port> port_;
     std::string source_;

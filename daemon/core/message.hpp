@@ -37,6 +37,9 @@ struct Message {
     /// data_shm frame after its handle (region, offset, length, record head), and the message only
     /// ever goes to local clients that map regions (see net/shm_region.hpp).
     std::shared_ptr<const ShmSlot> shm{};
+    /// How many monitors' publish calls led to this message (0: a component wrote it). A monitor
+    /// that publishes into a connection whose monitor publishes again... is cut off past a few.
+    std::uint8_t publish_depth = 0;
 
     /// How many messages this unit carries.
     std::uint64_t count() const { return batch == 0 ? 1 : batch; }

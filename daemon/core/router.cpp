@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <limits>
 
-#include "../monitor/chain.hpp"
 #include "batch.hpp"
 #include "plexus/proto/port_name.hpp"
 
@@ -100,13 +99,13 @@ bool Router::remove(const std::shared_ptr<Connection>& connection) {
 
 bool Router::blocked(const Port& source) {
     return std::any_of(source.outgoing.begin(), source.outgoing.end(),
-                       [](const auto& c) { return c->sink->full(); });
+                       [](const auto& c) { return c->room() == 0; });
 }
 
 std::size_t Router::room(const Port& source) {
     std::size_t room = std::numeric_limits<std::size_t>::max();
     for (const auto& connection : source.outgoing)
-        room = std::min(room, connection->sink->room());
+        room = std::min(room, connection->room());
     return room;
 }
 
@@ -116,17 +115,13 @@ void Router::route(Port& source, const Message& message) {
         source.unconnected += message.count();  // pub-sub: nobody to send to, but say how many
     for (auto& connection : source.outgoing) {
         connection->sent += message.count();
-        if (!connection->send_chain) {
+        if (!connection->send_monitors) {
             connection->sink->deliver(message);  // a batch stays whole unless the sink splits it
             continue;
         }
-        for_each_record(message, [&](const Message& single) {
-            Message passed = single;
-            if (connection->send_chain->process(passed))
-                connection->sink->deliver(passed);
-            else
-                ++connection->dropped_by_monitor;
-        });
+        // The monitors see records one by one; what they pass reaches the sink through
+        // Connection::filtered.
+        connection->send_monitors->submit(message);
     }
 }
 

@@ -1,5 +1,7 @@
 #include "lua_sandbox.hpp"
 
+#include "bounded_library.hpp"
+
 #include <algorithm>
 #include <cstdlib>
 #include <cstring>
@@ -61,10 +63,6 @@ LuaSandbox::~LuaSandbox() {
     }
 }
 
-LuaSandbox& LuaSandbox::of(lua_State* L) {
-    return **static_cast<LuaSandbox**>(lua_getextraspace(L));
-}
-
 void* LuaSandbox::allocate(void* self, void* block, std::size_t old_size, std::size_t new_size) {
     auto& box = *static_cast<LuaSandbox*>(self);
     const std::size_t old_bytes = block ? old_size : 0;
@@ -95,6 +93,8 @@ void* LuaSandbox::allocate(void* self, void* block, std::size_t old_size, std::s
     if (!moved)
         return nullptr;
     box.used_ = box.used_ - old_bytes + new_size;
+    if (new_size > old_bytes && box.depth_ > 0)
+        box.charge_allocation(new_size - old_bytes);
     return moved;
 }
 
@@ -107,23 +107,52 @@ void LuaSandbox::arm_budget() {
     }
 }
 
-void LuaSandbox::budget_hook(lua_State* L, lua_Debug*) {
-    auto& box = of(L);
-    if (!box.aborting_) {
-        const auto now = std::chrono::steady_clock::now();
-        if (!box.deadline_set_) {
-            box.deadline_ = now + box.limits_.budget;
-            box.deadline_set_ = true;
-            return;
-        }
-        if (now < box.deadline_)
-            return;
+bool LuaSandbox::budget_spent(std::chrono::steady_clock::time_point now) {
+    if (aborting_)
+        return true;
+    if (!deadline_set_) {
+        deadline_ = now + limits_.budget;
+        deadline_set_ = true;
+        return false;
     }
-    box.aborting_ = true;
-    box.hook_tightened_ = true;
+    return now >= deadline_;
+}
+
+void LuaSandbox::tighten_hook(lua_State* L) {
+    aborting_ = true;
+    hook_tightened_ = true;
     // From now on every instruction raises, so a pcall in the script cannot resume the loop.
     lua_sethook(L, &LuaSandbox::budget_hook, LUA_MASKCOUNT, 1);
+}
+
+void LuaSandbox::budget_hook(lua_State* L, lua_Debug*) {
+    auto& box = of(L);
+    if (!box.budget_spent(std::chrono::steady_clock::now()))
+        return;
+    box.tighten_hook(L);
     luaL_error(L, "time budget of %d ms exceeded", static_cast<int>(box.limits_.budget.count()));
+}
+
+void LuaSandbox::check_budget(lua_State* L) {
+    auto& box = of(L);
+    box.credit_ = steps_per_check;
+    if (!box.budget_spent(std::chrono::steady_clock::now()))
+        return;
+    box.tighten_hook(L);
+    luaL_error(L, "time budget of %d ms exceeded", static_cast<int>(box.limits_.budget.count()));
+}
+
+void LuaSandbox::charge_allocation(std::size_t bytes) {
+    // Whatever allocates n bytes does O(n) work filling them, often in C code that runs no
+    // instruction (string.rep, upper, concatenation...): charging it here bounds a loop of such
+    // calls to one hook period. The allocator cannot raise (Lua does not expect it to), so past the
+    // deadline it only tightens the hook: the next instruction raises.
+    credit_ -= static_cast<std::int64_t>(bytes) / bytes_per_step;
+    if (credit_ > 0)
+        return;
+    credit_ = steps_per_check;
+    if (!aborting_ && budget_spent(std::chrono::steady_clock::now()))
+        tighten_hook(L_);
 }
 
 int LuaSandbox::guarded_call(lua_State* L) {
@@ -189,6 +218,8 @@ void LuaSandbox::open_safe_libraries() {
     lua_pushnil(L);
     lua_setfield(L, -2, "dump");
     lua_pop(L, 1);
+    // The C functions that could run unbounded give way to bounded ones (docs/MONITORS.md).
+    open_bounded_library(L);
 
     for (const char* catcher : {"pcall", "xpcall"}) {
         lua_getglobal(L, catcher);

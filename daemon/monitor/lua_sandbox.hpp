@@ -8,6 +8,7 @@
 
 #include <chrono>
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <optional>
 #include <string>
@@ -55,6 +56,20 @@ public:
     /// before must have been pushed with functions that cannot raise (rawget and the like).
     std::optional<ScriptError> call(int arguments, int results);
 
+    /// For the C functions a script can call (bounded_library.hpp): they charge their work here,
+    /// in steps of a few nanoseconds each. Every `steps_per_check` steps the clock is read, and
+    /// past the deadline the call is aborted exactly as the hook aborts Lua code (a timeout).
+    static void charge(lua_State* L, std::int64_t steps) {
+        auto& box = of(L);
+        if ((box.credit_ -= steps) <= 0)
+            check_budget(L);
+    }
+    /// Reads the clock now; raises the budget error if the budget is spent.
+    static void check_budget(lua_State* L);
+    static constexpr std::int64_t steps_per_check = 4096;
+    /// Bytes copied or filled per step, for charges by size (allocations, memcpy).
+    static constexpr std::int64_t bytes_per_step = 64;
+
 private:
     static void* allocate(void* self, void* block, std::size_t old_size, std::size_t new_size);
     static void budget_hook(lua_State* L, lua_Debug* debug);
@@ -63,7 +78,13 @@ private:
     static int guarded_continue(lua_State* L, int status, lua_KContext context);
     static int text_only_load(lua_State* L);
     static int print_to_log(lua_State* L);
-    static LuaSandbox& of(lua_State* L);
+    static LuaSandbox& of(lua_State* L) { return **static_cast<LuaSandbox**>(lua_getextraspace(L)); }
+    /// True once the deadline has passed; the first look at the clock in a call sets the deadline.
+    bool budget_spent(std::chrono::steady_clock::time_point now);
+    /// Every instruction of `L` raises from now on, until the call unwinds.
+    void tighten_hook(lua_State* L);
+    /// The allocator gave `bytes` more: they will be filled, which costs time too.
+    void charge_allocation(std::size_t bytes);
 
     /// lua_pcall of the function below `arguments` values, with the traceback handler and the budget.
     int protected_call(int arguments, int results);
@@ -81,6 +102,8 @@ private:
     bool deadline_set_ = false;
     bool aborting_ = false;        ///< the budget is spent: every instruction raises until the call unwinds
     bool hook_tightened_ = false;  ///< the hook fires on every instruction since the last abort
+    /// Steps C functions and the allocator may still charge before the clock is read again.
+    std::int64_t credit_ = steps_per_check;
     int depth_ = 0;  ///< protected calls in progress: nested ones cannot use the handler at index 1
     lua_State* L_ = nullptr;
 };

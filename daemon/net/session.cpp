@@ -217,10 +217,10 @@ std::optional<Session::Incoming> Session::decode_shm(InFrame& frame) {
 
 bool Session::passes_shm(const Port& port, const ShmRegion& region) const {
     for (const auto& connection : port.outgoing) {
-        if (connection->remote || connection->send_chain)
+        if (connection->remote || connection->send_monitors)
             return false;
         const auto* inlet = dynamic_cast<const Inlet*>(connection->sink.get());
-        if (!inlet || inlet->chain || !inlet->member().trivial())
+        if (!inlet || inlet->monitors || !inlet->member().trivial())
             return false;
         const auto reader = daemon_.session(inlet->port()->owner());
         if (!reader || !reader->maps_shm())

@@ -8,6 +8,7 @@
 
 #include "arbitration/clock.hpp"
 #include "monitor/chain.hpp"
+#include "monitor/stage.hpp"
 #include "test_messages.hpp"
 
 namespace plexus::daemon {
@@ -34,13 +35,15 @@ Message batch_of(std::uint32_t n) {
 
 struct Inlet_test : ::testing::Test {
     QuietHost host;
+    asio::io_context io;
+    monitor::Workers workers{1};
     arbitration::ManualClock clock;
     std::shared_ptr<arbitration::Arbiter> arbiter = std::make_shared<arbitration::Arbiter>(clock);
     std::shared_ptr<Port> port = std::make_shared<Port>("/b", 1, QueuePolicy::strict, 100);
 
-    std::unique_ptr<Inlet> inlet_with(const std::string& script) {
-        auto inlet = std::make_unique<Inlet>(port, "/a", "local+recv.portmonitor+file.t",
-                                             std::make_shared<arbitration::Member>(arbiter, "/a"));
+    std::shared_ptr<Inlet> inlet_with(const std::string& script) {
+        auto member = std::make_shared<arbitration::Member>(arbiter, "/a");
+        auto inlet = std::make_shared<Inlet>(port, "/a", "local+recv.portmonitor+file.t", member);
         monitor::MonitorSpec spec;
         spec.script = monitor::Script{"t", "t.lua", script};
         spec.side = proto::Side::recv;
@@ -51,9 +54,23 @@ struct Inlet_test : ::testing::Test {
         policy.limits.budget = 50ms;
         auto created = monitor::Monitor::create(spec, policy, host);
         EXPECT_TRUE(created.ok()) << (created.ok() ? "" : created.error().message);
-        inlet->chain = std::make_shared<monitor::MonitorChain>();
-        inlet->chain->monitors.push_back(std::move(*created));
+        auto chain = std::make_shared<monitor::MonitorChain>();
+        chain->monitors.push_back(std::move(*created));
+        auto stage = std::make_shared<monitor::MonitorStage>(workers.make_strand(), io.get_executor(), chain,
+                                                             member, monitor::MonitorStage::Options{}, nullptr);
+        stage->attach(inlet);
+        inlet->monitors = stage;
         return inlet;
+    }
+
+    /// The monitors run on a worker; their verdicts come back through `io`.
+    void wait_for_verdicts(const Inlet& inlet) {
+        const auto deadline = std::chrono::steady_clock::now() + 10s;
+        while (inlet.monitors->in_flight() > 0 && std::chrono::steady_clock::now() < deadline) {
+            io.restart();
+            io.run_for(10ms);
+        }
+        ASSERT_EQ(inlet.monitors->in_flight(), 0u) << "verdicts did not come back within 10 s";
     }
 
     std::vector<std::vector<std::uint64_t>> queued() {
@@ -67,6 +84,7 @@ struct Inlet_test : ::testing::Test {
 TEST_F(Inlet_test, RecordsAMonitorPassesUnchangedStayTogetherBetweenTheOnesItDrops) {
     auto inlet = inlet_with("PortMonitor.accept = function(msg) return msg.seq % 3 ~= 0 end");
     inlet->deliver(batch_of(7));
+    wait_for_verdicts(*inlet);
     EXPECT_EQ(inlet->received, 7u);
     EXPECT_EQ(inlet->dropped_by_accept, 2u);
     EXPECT_EQ(inlet->accepted, 5u);
@@ -83,6 +101,7 @@ TEST_F(Inlet_test, ARewrittenRecordLeavesOnItsOwnAndEndsTheRun) {
             return msg
         end)");
     inlet->deliver(batch_of(4));
+    wait_for_verdicts(*inlet);
     EXPECT_EQ(inlet->delivered, 4u);
     const auto entries = [&] {
         std::vector<Message> all;
