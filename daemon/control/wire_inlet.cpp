@@ -82,8 +82,6 @@ proto::Result<WiredInlet> wire_inlet(ScriptHost& scripts, const arbitration::Clo
     port->inbound.push_back(inlet);
     if (spec.carrier.qos.prio)
         port->ask_priority(inlet, *spec.carrier.qos.prio);
-    if (spec.carrier.qos.prio)
-        port->ask_priority(inlet, *spec.carrier.qos.prio);
     std::lock_guard lock(port->arbiter->mutex());
     port->arbiter->join(**member);
     return WiredInlet{std::move(inlet), std::move(*warnings)};
