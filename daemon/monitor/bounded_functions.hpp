@@ -20,6 +20,15 @@ int string_gsub(lua_State* L);
 int string_rep(lua_State* L);
 /// string.format: the stock function, fed a bounded piece of the format at a time. Upvalue 1 is it.
 int string_format(lua_State* L);
+/// string.pack with a bounded format (length and "cN" sizes); upvalue 1 is the stock function.
+int string_pack(lua_State* L);
+/// string.unpack and string.packsize with a bounded format length; upvalue 1 is the stock one.
+int string_unpack_or_packsize(lua_State* L);
+
+// bounded_load.cpp
+/// Replaces load's chunk (argument 1, a string or a reader function) with a reader that hands it
+/// to the compiler in pieces, charging each; leaves other arguments as they were.
+void replace_chunk_with_reader(lua_State* L);
 
 // bounded_table.cpp
 int table_insert(lua_State* L);

@@ -37,6 +37,9 @@ void open_bounded_library(lua_State* L) {
     replace(L, "rep", bounded::string_rep);
     wrap(L, "format", bounded::string_format);
     wrap(L, "char", charged_by_arguments);
+    wrap(L, "pack", bounded::string_pack);
+    wrap(L, "unpack", bounded::string_unpack_or_packsize);
+    wrap(L, "packsize", bounded::string_unpack_or_packsize);
     lua_pop(L, 1);
 
     lua_getglobal(L, LUA_TABLIBNAME);

@@ -1,5 +1,6 @@
 #include "lua_sandbox.hpp"
 
+#include "bounded_functions.hpp"
 #include "bounded_library.hpp"
 
 #include <algorithm>
@@ -174,6 +175,7 @@ int LuaSandbox::text_only_load(lua_State* L) {
     // load(chunk [, chunkname [, mode [, env]]]), with mode forced to "t": no bytecode, ever.
     if (lua_gettop(L) < 3)
         lua_settop(L, 3);
+    bounded::replace_chunk_with_reader(L);  // compiling is charged to the budget
     lua_pushliteral(L, "t");
     lua_replace(L, 3);
     lua_pushvalue(L, lua_upvalueindex(1));
@@ -186,6 +188,7 @@ int LuaSandbox::print_to_log(lua_State* L) {
     luaL_Buffer line;
     luaL_buffinit(L, &line);
     const int n = lua_gettop(L);
+    charge(L, n);  // the line's bytes are charged as they are allocated
     for (int i = 1; i <= n; ++i) {
         if (i > 1)
             luaL_addchar(&line, '\t');

@@ -230,6 +230,12 @@ TEST(BoundedLibrary_test, TableAndUtf8FunctionsAgreeWithLua) {
         "local f = string.rep('%%', 3000) .. string.rep('%5.1f', 100) local a = {} for i = 1, 100 do a[i] = i / 3 "
         "end return string.format(f, table.unpack(a))",
         "return pcall(string.format, string.rep('%d', 200), table.unpack({1, 2, 3}))",
+        "return string.format('%q %s %q', 'x\\0' .. '1', 'y', 12.5), string.format('%5s', 'abc')",
+        "return string.pack('<i4c5s1', 7, 'ab', 'xyz'), string.packsize('i4i8'), string.unpack('<i2', '\\1\\2')",
+        "return pcall(string.pack, 'c3', 'abcd'), pcall(string.unpack, 'i4', 'ab')",
+        "return select('#', load('return 1')), load('return 1 +')",
+        "return load('syntax error here', 'named'), load('return ...', '=x', 't', {})(4)",
+        "local parts = {'return ', '1 ', '+ 2'} local i = 0 return load(function() i = i + 1 return parts[i] end)()",
         "local a = {} for i = 1, 200 do a[i] = i end a[150] = 'x' return pcall(string.format, string.rep('%d', "
         "200), table.unpack(a))",
     };
@@ -295,7 +301,8 @@ INSTANTIATE_TEST_SUITE_P(
         "local s = string.rep('a', 8000000) while true do utf8.offset(s, 8000000) end",
         "local f = string.rep('%%', 2000000) while true do string.format(f) end",
         "local s = string.rep('a', 4000000) while true do s:upper() end",
-        "while true do string.rep('x', 4000000) end"));
+        "while true do string.rep('x', 4000000) end",
+        "load('return ' .. string.rep('1+', 1000000) .. '1')"));
 
 }  // namespace
 }  // namespace plexus::daemon::monitor
