@@ -108,6 +108,7 @@ void apply_config_text(const std::string& path, std::string_view text, DaemonCon
                                              "names_grace_ms",
                                              "names_state",
                                              "scripts",
+                                             "monitor_libs",
                                              "log_level",
                                              "monitor_memory_bytes",
                                              "monitor_budget_ms",
@@ -136,6 +137,8 @@ void apply_config_text(const std::string& path, std::string_view text, DaemonCon
     config.names_state = json.value("names_state", config.names_state);
     for (const auto& dir : json.value("scripts", std::vector<std::string>{}))
         config.script_dirs.push_back(dir);
+    for (const auto& dir : json.value("monitor_libs", std::vector<std::string>{}))
+        config.monitor_lib_dirs.push_back(dir);
     auto& monitors = config.monitors;
     monitors.limits.memory_bytes =
         whole_number(json, "monitor_memory_bytes", monitors.limits.memory_bytes, path);

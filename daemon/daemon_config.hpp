@@ -26,6 +26,8 @@ struct DaemonConfig {
     std::string socket_path;
     std::string node;
     std::vector<std::string> script_dirs;
+    /// Directories of compiled monitors (type.so): the only places a plugin is loaded from.
+    std::vector<std::string> monitor_lib_dirs;
     std::string ready_file;  ///< written (JSON: node, address, socket, names) once registered
     std::size_t max_frame = proto::default_max_frame;
     std::size_t default_capacity = 1024;  ///< reader queue length when a client does not say

@@ -62,6 +62,9 @@ int main(int argc, char** argv) {
         ->capture_default_str();
     app.add_option("--node", node, "this daemon's node name, unique among daemons")->capture_default_str();
     app.add_option("--scripts", config.script_dirs, "directory of monitor scripts (repeatable)");
+    app.add_option("--monitor-libs", config.monitor_lib_dirs,
+                   "directory of compiled monitors, type.so (repeatable); plugins are trusted code that "
+                   "runs inside this daemon");
     app.add_option("--monitor-threads", config.monitor_threads,
                    "threads that run port monitors, so that a slow script delays only its own "
                    "connection (0: one per core)")

@@ -1,14 +1,18 @@
 #pragma once
 // Threading: the daemon's one thread.
 //
-// One port monitor: a Lua script on one side of one connection, in its own sandboxed state. It
-// sees each message (accept, update), runs on a timer (trig), answers `plexus param`, and is
-// quarantined -- its state closed, its memory returned -- when it keeps failing.
+// One port monitor on one side of one connection: a Lua script in its own sandboxed state
+// (lua_monitor.*) or a compiled plugin (plugin_monitor.*), behind the same shell. It sees each
+// message (accept, update), runs on a timer (trig), answers `plexus param`, and is quarantined --
+// its state closed, its memory returned -- when it keeps failing. The shell keeps the counters,
+// the failure policy and the PortMonitor functions both kinds call (setEvent, publish, ...).
 
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
+#include <string_view>
 
 #include <nlohmann/json.hpp>
 
@@ -21,7 +25,7 @@
 namespace plexus::daemon::monitor {
 
 class Monitor;
-struct MessageBox;
+class MonitorBackend;
 
 /// What the daemon gives scripts beyond the sandbox (DESIGN: "Functions the daemon gives the script").
 class MonitorHost {
@@ -41,8 +45,12 @@ public:
 /// errors pass the original on (DESIGN); the clause key `onerror.drop|pass` forces one.
 enum class OnError { by_callback, drop, pass };
 
+/// What runs the monitor: `type.lua` (a script) or `type.so` (a compiled plugin).
+enum class MonitorType { lua, plugin };
+
 struct MonitorSpec {
-    Script script;
+    Script script;  ///< for a plugin: its name and the library's path; no code
+    MonitorType type = MonitorType::lua;
     proto::Side side = proto::Side::recv;
     std::string source;
     std::string destination;
@@ -70,8 +78,8 @@ struct MonitorCounters {
 
 class Monitor {
 public:
-    /// Loads the script and calls create(options). Fails with the script's name and the Lua error
-    /// (file and line), or when create returns false.
+    /// Loads the script or plugin and calls create(options). Fails with the monitor's name and the
+    /// error (a script's file and line), or when create refuses.
     static proto::Result<std::unique_ptr<Monitor>> create(MonitorSpec spec, const MonitorPolicy& policy,
                                                           MonitorHost& host);
     ~Monitor();
@@ -82,61 +90,53 @@ public:
     /// Runs accept and update on a message; on pass, `message` may have been replaced.
     Verdict process(Message& message);
     void trig();
-    /// getparam's table, or null when the script has no getparam.
+    /// getparam's table, or null when the monitor has no getparam.
     proto::Result<nlohmann::json> getparam();
-    /// Calls setparam(values); false when the script has none.
+    /// Calls setparam(values); false when the monitor has none.
     proto::Result<bool> setparam(const nlohmann::json& values);
+
+    // The PortMonitor functions, called by the backends from inside a callback. Each checks its
+    // arguments; errors are worded for the monitor's author ("setEvent: ...").
+    proto::Status publish(const std::string& port, const nlohmann::json& value);
+    proto::Status set_trig_interval(double seconds);
+    double now() const;
+    /// `lifetime`: seconds, none when empty (arbitration_api.cpp, like the four below).
+    proto::Status set_event(const std::string& name, std::optional<double> lifetime);
+    proto::Status unset_event(const std::string& name);
+    proto::Result<bool> has_event(const std::string& name);
+    /// Empty clears the constraint.
+    proto::Status set_constraint(const std::optional<std::string>& text);
+    proto::Result<std::optional<std::string>> get_constraint();
+    enum class LogLevel { info, warn, error };
+    /// A line in the daemon's log, tagged with the monitor's description.
+    void log(LogLevel level, std::string_view line) const;
 
     std::uint64_t id() const { return id_; }
     const MonitorSpec& spec() const { return spec_; }
     const MonitorCounters& counters() const { return counters_; }
     bool quarantined() const { return quarantined_; }
     const std::string& last_error() const { return last_error_; }
-    std::size_t memory_in_use() const { return sandbox_ ? sandbox_->memory_in_use() : 0; }
+    std::size_t memory_in_use() const;
     /// "certainty (recv)", for logs.
     std::string description() const;
     nlohmann::json stats() const;
 
 private:
     Monitor(MonitorSpec spec, const MonitorPolicy& policy, MonitorHost& host);
-    void install_api(lua_State* L);
-    bool has_callback(lua_State* L, const char* name);
-    /// Pushes PortMonitor[name] if it is a function; false (nothing pushed) otherwise.
-    bool push_callback(lua_State* L, const char* name);
-    /// The same for a name anchored in the registry: cannot raise, so usable outside a protected call.
-    bool push_callback(lua_State* L, int name_ref);
-    /// accept on the fast path: no protected trampoline, no std::function.
-    std::optional<ScriptError> call_accept(lua_State* L, bool& accepted);
     void succeeded() { consecutive_failures_ = 0; }
     void failed(const char* callback, const ScriptError& error);
     void quarantine();
     Verdict verdict_on_failure(bool in_accept) const;
-
-    static int api_publish(lua_State* L);
-    static int api_set_trig_interval(lua_State* L);
-    static int api_now(lua_State* L);
-    // The event and constraint functions, in arbitration_api.cpp.
-    static int api_set_event(lua_State* L);
-    static int api_unset_event(lua_State* L);
-    static int api_has_event(lua_State* L);
-    static int api_set_constraint(lua_State* L);
-    static int api_get_constraint(lua_State* L);
-    /// The member, or a Lua error naming `function` on a send-side monitor.
-    static arbitration::Member& member_of(lua_State* L, const char* function);
+    /// The member, or an error naming `function` on a send-side monitor.
+    proto::Result<arbitration::Member*> member_for(const char* function) const;
     /// Its events leave the container: the monitor is going away or was quarantined.
     void release_events();
-    static Monitor& self(lua_State* L);
 
     std::uint64_t id_;
     MonitorSpec spec_;
     MonitorPolicy policy_;
     MonitorHost& host_;
-    std::unique_ptr<LuaSandbox> sandbox_;
-    int message_ref_ = LUA_NOREF;        ///< the one `msg` userdata, reused for every message
-    MessageBox* message_box_ = nullptr;  ///< its memory: Lua never moves a userdata
-    bool data_kept_ = false;             ///< its user value still holds the last message's data
-    int api_name_ref_ = LUA_NOREF;       ///< "PortMonitor", kept alive so pushing it never allocates
-    int accept_name_ref_ = LUA_NOREF;    ///< "accept", likewise
+    std::unique_ptr<MonitorBackend> backend_;  ///< null once quarantined
     bool has_accept_ = false;
     bool has_update_ = false;
     MonitorCounters counters_;

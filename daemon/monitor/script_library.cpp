@@ -47,4 +47,27 @@ proto::Result<Script> find_script(const std::string& name, const std::vector<std
     return proto::Error{"script '" + file + "' not found in " + searched};
 }
 
+proto::Result<Script> find_plugin(const std::string& name, const std::vector<std::string>& directories) {
+    if (auto valid = check_script_name(name); !valid)
+        return valid.error();
+    const bool has_extension = name.size() > 3 && name.compare(name.size() - 3, 3, ".so") == 0;
+    const std::string file = has_extension ? name : name + ".so";
+    std::string searched;
+    for (const auto& directory : directories) {
+        std::error_code ec;
+        // Absolute, so that dlopen takes it as a file and never searches the library path.
+        const auto path = std::filesystem::absolute(std::filesystem::path(directory) / file, ec);
+        if (ec || !std::filesystem::is_regular_file(path, ec)) {
+            searched += (searched.empty() ? "" : ", ") + directory;
+            continue;
+        }
+        return Script{name, path.string(), {}};
+    }
+    if (directories.empty())
+        return proto::Error{"monitor plugin '" + name +
+                            "' not found: the daemon has no --monitor-libs directory (plugins are loaded "
+                            "only from there)"};
+    return proto::Error{"monitor plugin '" + file + "' not found in the --monitor-libs directories " + searched};
+}
+
 }  // namespace plexus::daemon::monitor

@@ -1,5 +1,7 @@
 #pragma once
-// Finds monitor scripts by name in the daemon's --scripts directories: `file.NAME` -> NAME.lua.
+// Finds monitor scripts by name in the daemon's --scripts directories (`file.NAME` -> NAME.lua),
+// and compiled monitors in its --monitor-libs directories (`type.so+file.NAME` -> NAME.so), with
+// the same name rules.
 
 #include <string>
 #include <vector>
@@ -23,5 +25,9 @@ proto::Status check_script_name(const std::string& name);
 /// Reads NAME.lua (or NAME when it already ends in .lua) from the first directory that has it.
 /// Errors say which directories were searched.
 proto::Result<Script> find_script(const std::string& name, const std::vector<std::string>& directories);
+
+/// The absolute path of NAME.so (or NAME when it already ends in .so) in the first directory that
+/// has it: the file is not read, dlopen loads it. Same name rules and errors as find_script.
+proto::Result<Script> find_plugin(const std::string& name, const std::vector<std::string>& directories);
 
 }  // namespace plexus::daemon::monitor

@@ -1,0 +1,488 @@
+#include "lua_monitor.hpp"
+
+#include <cstring>
+
+#include "lua_guard.hpp"
+#include "lua_value.hpp"
+#include "plexus/proto/cbor.hpp"
+#include "plexus/proto/message.hpp"
+
+namespace plexus::daemon::monitor {
+
+namespace {
+
+constexpr const char* api_table = "PortMonitor";
+constexpr const char* message_type = "plexus.msg";
+
+/// One message as a callback sees it; lives on the C++ stack for one process() call.
+struct MessageView {
+    proto::RecordView record;
+    std::optional<nlohmann::json> decoded;  ///< the payload as first decoded: the hint for re-encoding
+    bool touched = false;                   ///< msg.data exists as a Lua value (uservalue 1)
+    bool assigned = false;                  ///< the script assigned msg.data
+};
+
+struct MessageBox {
+    MessageView* view = nullptr;  ///< null outside a callback
+};
+
+MessageView& view_of(lua_State* L) {
+    // Only the msg metatable (protected by __metatable) leads here, so argument 1 is a MessageBox.
+    auto* box = static_cast<MessageBox*>(lua_touserdata(L, 1));
+    if (!box || !box->view)
+        luaL_error(L, "msg used after its callback returned");
+    return *box->view;
+}
+
+/// Pushes msg.data, decoding the payload on first touch.
+void push_data(lua_State* L, MessageView& view) {
+    if (!view.touched) {
+        push_cbor(L, view.record.payload);
+        lua_setiuservalue(L, 1, 1);
+        view.touched = true;
+    }
+    lua_getiuservalue(L, 1, 1);
+}
+
+/// The payload as json, decoded only when a rewrite needs it as the hint (blobs stay blobs).
+const nlohmann::json* hint_of(MessageView& view) {
+    if (!view.touched)
+        return nullptr;
+    if (!view.decoded) {
+        auto decoded = proto::decode_cbor_fast(view.record.payload);
+        if (!decoded)
+            return nullptr;  // push_cbor took it, so this does not happen
+        view.decoded = std::move(*decoded);
+    }
+    return &*view.decoded;
+}
+
+int message_index(lua_State* L) {
+    return guard(L, [L] {
+        MessageView& view = view_of(L);
+        std::size_t size = 0;
+        const char* key = luaL_checklstring(L, 2, &size);
+        const std::string_view name(key, size);
+        if (name == "data")
+            push_data(L, view);
+        else if (name == "source")
+            lua_pushlstring(L, view.record.source.data(), view.record.source.size());
+        else if (name == "seq")
+            lua_pushinteger(L, static_cast<lua_Integer>(view.record.seq));
+        else if (name == "time")
+            lua_pushnumber(L, static_cast<double>(view.record.time_ns) / 1e9);
+        else if (name == "size")
+            lua_pushinteger(L, static_cast<lua_Integer>(view.record.payload.size()));
+        else
+            lua_pushnil(L);
+        return 1;
+    });
+}
+
+int message_newindex(lua_State* L) {
+    MessageView& view = view_of(L);
+    if (std::strcmp(luaL_checkstring(L, 2), "data") != 0)
+        return luaL_error(L, "msg.%s cannot be assigned: only msg.data can", lua_tostring(L, 2));
+    if (!view.touched) {
+        // Keep the original as the hint, so blobs written back stay blobs.
+        push_data(L, view);
+        lua_pop(L, 1);
+    }
+    lua_settop(L, 3);
+    lua_setiuservalue(L, 1, 1);
+    view.assigned = true;
+    return 0;
+}
+
+Message encode_message(const proto::RecordView& record, const nlohmann::json& payload) {
+    const auto cbor = nlohmann::json::to_cbor(payload);
+    proto::Bytes bytes;
+    proto::append_record(bytes, record.source, record.seq, record.time_ns, cbor);
+    auto chunk = std::make_shared<Chunk>(bytes.size());
+    std::memcpy(chunk->data(), bytes.data(), bytes.size());
+    const proto::ByteView view(chunk->data(), bytes.size());
+    return Message{std::move(chunk), view, record.seq};
+}
+
+const char* side_name(proto::Side side) {
+    return side == proto::Side::send ? "send" : "recv";
+}
+
+// --- The PortMonitor functions: Lua wrappers around the Monitor shell's ---
+
+Monitor& owner(lua_State* L) {
+    return *static_cast<Monitor*>(lua_touserdata(L, lua_upvalueindex(1)));
+}
+
+/// Raises the status's error as a Lua error (the script sees it, pcall can catch it).
+int raise_if_failed(lua_State* L, const proto::Status& status) {
+    if (!status)
+        return luaL_error(L, "%s", status.error().message.c_str());
+    return 0;
+}
+
+int api_publish(lua_State* L) {
+    return guard(L, [L] {
+        const std::string port = luaL_checkstring(L, 1);
+        luaL_checkany(L, 2);
+        const auto value = to_json(L, 2);
+        return raise_if_failed(L, owner(L).publish(port, value));
+    });
+}
+
+int api_set_trig_interval(lua_State* L) {
+    const double seconds = luaL_checknumber(L, 1);
+    return guard(L, [L, seconds] { return raise_if_failed(L, owner(L).set_trig_interval(seconds)); });
+}
+
+int api_now(lua_State* L) {
+    lua_pushnumber(L, owner(L).now());
+    return 1;
+}
+
+int api_set_event(lua_State* L) {
+    const std::string name = luaL_checkstring(L, 1);
+    std::optional<double> lifetime;
+    if (!lua_isnoneornil(L, 2))
+        lifetime = luaL_checknumber(L, 2);
+    return guard(L, [&] { return raise_if_failed(L, owner(L).set_event(name, lifetime)); });
+}
+
+int api_unset_event(lua_State* L) {
+    const std::string name = luaL_checkstring(L, 1);
+    return guard(L, [&] { return raise_if_failed(L, owner(L).unset_event(name)); });
+}
+
+int api_has_event(lua_State* L) {
+    const std::string name = luaL_checkstring(L, 1);
+    return guard(L, [&] {
+        auto has = owner(L).has_event(name);
+        if (!has)
+            return luaL_error(L, "%s", has.error().message.c_str());
+        lua_pushboolean(L, *has ? 1 : 0);
+        return 1;
+    });
+}
+
+int api_set_constraint(lua_State* L) {
+    std::optional<std::string> text;
+    if (!lua_isnoneornil(L, 1))
+        text = luaL_checkstring(L, 1);
+    return guard(L, [&] { return raise_if_failed(L, owner(L).set_constraint(text)); });
+}
+
+int api_get_constraint(lua_State* L) {
+    return guard(L, [L] {
+        auto text = owner(L).get_constraint();
+        if (!text)
+            return luaL_error(L, "%s", text.error().message.c_str());
+        if (!*text)
+            lua_pushnil(L);
+        else
+            lua_pushlstring(L, (*text)->data(), (*text)->size());
+        return 1;
+    });
+}
+
+class LuaMonitor final : public MonitorBackend {
+public:
+    LuaMonitor(Monitor& monitor, const MonitorPolicy& policy) : monitor_(monitor), policy_(policy) {}
+
+    proto::Status create();
+
+    bool has_accept() const override { return has_accept_; }
+    bool has_update() const override { return has_update_; }
+    Outcome process(Message& message) override;
+    std::optional<ScriptError> trig() override;
+    std::optional<ScriptError> getparam(nlohmann::json& result) override;
+    std::optional<ScriptError> setparam(const nlohmann::json& values, bool& defined) override;
+    std::optional<ScriptError> destroy() override;
+    std::size_t memory_in_use() const override { return sandbox_ ? sandbox_->memory_in_use() : 0; }
+
+private:
+    void install_api(lua_State* L);
+    bool has_callback(lua_State* L, const char* name);
+    /// Pushes PortMonitor[name] if it is a function; false (nothing pushed) otherwise.
+    bool push_callback(lua_State* L, const char* name);
+    /// The same for a name anchored in the registry: cannot raise, so usable outside a protected call.
+    bool push_callback(lua_State* L, int name_ref);
+    /// accept on the fast path: no protected trampoline, no std::function.
+    std::optional<ScriptError> call_accept(lua_State* L, bool& accepted);
+
+    Monitor& monitor_;
+    MonitorPolicy policy_;
+    std::unique_ptr<LuaSandbox> sandbox_;
+    int message_ref_ = LUA_NOREF;        ///< the one `msg` userdata, reused for every message
+    MessageBox* message_box_ = nullptr;  ///< its memory: Lua never moves a userdata
+    bool data_kept_ = false;             ///< its user value still holds the last message's data
+    int api_name_ref_ = LUA_NOREF;       ///< "PortMonitor", kept alive so pushing it never allocates
+    int accept_name_ref_ = LUA_NOREF;    ///< "accept", likewise
+    bool has_accept_ = false;
+    bool has_update_ = false;
+};
+
+void LuaMonitor::install_api(lua_State* L) {
+    const std::pair<const char*, lua_CFunction> functions[] = {
+        {"publish", &api_publish},
+        {"setTrigInterval", &api_set_trig_interval},
+        {"now", &api_now},
+        {"setEvent", &api_set_event},
+        {"unsetEvent", &api_unset_event},
+        {"hasEvent", &api_has_event},
+        {"setConstraint", &api_set_constraint},
+        {"getConstraint", &api_get_constraint},
+    };
+    // Into the current PortMonitor table: a script that replaced it with its own keeps the API.
+    if (lua_getglobal(L, api_table) != LUA_TTABLE) {
+        lua_pop(L, 1);
+        lua_newtable(L);
+        lua_pushvalue(L, -1);
+        lua_setglobal(L, api_table);
+    }
+    for (const auto& [name, function] : functions) {
+        if (lua_getfield(L, -1, name) == LUA_TNIL) {
+            lua_pushlightuserdata(L, &monitor_);
+            lua_pushcclosure(L, function, 1);
+            lua_setfield(L, -3, name);
+        }
+        lua_pop(L, 1);
+    }
+    lua_pop(L, 1);
+}
+
+bool LuaMonitor::push_callback(lua_State* L, const char* name) {
+    // Raw look-ups: a script's metatables must not run here.
+    lua_rawgeti(L, LUA_REGISTRYINDEX, LUA_RIDX_GLOBALS);
+    lua_pushstring(L, api_table);
+    if (lua_rawget(L, -2) != LUA_TTABLE) {
+        lua_pop(L, 2);
+        return false;
+    }
+    lua_pushstring(L, name);
+    if (lua_rawget(L, -2) != LUA_TFUNCTION) {
+        lua_pop(L, 3);
+        return false;
+    }
+    lua_replace(L, -3);
+    lua_pop(L, 1);
+    return true;
+}
+
+bool LuaMonitor::push_callback(lua_State* L, int name_ref) {
+    if (!lua_checkstack(L, 4))
+        return false;
+    lua_rawgeti(L, LUA_REGISTRYINDEX, LUA_RIDX_GLOBALS);
+    lua_rawgeti(L, LUA_REGISTRYINDEX, api_name_ref_);
+    if (lua_rawget(L, -2) != LUA_TTABLE) {
+        lua_pop(L, 2);
+        return false;
+    }
+    lua_rawgeti(L, LUA_REGISTRYINDEX, name_ref);
+    if (lua_rawget(L, -2) != LUA_TFUNCTION) {
+        lua_pop(L, 3);
+        return false;
+    }
+    lua_replace(L, -3);
+    lua_pop(L, 1);
+    return true;
+}
+
+std::optional<ScriptError> LuaMonitor::call_accept(lua_State* L, bool& accepted) {
+    const int base = lua_gettop(L);
+    if (!push_callback(L, accept_name_ref_))
+        return std::nullopt;  // the script removed its accept: everything passes
+    lua_rawgeti(L, LUA_REGISTRYINDEX, message_ref_);
+    auto error = sandbox_->call(1, 1);
+    if (error)
+        return error;
+    std::optional<ScriptError> wrong_type;
+    if (!lua_isboolean(L, -1))
+        wrong_type =
+            ScriptError{std::string("accept must return true or false, not ") + luaL_typename(L, -1)};
+    accepted = lua_toboolean(L, -1) != 0;
+    lua_settop(L, base);
+    return wrong_type;
+}
+
+bool LuaMonitor::has_callback(lua_State* L, const char* name) {
+    if (!push_callback(L, name))
+        return false;
+    lua_pop(L, 1);
+    return true;
+}
+
+proto::Status LuaMonitor::create() {
+    const MonitorSpec& spec = monitor_.spec();
+    const std::string& name = spec.script.name;
+    try {
+        Monitor& monitor = monitor_;
+        sandbox_ = std::make_unique<LuaSandbox>(
+            policy_.limits, [&monitor](std::string_view line) { monitor.log(Monitor::LogLevel::info, line); });
+    } catch (const std::exception& e) {
+        return proto::Error{"script '" + name + "': " + e.what()};
+    }
+    auto setup = sandbox_->run([this](lua_State* L) {
+        lua_newtable(L);
+        lua_setglobal(L, api_table);
+        install_api(L);
+        // The msg object: a userdata with one user value (msg.data) and a metatable.
+        luaL_newmetatable(L, message_type);
+        lua_pushcfunction(L, message_index);
+        lua_setfield(L, -2, "__index");
+        lua_pushcfunction(L, message_newindex);
+        lua_setfield(L, -2, "__newindex");
+        lua_pushliteral(L, "msg");
+        lua_setfield(L, -2, "__metatable");
+        lua_pop(L, 1);
+        message_box_ = new (lua_newuserdatauv(L, sizeof(MessageBox), 1)) MessageBox{};
+        luaL_setmetatable(L, message_type);
+        message_ref_ = luaL_ref(L, LUA_REGISTRYINDEX);
+        lua_pushstring(L, api_table);
+        api_name_ref_ = luaL_ref(L, LUA_REGISTRYINDEX);
+        lua_pushstring(L, "accept");
+        accept_name_ref_ = luaL_ref(L, LUA_REGISTRYINDEX);
+    });
+    if (setup)
+        return proto::Error{"script '" + name + "': cannot set up its state: " + setup->message};
+    if (auto loaded = sandbox_->load(spec.script.code, spec.script.path); !loaded)
+        return proto::Error{"script '" + name + "' failed to load: " + loaded.error().message};
+
+    bool refused = false;
+    auto created = sandbox_->run([this, &spec, &refused](lua_State* L) {
+        install_api(L);
+        if (!push_callback(L, "create"))
+            return;
+        lua_createtable(L, 0, static_cast<int>(spec.options.size()) + 4);
+        const std::pair<const char*, std::string> fixed[] = {{"source", spec.source},
+                                                             {"destination", spec.destination},
+                                                             {"side", side_name(spec.side)},
+                                                             {"carrier", spec.carrier}};
+        for (const auto& [key, value] : fixed) {
+            lua_pushlstring(L, value.data(), value.size());
+            lua_setfield(L, -2, key);
+        }
+        for (const auto& [key, value] : spec.options) {
+            lua_pushlstring(L, value.data(), value.size());
+            lua_setfield(L, -2, key.c_str());
+        }
+        lua_call(L, 1, 1);
+        refused = lua_isboolean(L, -1) && !lua_toboolean(L, -1);
+    });
+    if (created)
+        return proto::Error{"script '" + name + "': create failed: " + created->message};
+    if (refused)
+        return proto::Error{"script '" + name + "' refused the connection (create returned false)"};
+    auto lookup = sandbox_->run([this](lua_State* L) {
+        has_accept_ = has_callback(L, "accept");
+        has_update_ = has_callback(L, "update");
+    });
+    if (lookup)
+        return proto::Error{"script '" + name + "': " + lookup->message};
+    return proto::Ok{};
+}
+
+std::optional<ScriptError> LuaMonitor::destroy() {
+    return sandbox_->run([this](lua_State* L) {
+        if (push_callback(L, "destroy"))
+            lua_call(L, 0, 0);
+    });
+}
+
+MonitorBackend::Outcome LuaMonitor::process(Message& message) {
+    Outcome outcome;
+    auto record = proto::decode_record(message.record);
+    if (!record) {
+        outcome.accepted = false;  // the daemon checked it on arrival; cannot happen
+        return outcome;
+    }
+    MessageView view{*record, std::nullopt, false, false};
+    outcome.in_accept = has_accept_;
+    std::optional<nlohmann::json> replacement;
+    lua_State* L = sandbox_->state();
+    message_box_->view = &view;
+    if (data_kept_) {
+        lua_rawgeti(L, LUA_REGISTRYINDEX, message_ref_);
+        lua_pushnil(L);
+        lua_setiuservalue(L, -2, 1);  // forget the previous message's data
+        lua_pop(L, 1);
+        data_kept_ = false;
+    }
+
+    if (has_accept_)
+        outcome.error = call_accept(L, outcome.accepted);
+    if (!outcome.error && outcome.accepted && (has_update_ || view.assigned)) {
+        outcome.in_accept = false;
+        outcome.error = sandbox_->run([&](lua_State* L) {
+            lua_rawgeti(L, LUA_REGISTRYINDEX, message_ref_);
+            const int msg = lua_gettop(L);
+            if (has_update_ && push_callback(L, "update")) {
+                const int top = lua_gettop(L) - 1;
+                lua_pushvalue(L, msg);
+                lua_call(L, 1, LUA_MULTRET);
+                const bool returned_msg = lua_gettop(L) == top || lua_rawequal(L, top + 1, msg);
+                const nlohmann::json* hint = hint_of(view);
+                if (!returned_msg) {
+                    replacement = to_json(L, top + 1, hint);
+                } else if (view.touched) {
+                    // msg.data may have been changed in place: compare with what was decoded.
+                    lua_getiuservalue(L, msg, 1);
+                    auto now = to_json(L, -1, hint);
+                    if (view.assigned || !hint || now != *hint)
+                        replacement = std::move(now);
+                }
+            } else if (view.assigned) {
+                lua_getiuservalue(L, msg, 1);
+                replacement = to_json(L, -1, hint_of(view));
+            }
+        });
+    }
+    // The userdata outlives the call (the registry holds it): detach it from this stack frame.
+    message_box_->view = nullptr;
+    data_kept_ = view.touched || view.assigned;
+    if (!outcome.error && outcome.accepted && replacement) {
+        message = encode_message(view.record, *replacement);
+        outcome.rewritten = true;
+    }
+    return outcome;
+}
+
+std::optional<ScriptError> LuaMonitor::trig() {
+    return sandbox_->run([this](lua_State* L) {
+        if (push_callback(L, "trig"))
+            lua_call(L, 0, 0);
+    });
+}
+
+std::optional<ScriptError> LuaMonitor::getparam(nlohmann::json& result) {
+    return sandbox_->run([this, &result](lua_State* L) {
+        if (!push_callback(L, "getparam"))
+            return;
+        lua_call(L, 0, 1);
+        if (!lua_istable(L, -1))
+            luaL_error(L, "getparam must return a table, not %s", luaL_typename(L, -1));
+        result = to_json(L, -1);
+    });
+}
+
+std::optional<ScriptError> LuaMonitor::setparam(const nlohmann::json& values, bool& defined) {
+    defined = true;
+    return sandbox_->run([this, &values, &defined](lua_State* L) {
+        if (!push_callback(L, "setparam")) {
+            defined = false;
+            return;
+        }
+        push_json(L, values);
+        lua_call(L, 1, 0);
+    });
+}
+
+}  // namespace
+
+proto::Result<std::unique_ptr<MonitorBackend>> make_lua_monitor(Monitor& monitor, const MonitorPolicy& policy) {
+    auto lua = std::make_unique<LuaMonitor>(monitor, policy);
+    if (auto created = lua->create(); !created)
+        return created.error();
+    return std::unique_ptr<MonitorBackend>(std::move(lua));
+}
+
+}  // namespace plexus::daemon::monitor
