@@ -42,7 +42,16 @@ private:
     std::string path_;
 };
 
-/// Polls `condition` until it holds or `timeout` passes; true if it held.
+/// How many times slower than the release build this build runs: PLEXUS_TEST_SLOWDOWN (default 1;
+/// scripts/sanitize sets it for the sanitized builds, docs/SANITIZERS.md). Read here only, once.
+/// Stretches bounds about speed (deadlines, latencies, memory growth that a sanitizer's shadow
+/// memory inflates), never a bound about correctness (counts, order, contents, losses).
+double slowdown();
+/// A speed bound stretched by slowdown().
+std::chrono::milliseconds slower(std::chrono::milliseconds bound);
+
+/// Polls `condition` until it holds or `timeout` (stretched by slowdown()) passes; true if it held.
+/// The deadline is only how long to wait for what must happen: waiting longer weakens no test.
 bool eventually(const std::function<bool()>& condition, std::chrono::milliseconds timeout = 10s);
 
 /// A child process with stdout and stderr sent to files; killed on destruction.
