@@ -33,11 +33,11 @@ std::string text_of(const char* text) {
     return text ? std::string(text) : std::string();
 }
 
-int set_event(plexus_host* host, const char* name, double lifetime_seconds) {
+int set_event(plexus_host* host, const char* name, const double* lifetime_seconds) {
     return status_of(host, [&](Monitor& monitor) {
         std::optional<double> lifetime;
-        if (!(lifetime_seconds < 0))
-            lifetime = lifetime_seconds;  // NaN lands here and is refused as out of range
+        if (lifetime_seconds)
+            lifetime = *lifetime_seconds;
         return monitor.set_event(text_of(name), lifetime);
     });
 }

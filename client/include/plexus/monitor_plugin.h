@@ -95,8 +95,8 @@ typedef struct plexus_option {
  *  PLEXUS_MONITOR_ERROR with the reason in last_error. */
 typedef struct plexus_host_api {
     /* --- the PortMonitor functions (recv side for events and constraints) --- */
-    /** setEvent(name, lifetime): lifetime_seconds < 0 for none. */
-    int (*set_event)(plexus_host* host, const char* name, double lifetime_seconds);
+    /** setEvent(name, lifetime): `lifetime_seconds` NULL for none; 0 to 86400 seconds. */
+    int (*set_event)(plexus_host* host, const char* name, const double* lifetime_seconds);
     int (*unset_event)(plexus_host* host, const char* name);
     /** 1 if the event is in the container now, 0 if not, PLEXUS_MONITOR_ERROR. */
     int (*has_event)(plexus_host* host, const char* name);
