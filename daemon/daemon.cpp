@@ -145,6 +145,9 @@ int Daemon::run() {
     spdlog::info("plexusd node '{}' listening on {} and {}; name server {}", config_.node, address(),
                  config_.socket_path, config_.names.text());
     io_.run();
+    // Coroutines still parked on a Signal (loops of connections that never closed) are destroyed
+    // now, while the daemon they refer to still exists; otherwise their frames leak at exit.
+    asio::use_service<SignalService>(io_).destroy_parked();
     return 0;
 }
 

@@ -1,7 +1,9 @@
 #pragma once
 // Threading: one io_context thread; notify() and the waits run on it.
 
+#include <algorithm>
 #include <chrono>
+#include <mutex>
 #include <vector>
 
 #include <boost/asio/any_completion_handler.hpp>
@@ -9,6 +11,38 @@
 #include "asio.hpp"
 
 namespace plexus::daemon {
+
+class Signal;
+
+/// The parked waits of every Signal of one io_context. A parked wait is not in the io_context's
+/// queue, so the io_context cannot destroy it: a coroutine parked on a Signal of an object that the
+/// coroutine itself keeps alive (a connection's loop holding shared_from_this()) is a cycle that
+/// nothing frees, and its frames leaked at every exit (LeakSanitizer). destroy_parked() destroys
+/// them all, as asio destroys its own pending operations; the daemon calls it when its io_context
+/// stops, and shutdown() (the io_context's destruction) does it for everyone else.
+class SignalService : public asio::execution_context::service {
+public:
+    static inline asio::execution_context::id id;
+    explicit SignalService(asio::execution_context& context) : service(context) {}
+
+    void add(Signal* signal) {
+        std::lock_guard lock(mutex_);
+        signals_.push_back(signal);
+    }
+    void remove(Signal* signal) {
+        std::lock_guard lock(mutex_);
+        std::erase(signals_, signal);
+    }
+    /// Destroys the parked waits (and so the coroutine frames) of every Signal. Frames destroyed
+    /// may destroy their owners, and with them other Signals: those leave the list on their own.
+    inline void destroy_parked();
+
+private:
+    inline void shutdown() override;
+
+    std::mutex mutex_;
+    std::vector<Signal*> signals_;
+};
 
 /// Wakes every coroutine waiting on it. Waiters re-check their condition in a loop, so a notify with
 /// nobody waiting is harmless (single thread: nothing runs between the check and the wait).
@@ -18,7 +52,15 @@ namespace plexus::daemon {
 /// wake-up). wait_for() uses a timer, for the rarer waits that need a deadline.
 class Signal {
 public:
-    explicit Signal(asio::any_io_executor executor) : executor_(std::move(executor)) {}
+    explicit Signal(asio::any_io_executor executor)
+        : executor_(std::move(executor)),
+          service_(&asio::use_service<SignalService>(asio::query(executor_, asio::execution::context))) {
+        service_->add(this);
+    }
+    ~Signal() {
+        if (service_)
+            service_->remove(this);
+    }
     Signal(const Signal&) = delete;
     Signal& operator=(const Signal&) = delete;
 
@@ -48,13 +90,36 @@ public:
     }
 
 private:
+    friend class SignalService;
     struct TimedWaiter {
         asio::steady_timer timer;
         bool notified = false;
     };
     asio::any_io_executor executor_;
+    SignalService* service_;
     std::vector<asio::any_completion_handler<void()>> handlers_;
     std::vector<TimedWaiter*> timed_;
 };
+
+inline void SignalService::destroy_parked() {
+    std::vector<asio::any_completion_handler<void()>> parked;
+    {
+        std::lock_guard lock(mutex_);
+        for (auto* signal : signals_) {
+            std::move(signal->handlers_.begin(), signal->handlers_.end(), std::back_inserter(parked));
+            signal->handlers_.clear();
+        }
+    }
+    parked.clear();  // outside the lock: the frames' destructors may destroy Signals
+}
+
+inline void SignalService::shutdown() {
+    destroy_parked();
+    // A Signal that outlives its io_context must not come back to this service.
+    std::lock_guard lock(mutex_);
+    for (auto* signal : signals_)
+        signal->service_ = nullptr;
+    signals_.clear();
+}
 
 }  // namespace plexus::daemon
