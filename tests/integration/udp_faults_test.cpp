@@ -379,6 +379,13 @@ TEST(UdpFaults_test, ACutCableHealsWithoutReconnectingAndUdpCountsWhatItLost) {
         std::this_thread::sleep_for(100ms);
     }
     const int last_cut = next - 1;
+    // The cable comes back only once daemon one has sent every message of the cut into it: a
+    // writer's last lines could still be on their way through a slow daemon (a sanitized build),
+    // and would then cross the healed cable instead of being lost.
+    EXPECT_TRUE(eventually([&] {
+        const auto out = outgoing_stats(dir, one, "/a/out", "/b/in");
+        return !out.is_null() && out["udp"]["messages"] == last_cut;
+    })) << outgoing_stats(dir, one, "/a/out", "/b/in");
     const long rss_one_cut = one.rss_kib();
     const long rss_two_cut = two.rss_kib();
     net.bridge().run_checked(cable + " up");
