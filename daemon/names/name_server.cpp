@@ -11,6 +11,7 @@
 #include "plexus/proto/discovery.hpp"
 #include "plexus/proto/frame.hpp"
 #include "request_parser.hpp"
+#include "state_file.hpp"
 
 namespace plexus::daemon::names {
 
@@ -63,20 +64,16 @@ NameServer::~NameServer() {
 }
 
 proto::Status NameServer::start() {
-    if (!config_.state_file.empty() && std::filesystem::exists(config_.state_file)) {
-        try {
-            std::ifstream in(config_.state_file);
-            auto state = nlohmann::json::parse(in);
-            std::vector<ConnectionEntry> entries;
-            for (const auto& c : state.at("persistent")) {
-                entries.push_back({c.at("source"), c.at("destination"), c.at("carrier"), true});
-            }
-            registry_.restore_persistent(std::move(entries));
-            spdlog::info("names: restored {} persistent connections from {}", registry_.persistent().size(),
-                         config_.state_file);
-        } catch (const std::exception& e) {
-            return proto::Error{"cannot read state file " + config_.state_file + ": " + e.what()};
-        }
+    if (!config_.state_file.empty()) {
+        // A state file that cannot be read is reported and does not stop the name server: the
+        // persistent connections it lost are less harm than no name server at all.
+        auto state = read_state(config_.state_file);
+        for (const auto& problem : state.problems)
+            spdlog::error("names: {}", problem);
+        const std::size_t count = state.persistent.size();
+        registry_.restore_persistent(std::move(state.persistent));
+        if (count > 0)
+            spdlog::info("names: restored {} persistent connections from {}", count, config_.state_file);
     }
     boost::system::error_code ec;
     auto address = asio::ip::make_address(config_.listen.host, ec);
@@ -333,24 +330,8 @@ void NameServer::session_closed(std::uint64_t session) {
 void NameServer::save_state() {
     if (config_.state_file.empty())
         return;
-    nlohmann::json persistent = nlohmann::json::array();
-    for (const auto& c : registry_.persistent()) {
-        persistent.push_back({{"source", c.source}, {"destination", c.destination}, {"carrier", c.carrier}});
-    }
-    // Write then rename, so a crash leaves the old file or the new one, never half of one.
-    const std::string temporary = config_.state_file + ".tmp";
-    {
-        std::ofstream out(temporary, std::ios::trunc);
-        out << nlohmann::json{{"persistent", persistent}}.dump(2) << '\n';
-        if (!out) {
-            spdlog::error("names: cannot write state file {}", temporary);
-            return;
-        }
-    }
-    std::error_code ec;
-    std::filesystem::rename(temporary, config_.state_file, ec);
-    if (ec)
-        spdlog::error("names: cannot replace state file {}: {}", config_.state_file, ec.message());
+    if (auto written = write_durably(config_.state_file, state_text(registry_.persistent())); !written)
+        spdlog::error("names: cannot save the state file: {}", written.error().message);
 }
 
 }  // namespace plexus::daemon::names

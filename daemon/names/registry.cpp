@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "plexus/proto/carrier.hpp"
 #include "plexus/proto/port_name.hpp"
 
 namespace plexus::daemon::names {
@@ -196,9 +197,14 @@ nlohmann::json Registry::list() const {
     }
     nlohmann::json connections = nlohmann::json::array();
     for (const auto& c : connections_) {
+        // qos as numbers for programs; 0 (unmarked, lowest) when the carrier asks for none.
+        const auto carrier = proto::parse_carrier(c.carrier);
+        const proto::Qos qos = carrier ? carrier->qos : proto::Qos{};
         connections.push_back({{"source", c.source},
                                {"destination", c.destination},
                                {"carrier", c.carrier},
+                               {"dscp", qos.dscp.value_or(0)},
+                               {"prio", qos.prio.value_or(0)},
                                {"persistent", c.persistent},
                                {"live", ports_.contains(c.source) && ports_.contains(c.destination)}});
     }

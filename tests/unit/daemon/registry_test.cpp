@@ -114,5 +114,21 @@ TEST(Registry_test, OnlyTheNodeOfTheSourceChangesItsConnections) {
     EXPECT_TRUE(registry.remove_connection("/arm/out", "/head/in", 1).ok());
 }
 
+TEST(Registry_test, ListShowsEachConnectionsQos) {
+    Registry registry(2s);
+    ASSERT_TRUE(registry.register_node("n", "127.0.0.1:1", 1).ok());
+    ASSERT_TRUE(registry.register_port("/a", 1).ok());
+    ASSERT_TRUE(registry.register_port("/b", 1).ok());
+    ASSERT_TRUE(registry.add_connection({"/a", "/b", "tcp+qos.dscp.46+qos.prio.7", false}, 1).ok());
+    ASSERT_TRUE(registry.add_connection({"/b", "/a", "udp", false}, 1).ok());
+    auto list = registry.list();
+    ASSERT_EQ(list["connections"].size(), 2u);
+    for (const auto& c : list["connections"]) {
+        const bool marked = c["source"] == "/a";
+        EXPECT_EQ(c["dscp"], marked ? 46 : 0) << c.dump();
+        EXPECT_EQ(c["prio"], marked ? 7 : 0) << c.dump();
+    }
+}
+
 }  // namespace
 }  // namespace plexus::daemon::names
