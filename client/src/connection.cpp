@@ -14,6 +14,7 @@
 #include <cstdlib>
 #include <cstring>
 
+#include "blob_pool.hpp"
 #include "plexus/proto/endpoint.hpp"
 #include "plexus/proto/frame.hpp"
 #include "plexus/proto/hello.hpp"
@@ -704,11 +705,13 @@ bool Connection::start_large_payload(std::size_t frame_size) {
     auto frame = parse_large_payload_frame(start, frame_size);
     if (!frame)
         return false;
-    // Sized (and so zeroed) once: the kernel's copy then writes into pages already there.
-    large_.emplace(LargePayload{
-        frame->handle,
-        Received{std::move(frame->envelope), Value::binary(std::vector<std::uint8_t>(frame->payload_size))},
-        nullptr, frame->payload_size});
+    // Sized (and so zeroed) once: the kernel's copy then writes into pages already there. A
+    // recycled buffer (blob_pool.hpp) has its pages already.
+    std::vector<std::uint8_t> bytes = take_blob_buffer(frame->payload_size);
+    bytes.resize(frame->payload_size);
+    large_.emplace(LargePayload{frame->handle,
+                                Received{std::move(frame->envelope), Value::binary(std::move(bytes))},
+                                nullptr, frame->payload_size});
     large_->at = large_->message.data.get_binary().data();
     // The part of the payload already here (everything in in_ belongs to this frame: it is not whole).
     const std::size_t here = start.size() - frame->payload_offset;
@@ -866,8 +869,7 @@ void Connection::receive_shm_data(proto::ByteView fields) {
     const auto string_head = parse_byte_string_head(payload);
     if (string_head && string_head->head_size + string_head->length == payload.size()) {
         const auto record = proto::decode_record(data->head);  // checked by decode_shm_data
-        std::vector<std::uint8_t> bytes;
-        bytes.reserve(static_cast<std::size_t>(string_head->length));
+        std::vector<std::uint8_t> bytes = take_blob_buffer(static_cast<std::size_t>(string_head->length));
         bytes.insert(bytes.end(), payload.begin() + static_cast<std::ptrdiff_t>(string_head->head_size),
                      payload.end());
         segment.whole = Received{Envelope{std::string(record->source), record->seq, record->time_ns},

@@ -32,8 +32,8 @@ private:
     Py_buffer view_{};
 };
 
-void write_without_gil(PythonPort& port, std::span<const std::uint8_t> head, std::span<const std::uint8_t> body,
-                       bool flush) {
+void write_without_gil(PythonPort& port, std::span<const std::uint8_t> head,
+                       std::span<const std::uint8_t> body, bool flush) {
     // The caller holds the object whose memory this is, so it stays while other threads run; a
     // strict reader may also slow this write down, and they should not wait for it.
     py::gil_scoped_release release;

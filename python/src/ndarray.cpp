@@ -137,9 +137,15 @@ py::object blob_to_ndarray(std::vector<std::uint8_t>& bytes) {
     }
     if (overflow || size != bytes.size() - data_at)
         return {};  // not the array its header says: handed over as bytes
-    // The array views the blob's memory; the capsule owns it from now on.
+    // The array views the blob's memory; the capsule owns it from now on, and hands it back to
+    // libplexus when the array dies, for a later message to be received into memory already mapped
+    // (a stream of frames would otherwise pay the kernel to map and zero each one afresh).
     auto* owner = new std::vector<std::uint8_t>(std::move(bytes));
-    py::capsule base(owner, [](void* p) { delete static_cast<std::vector<std::uint8_t>*>(p); });
+    py::capsule base(owner, [](void* p) {
+        auto* buffer = static_cast<std::vector<std::uint8_t>*>(p);
+        recycle_blob(std::move(*buffer));
+        delete buffer;
+    });
     return py::array(dtype, dims, strides, owner->data() + data_at, base);
 }
 

@@ -20,6 +20,7 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -66,6 +67,11 @@ struct Received {
     Envelope envelope;
     Value data;
 };
+
+/// Hands back the buffer of a blob read from a port (Received::data.get_binary(), moved out) once
+/// its bytes are no longer needed: a later large blob is received into it instead of into fresh
+/// memory, which the kernel maps and zeroes page by page. Optional; a few buffers are kept at most.
+void recycle_blob(std::vector<std::uint8_t>&& bytes);
 
 /// How a port's reader queue behaves when its client reads slower than data arrives.
 enum class QueuePolicy {
@@ -118,7 +124,8 @@ public:
     /// joined first, so a large `body` (an image, an array) is copied once, into the socket or the
     /// shared-memory slot. Neither is used after the call returns. `head` is for a small header
     /// (a .npy header, say) and may be empty.
-    void write_blob(std::span<const std::uint8_t> head, std::span<const std::uint8_t> body, bool flush = true);
+    void write_blob(std::span<const std::uint8_t> head, std::span<const std::uint8_t> body,
+                    bool flush = true);
     /// Sends what write(..., false) buffered.
     void flush();
     /// Waits up to `timeout` for the next message delivered to this port (also while the daemon is
