@@ -38,13 +38,13 @@ def wait_for(condition, deadline: float, what: str, process: subprocess.Popen | 
 class Daemon:
     """A running plexusd: its socket, names address and an environment for child processes."""
 
-    def __init__(self, directory: pathlib.Path) -> None:
+    def __init__(self, directory: pathlib.Path, settings: dict | None = None) -> None:
         self.directory = directory
         self.socket = str(directory / "s.sock")
         ready = directory / "ready"
         config = directory / "plexusd.json"
         # max_frame 64 MiB: the 25 MB image test (the default is 16 MiB).
-        config.write_text(json.dumps({"max_frame": 64 << 20}))
+        config.write_text(json.dumps({"max_frame": 64 << 20, **(settings or {})}))
         self.log = open(directory / "plexusd.log", "w")
         self.process = subprocess.Popen(
             [PLEXUSD, "--embedded-names", "--names", "127.0.0.1:0", "--listen", "127.0.0.1:0",
