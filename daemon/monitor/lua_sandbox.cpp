@@ -2,6 +2,7 @@
 
 #include "bounded_functions.hpp"
 #include "bounded_library.hpp"
+#include "yarp_module.hpp"
 
 #include <algorithm>
 #include <cstdlib>
@@ -240,6 +241,8 @@ void LuaSandbox::open_safe_libraries() {
     lua_setglobal(L, "load");
     lua_pushcfunction(L, &LuaSandbox::print_to_log);
     lua_setglobal(L, "print");
+    // `require` answers "yarp" only: the first line of scripts written for YARP.
+    open_yarp_require(L);
 }
 
 int LuaSandbox::trampoline(lua_State* L) {
