@@ -136,7 +136,9 @@ py::object to_python(Value& value) {
             auto& bytes = value.get_binary();
             if (py::object array = blob_to_ndarray(bytes))
                 return array;
-            return py::bytes(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+            py::bytes copy(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+            recycle_blob(std::move(bytes));  // copied out: a later large blob is received into it
+            return copy;
         }
         case Value::value_t::discarded:
             break;

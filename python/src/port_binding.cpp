@@ -109,8 +109,10 @@ void bind_port(py::module_& module) {
         .def("write", &write, py::arg("data"), py::arg("flush") = true,
              "Writes a message to every connection out of this port. data: dict (str keys), list, "
              "tuple, str, int, float, bool, None, bytes/bytearray/memoryview (a blob) or numpy.ndarray "
-             "(a blob holding a .npy file). With flush=False it waits in a buffer until the next "
-             "flushing write or flush(). May block while a strict reader is behind (the GIL is released).")
+             "(a blob holding a .npy file); an array or bytes written alone is sent from its own memory, "
+             "which may be changed as soon as write returns. With flush=False it waits in a buffer "
+             "until the next flushing write or flush(). May block while a strict reader is behind (the "
+             "GIL is released).")
         .def(
             "flush",
             [](PythonPort& self) {
