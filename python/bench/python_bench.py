@@ -201,6 +201,7 @@ def cpp(scenario: str, size: int) -> dict:
 
 
 def one_run() -> dict:
+    load = os.getloadavg()[0]  # the machine is shared: how busy it was when this run began
     with tempfile.TemporaryDirectory() as directory:
         daemon = Daemon(directory)
         try:
@@ -212,7 +213,7 @@ def one_run() -> dict:
         zmq_rate = zmq_throughput(directory)
     latency = cpp("latency", 64)
     throughput = cpp("throughput", MIB)
-    return {"python_p50_us": py_p50, "python_p99_us": py_p99, "python_1mib_msgs_per_s": py_rate,
+    return {"load_1min": load, "python_p50_us": py_p50, "python_p99_us": py_p99, "python_1mib_msgs_per_s": py_rate,
             "cpp_p50_us": latency["p50_us"], "cpp_p99_us": latency["p99_us"],
             "cpp_1mib_msgs_per_s": throughput["msgs_per_s"],
             "pyzmq_p50_us": zmq_p50, "pyzmq_p99_us": zmq_p99, "pyzmq_1mib_msgs_per_s": zmq_rate}
