@@ -318,25 +318,54 @@ plexus_value map_get(plexus_value map, const char* key) {
     Head head;
     if (!key || !untagged_head(map, head) || head.major != major_map)
         return absent;
+    if (head.indefinite) {
+        // Rare (nlohmann never writes one): the general walk.
+        const std::size_t key_size = std::strlen(key);
+        plexus_value found = absent;
+        bool is_key = true;
+        bool matched = false;
+        each_item(head, end_of(map), [&](const Byte* begin, const Byte* end) {
+            if (!is_key) {
+                is_key = true;
+                if (!matched)
+                    return true;
+                found = {begin, static_cast<std::size_t>(end - begin)};
+                return false;
+            }
+            is_key = false;
+            Head key_head;
+            matched = read_head(begin, end, key_head) && key_head.major == major_text && !key_head.indefinite &&
+                      key_head.argument == key_size && std::memcmp(key_head.next, key, key_size) == 0;
+            return true;
+        });
+        return found;
+    }
+    // The per-message path (a monitor reading one field): text keys are compared where they lie,
+    // only values are skipped.
+    const Byte* p = head.next;
+    const Byte* end = end_of(map);
     const std::size_t key_size = std::strlen(key);
-    plexus_value found = absent;
-    bool is_key = true;
-    bool matched = false;
-    each_item(head, end_of(map), [&](const Byte* begin, const Byte* end) {
-        if (!is_key) {
-            is_key = true;
-            if (!matched)
-                return true;
-            found = {begin, static_cast<std::size_t>(end - begin)};
-            return false;
-        }
-        is_key = false;
+    for (std::uint64_t i = 0; i < head.argument; ++i) {
         Head key_head;
-        matched = read_head(begin, end, key_head) && key_head.major == major_text && !key_head.indefinite &&
-                  key_head.argument == key_size && std::memcmp(key_head.next, key, key_size) == 0;
-        return true;
-    });
-    return found;
+        if (!read_head(p, end, key_head))
+            return absent;
+        bool matched = false;
+        if (key_head.major == major_text && !key_head.indefinite) {
+            if (key_head.argument > static_cast<std::uint64_t>(end - key_head.next))
+                return absent;
+            matched = key_head.argument == key_size && std::memcmp(key_head.next, key, key_size) == 0;
+            p = key_head.next + key_head.argument;
+        } else if (!(p = skip(p, end, 1))) {
+            return absent;
+        }
+        const Byte* value_end = skip(p, end, 1);
+        if (!value_end)
+            return absent;
+        if (matched)
+            return {p, static_cast<std::size_t>(value_end - p)};
+        p = value_end;
+    }
+    return absent;
 }
 
 int map_entry(plexus_value map, std::size_t index, plexus_value* key, plexus_value* value) {

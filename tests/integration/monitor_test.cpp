@@ -291,7 +291,7 @@ TEST(Monitor_test, ConnectFailsWithTheScriptErrorAndLeavesNothingBehind) {
         {"tcp+recv.portmonitor+type.lua+file.missing", "'missing.lua' not found"},
         {"tcp+recv.portmonitor+type.lua+file.../etc/passwd", "must not contain '..'"},
         {"tcp+recv.portmonitor+type.lua+file./etc/passwd", "relative"},
-        {"tcp+recv.portmonitor+type.python+file.certainty", "only type.lua"},
+        {"tcp+recv.portmonitor+type.python+file.certainty", "type.lua or type.so"},
         {"tcp+recv.portmonitor+type.lua", "without file.NAME"},
         {"tcp+recv.portmonitor+type.lua+file.certainty+onerror.maybe", "onerror.drop or onerror.pass"},
         // The send side loads, the recv side fails: the send side must be undone too.

@@ -34,9 +34,10 @@ void check_scripts(const App& app, const AppConnection& connection, const proto:
         if (clause.modifier != "portmonitor" || arbitration::arbitration_only(clause))
             continue;
         const auto* type = clause.find("type");
-        if (type && type->value.value_or("") != "lua") {
-            report.problems.push_back(where + "portmonitor type '" + type->value.value_or("") +
-                                      "' is not supported (only type.lua)");
+        const std::string type_name = type ? type->value.value_or("") : "lua";
+        if (type_name != "lua" && type_name != "so") {
+            report.problems.push_back(where + "portmonitor type '" + type_name +
+                                      "' is not supported (type.lua or type.so)");
             continue;
         }
         const auto* file = clause.find("file");
@@ -49,6 +50,8 @@ void check_scripts(const App& app, const AppConnection& connection, const proto:
             report.problems.push_back(where + *error);
             continue;
         }
+        if (type_name == "so")
+            continue;  // a compiled monitor is found in the daemon's --monitor-libs, which the file does not name
         const bool has_extension = name.size() > 4 && name.compare(name.size() - 4, 4, ".lua") == 0;
         const std::string file_name = has_extension ? name : name + ".lua";
         bool found = false;
