@@ -31,8 +31,8 @@ void Monitor::release_events() {
 
 proto::Status Monitor::set_event(const std::string& name, std::optional<double> lifetime) {
     if (lifetime && !(*lifetime >= 0 && *lifetime <= max_lifetime))
-        return proto::Error{"setEvent: lifetime must be between 0 (none) and " + std::to_string(max_lifetime) +
-                            " seconds"};
+        return proto::Error{"setEvent: lifetime must be between 0 (none) and " +
+                            std::to_string(max_lifetime) + " seconds"};
     if (name.empty())
         return proto::Error{"setEvent: the event name is empty"};
     auto member = member_for("setEvent");
@@ -40,7 +40,8 @@ proto::Status Monitor::set_event(const std::string& name, std::optional<double> 
         return member.error();
     auto& arbiter = (*member)->arbiter();
     std::lock_guard lock(arbiter.mutex());
-    arbiter.events().set(name, id_, (*member)->source() + " (" + spec_.script.name + ")", lifetime, arbiter.now());
+    arbiter.events().set(name, id_, (*member)->source() + " (" + spec_.script.name + ")", lifetime,
+                         arbiter.now());
     return proto::Ok{};
 }
 
@@ -74,7 +75,8 @@ proto::Status Monitor::set_constraint(const std::optional<std::string>& text) {
     {
         std::lock_guard lock(member.arbiter().mutex());
         if (member.constraint && member.constraint->text() == *text)
-            return proto::Ok{};  // monitors often set the same constraint on every message: no reparse, no warning
+            return proto::Ok{};  // monitors often set the same constraint on every message: no reparse, no
+                                 // warning
     }
     auto parsed = arbitration::Constraint::parse(*text);
     if (!parsed)
@@ -83,8 +85,8 @@ proto::Status Monitor::set_constraint(const std::optional<std::string>& text) {
     member.constraint = std::move(*parsed);
     for (const auto& pair : member.arbiter().overlaps(&member)) {
         if (pair.first == member.source() || pair.second == member.source())
-            spdlog::warn("monitor {}: constraint '{}' overlaps with the connection from {}", description(), *text,
-                         pair.first == member.source() ? pair.second : pair.first);
+            spdlog::warn("monitor {}: constraint '{}' overlaps with the connection from {}", description(),
+                         *text, pair.first == member.source() ? pair.second : pair.first);
     }
     return proto::Ok{};
 }

@@ -316,8 +316,9 @@ proto::Status LuaMonitor::create() {
     const std::string& name = spec.script.name;
     try {
         Monitor& monitor = monitor_;
-        sandbox_ = std::make_unique<LuaSandbox>(
-            policy_.limits, [&monitor](std::string_view line) { monitor.log(Monitor::LogLevel::info, line); });
+        sandbox_ = std::make_unique<LuaSandbox>(policy_.limits, [&monitor](std::string_view line) {
+            monitor.log(Monitor::LogLevel::info, line);
+        });
     } catch (const std::exception& e) {
         return proto::Error{"script '" + name + "': " + e.what()};
     }
@@ -478,7 +479,8 @@ std::optional<ScriptError> LuaMonitor::setparam(const nlohmann::json& values, bo
 
 }  // namespace
 
-proto::Result<std::unique_ptr<MonitorBackend>> make_lua_monitor(Monitor& monitor, const MonitorPolicy& policy) {
+proto::Result<std::unique_ptr<MonitorBackend>> make_lua_monitor(Monitor& monitor,
+                                                                const MonitorPolicy& policy) {
     auto lua = std::make_unique<LuaMonitor>(monitor, policy);
     if (auto created = lua->create(); !created)
         return created.error();

@@ -13,6 +13,7 @@ namespace plexus::daemon::monitor {
 
 /// Loads `monitor.spec().script` and calls its create(options). Errors name the script and, for
 /// Lua errors, its file and line.
-proto::Result<std::unique_ptr<MonitorBackend>> make_lua_monitor(Monitor& monitor, const MonitorPolicy& policy);
+proto::Result<std::unique_ptr<MonitorBackend>> make_lua_monitor(Monitor& monitor,
+                                                                const MonitorPolicy& policy);
 
 }  // namespace plexus::daemon::monitor

@@ -197,10 +197,14 @@ nlohmann::json Monitor::stats() const {
     return {{"script", spec_.script.name},
             {"type", spec_.type == MonitorType::plugin ? "so" : "lua"},
             {"side", side_name(spec_.side)},
-            {"messages", counters_.messages},   {"dropped", counters_.dropped},
-            {"rewritten", counters_.rewritten}, {"errors", counters_.errors},
-            {"timeouts", counters_.timeouts},   {"out_of_memory", counters_.out_of_memory},
-            {"quarantined", quarantined_},      {"memory_bytes", memory_in_use()},
+            {"messages", counters_.messages},
+            {"dropped", counters_.dropped},
+            {"rewritten", counters_.rewritten},
+            {"errors", counters_.errors},
+            {"timeouts", counters_.timeouts},
+            {"out_of_memory", counters_.out_of_memory},
+            {"quarantined", quarantined_},
+            {"memory_bytes", memory_in_use()},
             {"last_error", last_error_}};
 }
 

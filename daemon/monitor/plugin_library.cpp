@@ -15,7 +15,8 @@ std::string loader_error() {
 
 }  // namespace
 
-proto::Result<std::shared_ptr<PluginLibrary>> PluginLibrary::load(const std::string& name, const std::string& path) {
+proto::Result<std::shared_ptr<PluginLibrary>> PluginLibrary::load(const std::string& name,
+                                                                  const std::string& path) {
     const std::string which = "monitor plugin '" + name + "' (" + path + ")";
     // A path with a slash: dlopen opens that file and never searches LD_LIBRARY_PATH or the system.
     if (path.find('/') == std::string::npos)
@@ -29,8 +30,8 @@ proto::Result<std::shared_ptr<PluginLibrary>> PluginLibrary::load(const std::str
     ::dlerror();
     void* symbol = ::dlsym(handle, PLEXUS_MONITOR_ENTRY_SYMBOL);
     if (!symbol)
-        return proto::Error{which + " has no " PLEXUS_MONITOR_ENTRY_SYMBOL
-                                    " symbol: not a Plexus monitor plugin (" +
+        return proto::Error{which +
+                            " has no " PLEXUS_MONITOR_ENTRY_SYMBOL " symbol: not a Plexus monitor plugin (" +
                             loader_error() + ")"};
     const auto entry = reinterpret_cast<plexus_monitor_entry_fn>(symbol);
     const plexus_monitor_plugin* plugin = nullptr;
@@ -44,8 +45,9 @@ proto::Result<std::shared_ptr<PluginLibrary>> PluginLibrary::load(const std::str
     if (!plugin)
         return proto::Error{which + ": " PLEXUS_MONITOR_ENTRY_SYMBOL " returned no descriptor"};
     if (plugin->abi_version != PLEXUS_MONITOR_ABI_VERSION)
-        return proto::Error{which + " was built for monitor ABI version " + std::to_string(plugin->abi_version) +
-                            ", this plexusd speaks version " + std::to_string(PLEXUS_MONITOR_ABI_VERSION) +
+        return proto::Error{which + " was built for monitor ABI version " +
+                            std::to_string(plugin->abi_version) + ", this plexusd speaks version " +
+                            std::to_string(PLEXUS_MONITOR_ABI_VERSION) +
                             ": rebuild it against this plexusd's plexus/monitor_plugin.h"};
     return std::shared_ptr<PluginLibrary>(new PluginLibrary(closer.release(), plugin));
 }

@@ -18,7 +18,8 @@ public:
     /// Loads `path` (RTLD_NOW | RTLD_LOCAL: every symbol resolved now, none leaking into other
     /// plugins) and checks its descriptor. Errors name the plugin, the path and the reason: the
     /// loader's message, a missing `plexus_monitor_entry`, or an ABI version other than ours.
-    static proto::Result<std::shared_ptr<PluginLibrary>> load(const std::string& name, const std::string& path);
+    static proto::Result<std::shared_ptr<PluginLibrary>> load(const std::string& name,
+                                                              const std::string& path);
     ~PluginLibrary();
     PluginLibrary(const PluginLibrary&) = delete;
     PluginLibrary& operator=(const PluginLibrary&) = delete;

@@ -75,7 +75,8 @@ ScriptError PluginMonitor::error_of(const char* callback, int result) const {
     if (result == PLEXUS_MONITOR_ERROR)
         return ScriptError{host_.error.empty() ? std::string(callback) + " returned PLEXUS_MONITOR_ERROR"
                                                : host_.error};
-    return ScriptError{std::string(callback) + " returned " + std::to_string(result) + ", not a PLEXUS_MONITOR_* code"};
+    return ScriptError{std::string(callback) + " returned " + std::to_string(result) +
+                       ", not a PLEXUS_MONITOR_* code"};
 }
 
 proto::Status PluginMonitor::create() {
@@ -96,7 +97,8 @@ proto::Status PluginMonitor::create() {
             return proto::Error{which + ": create failed: " + error->message};
     }
     if (result == PLEXUS_MONITOR_REFUSE)
-        return proto::Error{which + " refused the connection" + (host_.error.empty() ? "" : ": " + host_.error)};
+        return proto::Error{which + " refused the connection" +
+                            (host_.error.empty() ? "" : ": " + host_.error)};
     if (result != PLEXUS_MONITOR_OK)
         return proto::Error{which + ": create failed: " + error_of("create", result).message};
     created_ = true;
@@ -163,7 +165,8 @@ MonitorBackend::Outcome PluginMonitor::process(Message& message) {
         return outcome;
     }
     proto::Bytes bytes;
-    proto::append_record(bytes, record->source, record->seq, record->time_ns, proto::ByteView(built.bytes, built.size));
+    proto::append_record(bytes, record->source, record->seq, record->time_ns,
+                         proto::ByteView(built.bytes, built.size));
     auto chunk = std::make_shared<Chunk>(bytes.size());
     std::memcpy(chunk->data(), bytes.data(), bytes.size());
     const proto::ByteView rewritten(chunk->data(), bytes.size());

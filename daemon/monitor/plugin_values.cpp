@@ -116,8 +116,12 @@ const Byte* skip(const Byte* at, const Byte* end, std::size_t depth) {
     }
 }
 
-const Byte* begin_of(plexus_value value) { return value.bytes; }
-const Byte* end_of(plexus_value value) { return value.bytes + value.size; }
+const Byte* begin_of(plexus_value value) {
+    return value.bytes;
+}
+const Byte* end_of(plexus_value value) {
+    return value.bytes + value.size;
+}
 
 /// The head of the value after its tags (nlohmann writes a blob's subtype as a tag).
 bool untagged_head(plexus_value value, Head& head) {
@@ -212,7 +216,8 @@ plexus_type type(plexus_value value) {
 
 int get_bool(plexus_value value, int* out) {
     Head head;
-    if (!out || !untagged_head(value, head) || head.major != major_simple || (head.info != 20 && head.info != 21))
+    if (!out || !untagged_head(value, head) || head.major != major_simple ||
+        (head.info != 20 && head.info != 21))
         return PLEXUS_MONITOR_ERROR;
     *out = head.info == 21 ? 1 : 0;
     return PLEXUS_MONITOR_OK;
@@ -334,8 +339,9 @@ plexus_value map_get(plexus_value map, const char* key) {
             }
             is_key = false;
             Head key_head;
-            matched = read_head(begin, end, key_head) && key_head.major == major_text && !key_head.indefinite &&
-                      key_head.argument == key_size && std::memcmp(key_head.next, key, key_size) == 0;
+            matched = read_head(begin, end, key_head) && key_head.major == major_text &&
+                      !key_head.indefinite && key_head.argument == key_size &&
+                      std::memcmp(key_head.next, key, key_size) == 0;
             return true;
         });
         return found;

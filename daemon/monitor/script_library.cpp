@@ -67,7 +67,8 @@ proto::Result<Script> find_plugin(const std::string& name, const std::vector<std
         return proto::Error{"monitor plugin '" + name +
                             "' not found: the daemon has no --monitor-libs directory (plugins are loaded "
                             "only from there)"};
-    return proto::Error{"monitor plugin '" + file + "' not found in the --monitor-libs directories " + searched};
+    return proto::Error{"monitor plugin '" + file + "' not found in the --monitor-libs directories " +
+                        searched};
 }
 
 }  // namespace plexus::daemon::monitor

@@ -102,7 +102,8 @@ int create(plexus_host* host, const plexus_host_api* api, const plexus_option* o
     if (const char* lifetime = option(options, count, "lifetime")) {
         self->lifetime = to_number(lifetime);
         if (!self->lifetime) {
-            const int refused = self->refuse(std::string("lifetime must be a number of seconds, got ") + lifetime);
+            const int refused =
+                self->refuse(std::string("lifetime must be a number of seconds, got ") + lifetime);
             delete self;
             return refused;
         }

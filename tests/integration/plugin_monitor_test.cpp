@@ -56,18 +56,25 @@ TEST(PluginMonitor_test, CertaintyPluginAndCertaintyLuaGiveTheSameDeliveriesAndE
     ASSERT_TRUE(wait_port(dir, daemon, "/det/out"));
     const std::string options = "+threshold.0.7+event.e_ok";
     for (const auto& [port, type] : {std::pair{"/lua/in", "lua"}, std::pair{"/so/in", "so"}}) {
-        auto connected = run_cli(dir, daemon,
-                                 {"connect", "/det/out", port,
-                                  std::string("tcp+recv.portmonitor+type.") + type + "+file.certainty" + options});
+        auto connected =
+            run_cli(dir, daemon,
+                    {"connect", "/det/out", port,
+                     std::string("tcp+recv.portmonitor+type.") + type + "+file.certainty" + options});
         ASSERT_EQ(connected.status, 0) << type << ": " << connected.err;
     }
 
     // Good, bad, and payloads the script's type checks tell apart; one at a time, so that the
     // event container can be compared after each.
     const std::vector<std::string> inputs{
-        R"({"n":1,"certainty":0.9})", R"({"n":2,"certainty":0.3})", R"({"n":3,"certainty":0.7})",
-        R"({"n":4,"certainty":"0.9"})", R"({"n":5})",               R"([0.9])",
-        R"({"n":7,"certainty":1})",    R"("certainty")",            R"({"n":9,"certainty":0.69})",
+        R"({"n":1,"certainty":0.9})",
+        R"({"n":2,"certainty":0.3})",
+        R"({"n":3,"certainty":0.7})",
+        R"({"n":4,"certainty":"0.9"})",
+        R"({"n":5})",
+        R"([0.9])",
+        R"({"n":7,"certainty":1})",
+        R"("certainty")",
+        R"({"n":9,"certainty":0.69})",
         R"({"n":10,"certainty":0.99})",
     };
     bool raised = false;
@@ -81,9 +88,11 @@ TEST(PluginMonitor_test, CertaintyPluginAndCertaintyLuaGiveTheSameDeliveriesAndE
             so_events = events_of(dir, daemon, "/so/in");
             return judged(connection_of(lua_events, "/det/out")) == i + 1 &&
                    judged(connection_of(so_events, "/det/out")) == i + 1;
-        })) << "the monitors never judged " << inputs[i];
+        })) << "the monitors never judged "
+            << inputs[i];
         EXPECT_EQ(container_of(so_events), container_of(lua_events)) << "after " << inputs[i];
-        EXPECT_EQ(connection_of(so_events, "/det/out")["counters"], connection_of(lua_events, "/det/out")["counters"])
+        EXPECT_EQ(connection_of(so_events, "/det/out")["counters"],
+                  connection_of(lua_events, "/det/out")["counters"])
             << "after " << inputs[i];
         raised = raised || !lua_events["events"].empty();
         cleared = cleared || lua_events["events"].empty();
@@ -97,7 +106,8 @@ TEST(PluginMonitor_test, CertaintyPluginAndCertaintyLuaGiveTheSameDeliveriesAndE
         lua_lines = json_lines(lua_reader->out());
         so_lines = json_lines(so_reader->out());
         return lua_lines.size() >= 4 && so_lines.size() >= 4;
-    })) << lua_reader->out() << " / " << so_reader->out();
+    })) << lua_reader->out()
+        << " / " << so_reader->out();
     EXPECT_EQ(so_lines, lua_lines);
     ASSERT_EQ(lua_lines.size(), 4u);
     EXPECT_EQ(lua_lines[3]["n"], 10);
@@ -109,7 +119,10 @@ TEST(PluginMonitor_test, CertaintyPluginAndCertaintyLuaGiveTheSameDeliveriesAndE
     EXPECT_EQ(so_param.out, lua_param.out);
     EXPECT_EQ(run_cli(dir, daemon, {"param", "set", "/det/out", "/so/in", "threshold=0.95"}).status, 0);
     EXPECT_EQ(run_cli(dir, daemon, {"param", "set", "/det/out", "/lua/in", "threshold=0.95"}).status, 0);
-    writer.send(R"({"n":11,"certainty":0.9})" "\n" R"({"n":12,"certainty":0.96})" "\n");
+    writer.send(R"({"n":11,"certainty":0.9})"
+                "\n"
+                R"({"n":12,"certainty":0.96})"
+                "\n");
     ASSERT_TRUE(eventually([&] {
         return json_lines(lua_reader->out()).size() >= 5 && json_lines(so_reader->out()).size() >= 5;
     }));
@@ -140,14 +153,17 @@ TEST(PluginMonitor_test, WrongAbiAndPluginsOutsideMonitorLibsAreRefusedWithTheRe
     EXPECT_NE(no_entry.err.find("has no plexus_monitor_entry symbol"), std::string::npos) << no_entry.err;
     auto outside = connect("certainty");
     EXPECT_EQ(outside.status, 4);
-    EXPECT_NE(outside.err.find("not found in the --monitor-libs directories"), std::string::npos) << outside.err;
+    EXPECT_NE(outside.err.find("not found in the --monitor-libs directories"), std::string::npos)
+        << outside.err;
     auto absolute = connect(example_plugins + "/certainty");
     EXPECT_EQ(absolute.status, 4);
     EXPECT_NE(absolute.err.find("must be relative"), std::string::npos) << absolute.err;
-    auto unknown_type = run_cli(dir, daemon, {"connect", "/out", "/in", "tcp+recv.portmonitor+type.dll+file.x"});
+    auto unknown_type =
+        run_cli(dir, daemon, {"connect", "/out", "/in", "tcp+recv.portmonitor+type.dll+file.x"});
     EXPECT_EQ(unknown_type.status, 4);
     EXPECT_NE(unknown_type.err.find("type.lua or type.so"), std::string::npos) << unknown_type.err;
-    EXPECT_EQ(run_cli(dir, daemon, {"exists", "/out", "/in"}).status, 1) << "a refused connect left a connection";
+    EXPECT_EQ(run_cli(dir, daemon, {"exists", "/out", "/in"}).status, 1)
+        << "a refused connect left a connection";
 }
 
 TEST(PluginMonitor_test, ThrowingPluginIsContainedCountedAndTheDaemonGoesOn) {

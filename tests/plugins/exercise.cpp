@@ -105,8 +105,8 @@ void destroy(void* state) {
     delete static_cast<Exercise*>(state);
 }
 
-const plexus_monitor_plugin descriptor = {PLEXUS_MONITOR_ABI_VERSION, "exercise", create, accept, update, trig,
-                                          getparam, setparam, destroy};
+const plexus_monitor_plugin descriptor = {
+    PLEXUS_MONITOR_ABI_VERSION, "exercise", create, accept, update, trig, getparam, setparam, destroy};
 
 }  // namespace
 

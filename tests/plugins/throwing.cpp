@@ -11,8 +11,8 @@ int accept(void*, const plexus_message* message) {
     throw std::runtime_error("plugin exploded on message " + std::to_string(message->seq));
 }
 
-const plexus_monitor_plugin descriptor = {PLEXUS_MONITOR_ABI_VERSION, "throwing", nullptr, accept, nullptr,
-                                          nullptr, nullptr, nullptr, nullptr};
+const plexus_monitor_plugin descriptor = {
+    PLEXUS_MONITOR_ABI_VERSION, "throwing", nullptr, accept, nullptr, nullptr, nullptr, nullptr, nullptr};
 
 }  // namespace
 

@@ -70,7 +70,8 @@ proto::Result<MonitorSpec> spec_for(MonitorType type, const std::string& name, c
     spec.destination = "/b";
     spec.carrier = "tcp+recv.portmonitor+type.so+file." + name;
     spec.options = std::move(options);
-    auto found = type == MonitorType::plugin ? find_plugin(name, {directory}) : find_script(name, {directory});
+    auto found =
+        type == MonitorType::plugin ? find_plugin(name, {directory}) : find_script(name, {directory});
     if (!found)
         return found.error();
     spec.script = std::move(*found);
@@ -102,7 +103,8 @@ struct Fixture : ::testing::Test {
 using PluginMonitor_test = Fixture;
 
 TEST_F(PluginMonitor_test, CertaintyPluginBehavesLikeCertaintyLua) {
-    const std::map<std::string, std::string> options{{"threshold", "0.7"}, {"event", "e_ok"}, {"lifetime", "0.5"}};
+    const std::map<std::string, std::string> options{
+        {"threshold", "0.7"}, {"event", "e_ok"}, {"lifetime", "0.5"}};
     auto lua_member = std::make_shared<arbitration::Member>(arbiter, "/lua");
     auto plugin_member = std::make_shared<arbitration::Member>(arbiter, "/plugin");
     auto lua = create(MonitorType::lua, "certainty", monitor_scripts, options, lua_member);
@@ -113,10 +115,22 @@ TEST_F(PluginMonitor_test, CertaintyPluginBehavesLikeCertaintyLua) {
 
     // Every kind of payload the script's type checks tell apart, and the threshold's edges.
     const std::vector<json> inputs{
-        {{"certainty", 0.9}},  {{"certainty", 0.7}},   {{"certainty", 0.69}}, {{"certainty", 1}},
-        {{"certainty", 0}},    {{"certainty", "0.9"}}, {{"other", 0.9}},      json::array({0.9}),
-        0.9,                   "certainty",            nullptr,               {{"certainty", nullptr}},
-        {{"certainty", -5}},   {{"certainty", 1e300}}, json::binary({1, 2}),  {{"certainty", true}},
+        {{"certainty", 0.9}},
+        {{"certainty", 0.7}},
+        {{"certainty", 0.69}},
+        {{"certainty", 1}},
+        {{"certainty", 0}},
+        {{"certainty", "0.9"}},
+        {{"other", 0.9}},
+        json::array({0.9}),
+        0.9,
+        "certainty",
+        nullptr,
+        {{"certainty", nullptr}},
+        {{"certainty", -5}},
+        {{"certainty", 1e300}},
+        json::binary({1, 2}),
+        {{"certainty", true}},
     };
     for (std::size_t i = 0; i < inputs.size(); ++i) {
         auto for_lua = make_message(inputs[i], i);
@@ -153,7 +167,8 @@ TEST_F(PluginMonitor_test, CertaintyRefusesABadOptionWithTheScriptsWords) {
     auto plugin = create(MonitorType::plugin, "certainty", example_plugins, {{"threshold", "high"}});
     ASSERT_FALSE(lua.ok());
     ASSERT_FALSE(plugin.ok());
-    EXPECT_NE(plugin.error().message.find("refused the connection"), std::string::npos) << plugin.error().message;
+    EXPECT_NE(plugin.error().message.find("refused the connection"), std::string::npos)
+        << plugin.error().message;
     EXPECT_NE(plugin.error().message.find("threshold must be a number, got high"), std::string::npos)
         << plugin.error().message;
 }
@@ -196,7 +211,8 @@ TEST_F(PluginMonitor_test, FileThatIsNotALibraryIsRefusedWithTheLoadersReason) {
 TEST_F(PluginMonitor_test, PluginsAreFoundOnlyInsideTheMonitorLibsDirectories) {
     auto elsewhere = find_plugin("certainty", {test_plugins});
     ASSERT_FALSE(elsewhere.ok());
-    EXPECT_NE(elsewhere.error().message.find("not found in the --monitor-libs directories"), std::string::npos)
+    EXPECT_NE(elsewhere.error().message.find("not found in the --monitor-libs directories"),
+              std::string::npos)
         << elsewhere.error().message;
     auto absolute = find_plugin(example_plugins + "/certainty", {test_plugins});
     ASSERT_FALSE(absolute.ok());
@@ -269,9 +285,9 @@ plexus_value view_of(const std::vector<std::uint8_t>& cbor) {
 }
 
 TEST(PluginValues_test, ReadsWhatNlohmannWrites) {
-    const json value = {{"i", -3},     {"u", 1u << 20},          {"f", 0.25},   {"big", 1e300},
-                        {"s", "text"}, {"b", json::binary({7})}, {"n", nullptr}, {"t", true},
-                        {"a", {1, "two", {{"three", 3}}}}};
+    const json value = {{"i", -3},      {"u", 1u << 20}, {"f", 0.25},
+                        {"big", 1e300}, {"s", "text"},   {"b", json::binary({7})},
+                        {"n", nullptr}, {"t", true},     {"a", {1, "two", {{"three", 3}}}}};
     const auto cbor = json::to_cbor(value);
     const plexus_value root = view_of(cbor);
     EXPECT_EQ(values::type(root), PLEXUS_TYPE_MAP);
