@@ -50,27 +50,6 @@ TempDir::~TempDir() {
     std::filesystem::remove_all(path_, ignored);
 }
 
-double slowdown() {
-    static const double factor = [] {
-        const char* text = std::getenv("PLEXUS_TEST_SLOWDOWN");
-        if (!text || !*text)
-            return 1.0;
-        char* end = nullptr;
-        const double value = std::strtod(text, &end);
-        if (*end != '\0' || !(value >= 1.0) || value > 100.0) {
-            std::fprintf(stderr, "PLEXUS_TEST_SLOWDOWN=%s: not a factor from 1 to 100\n", text);
-            std::abort();
-        }
-        return value;
-    }();
-    return factor;
-}
-
-std::chrono::milliseconds slower(std::chrono::milliseconds bound) {
-    return std::chrono::milliseconds(static_cast<std::chrono::milliseconds::rep>(
-        static_cast<double>(bound.count()) * slowdown()));
-}
-
 bool eventually(const std::function<bool()>& condition, std::chrono::milliseconds timeout) {
     const auto deadline = std::chrono::steady_clock::now() + slower(timeout);
     auto pause = std::chrono::milliseconds(1);

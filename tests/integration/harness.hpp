@@ -15,6 +15,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "../common/slowdown.hpp"  // slowdown(), slower(): the speed bounds of a slower build
+
 namespace plexus::test {
 
 using namespace std::chrono_literals;
@@ -41,14 +43,6 @@ public:
 private:
     std::string path_;
 };
-
-/// How many times slower than the release build this build runs: PLEXUS_TEST_SLOWDOWN (default 1;
-/// scripts/sanitize sets it for the sanitized builds, docs/SANITIZERS.md). Read here only, once.
-/// Stretches bounds about speed (deadlines, latencies, memory growth that a sanitizer's shadow
-/// memory inflates), never a bound about correctness (counts, order, contents, losses).
-double slowdown();
-/// A speed bound stretched by slowdown().
-std::chrono::milliseconds slower(std::chrono::milliseconds bound);
 
 /// Polls `condition` until it holds or `timeout` (stretched by slowdown()) passes; true if it held.
 /// The deadline is only how long to wait for what must happen: waiting longer weakens no test.

@@ -2,6 +2,7 @@
 // same calls in a plain Lua state and in a LuaSandbox must give the same results and the same
 // errors (a table of chosen cases, then random patterns and subjects from a fixed seed); and on
 // inputs that make the stock ones run for seconds or forever, ours stop at the budget.
+#include "../../common/slowdown.hpp"
 #include "monitor/lua_sandbox.hpp"
 
 #include <gtest/gtest.h>
@@ -275,7 +276,9 @@ TEST_P(Pathological_test, StopsWithinTheBudgetPlusFiveMilliseconds) {
         quickest = std::min(quickest, stopped.elapsed);
         times += std::to_string(std::chrono::duration<double, std::milli>(stopped.elapsed).count()) + " ms ";
     }
-    EXPECT_LT(quickest, 25ms) << times;
+    // 5 ms past the budget: how long a C function runs before the sandbox can stop it, a speed
+    // bound stretched in a slower build (tests/common/slowdown.hpp).
+    EXPECT_LT(quickest, 20ms + plexus::test::slower(5ms)) << times;
 }
 
 INSTANTIATE_TEST_SUITE_P(
