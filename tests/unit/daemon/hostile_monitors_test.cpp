@@ -1,7 +1,6 @@
 // The hostile corpus (tests/monitors/hostile/*.lua): each script's accept attacks the sandbox one
 // way. Loaded into a Monitor with the daemon's default limits, each call must be stopped within
 // its budget plus 5 ms and counted as its "-- Expect:" line says (timeout, out_of_memory, error).
-#include "../../common/slowdown.hpp"
 #include "monitor/monitor.hpp"
 
 #include <gtest/gtest.h>
@@ -82,10 +81,6 @@ TEST_P(Hostile_test, EachCallIsStoppedWithinBudgetPlusFiveMsAndCounted) {
     spec.carrier = "tcp+recv.portmonitor+file.hostile";
     MonitorPolicy policy;  // the daemon's defaults: 16 MiB, 20 ms
     policy.quarantine_after = 100;
-    // A slower build (slowdown(), tests/common/slowdown.hpp) gets a budget as much longer: under
-    // ASan, doubling a string to the 16 MiB cap took more than 20 ms, and the call timed out before
-    // it ran out of memory.
-    policy.limits.budget = plexus::test::slower(policy.limits.budget);
     const auto budget = policy.limits.budget;
     NullHost host;
     auto created = Monitor::create(spec, policy, host);
