@@ -44,6 +44,14 @@ struct Connection final : FilterClient {
 
     /// How many more messages the source may write into this connection.
     std::size_t room() const { return room_after(sink->room(), send_monitors.get()); }
+    /// The connection is going: the sink sends what it holds, then lets go; messages still in the
+    /// send-side monitors reach it first.
+    void close_after_flush() {
+        if (send_monitors && send_monitors->in_flight() > 0)
+            closing_ = true;  // filtered() closes the sink after the last of them
+        else
+            sink->close_after_flush();
+    }
     /// What the send-side monitors passed goes on to the sink, in order.
     void filtered(std::vector<Filtered>& results) override {
         for (auto& result : results) {
@@ -52,7 +60,14 @@ struct Connection final : FilterClient {
             else
                 dropped_by_monitor += result.message.count();
         }
+        if (closing_ && send_monitors->in_flight() == 0) {
+            closing_ = false;
+            sink->close_after_flush();
+        }
     }
+
+private:
+    bool closing_ = false;
 };
 
 }  // namespace plexus::daemon

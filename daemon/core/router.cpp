@@ -30,7 +30,7 @@ std::vector<std::shared_ptr<Connection>> Router::close(const std::string& name) 
     auto port = it->second;
     ports_.erase(it);
     for (auto& connection : port->outgoing) {
-        connection->sink->close_after_flush();
+        connection->close_after_flush();
         removed.push_back(connection);
     }
     port->outgoing.clear();
@@ -81,7 +81,7 @@ std::shared_ptr<Connection> Router::remove(const std::string& source, const std:
         return nullptr;
     auto connection = *it;
     out.erase(it);
-    connection->sink->close_after_flush();
+    connection->close_after_flush();
     return connection;
 }
 

@@ -40,6 +40,8 @@ std::size_t MonitorStage::room() const {
 }
 
 void MonitorStage::submit(const Message& message) {
+    if (in_flight_ == 0)
+        holding_ = client_.lock();
     in_flight_ += message.count();
     bool start = false;
     std::uint64_t dropped = 0;
@@ -55,6 +57,8 @@ void MonitorStage::submit(const Message& message) {
     }
     in_flight_ -= dropped;
     dropped_backlog_ += dropped;
+    if (in_flight_ == 0)
+        holding_.reset();
     if (start)
         asio::post(strand_, [self = shared_from_this()] { self->drain(); });
 }
@@ -156,10 +160,13 @@ void MonitorStage::complete(std::vector<Filtered>& results) {
         client->filtered(results);
     if (on_space_)
         on_space_();
+    if (in_flight_ == 0)
+        holding_.reset();  // may end the client, and with it this stage's monitors (close())
 }
 
 void MonitorStage::close() {
     client_.reset();
+    holding_.reset();
     asio::post(strand_, [self = shared_from_this()] {
         self->closed_ = true;
         self->chain_->monitors.clear();  // their destroy callbacks run here, on their thread
@@ -180,18 +187,18 @@ void MonitorStage::trig(std::uint64_t monitor_id) {
 }
 
 Task<void> MonitorStage::run(const std::function<void()>& work) {
-    auto self = shared_from_this();
-    co_await asio::async_initiate<const asio::use_awaitable_t<>, void()>(
-        [self, &work](auto handler) {
-            auto shared = std::make_shared<decltype(handler)>(std::move(handler));
-            asio::post(self->strand_, [self, &work, shared] {
-                if (!self->closed_)
-                    work();
-                auto executor = asio::get_associated_executor(*shared);
-                asio::post(executor, std::move(*shared));
-            });
-        },
-        asio::use_awaitable);
+    // Named, not a temporary inside the co_await: g++ 12 destroys the captures of such a lambda
+    // twice (a shared_ptr capture freed the stage under its owner).
+    auto initiation = [self = shared_from_this(), &work](auto handler) {
+        auto shared = std::make_shared<decltype(handler)>(std::move(handler));
+        asio::post(self->strand_, [self, &work, shared] {
+            if (!self->closed_)
+                work();
+            auto executor = asio::get_associated_executor(*shared);
+            asio::post(executor, std::move(*shared));
+        });
+    };
+    co_await asio::async_initiate<const asio::use_awaitable_t<>, void()>(initiation, asio::use_awaitable);
 }
 
 }  // namespace plexus::daemon::monitor

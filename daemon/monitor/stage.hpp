@@ -80,6 +80,9 @@ private:
     Options options_;
     std::function<void()> on_space_;
     std::weak_ptr<FilterClient> client_;
+    /// The client, held while messages are in the stage: a connection removed (its writer closed,
+    /// or a disconnect) still gets every verdict of what it was given, as when monitors ran inline.
+    std::shared_ptr<FilterClient> holding_;
 
     // The daemon's thread only.
     std::size_t in_flight_ = 0;
