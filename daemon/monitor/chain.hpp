@@ -1,5 +1,5 @@
 #pragma once
-// Threading: the daemon's one thread.
+// Threading: as its monitors (monitor.hpp): process() on the stage's strand, stats() from anywhere.
 
 #include <memory>
 #include <vector>

@@ -60,7 +60,11 @@ Monitor::~Monitor() {
 }
 
 std::size_t Monitor::memory_in_use() const {
-    return backend_ ? backend_->memory_in_use() : 0;
+    return memory_in_use_.load(std::memory_order_relaxed);
+}
+
+void Monitor::note_memory() {
+    memory_in_use_.store(backend_ ? backend_->memory_in_use() : 0, std::memory_order_relaxed);
 }
 
 Monitor::Verdict Monitor::verdict_on_failure(bool in_accept) const {
@@ -81,7 +85,11 @@ void Monitor::failed(const char* callback, const ScriptError& error) {
         ++counters_.timeouts;
     if (error.out_of_memory)
         ++counters_.out_of_memory;
-    last_error_ = std::string(callback) + ": " + error.message;
+    {
+        std::lock_guard lock(last_error_mutex_);
+        last_error_ = std::string(callback) + ": " + error.message;
+    }
+    note_memory();
     if (counters_.errors <= logged_failures || counters_.errors % 1000 == 0) {
         spdlog::warn("monitor {}: {} failed ({} errors so far): {}", description(), callback,
                      counters_.errors, error.message);
@@ -99,6 +107,7 @@ void Monitor::quarantine() {
     release_events();
     host_.monitor_gone(*this);
     backend_.reset();  // closes a Lua state; a plugin's state is destroyed and the library let go
+    note_memory();
     ::malloc_trim(0);  // and its memory goes back to the system now, not at the next trim
 }
 
@@ -197,15 +206,15 @@ nlohmann::json Monitor::stats() const {
     return {{"script", spec_.script.name},
             {"type", spec_.type == MonitorType::plugin ? "so" : "lua"},
             {"side", side_name(spec_.side)},
-            {"messages", counters_.messages},
-            {"dropped", counters_.dropped},
-            {"rewritten", counters_.rewritten},
-            {"errors", counters_.errors},
-            {"timeouts", counters_.timeouts},
-            {"out_of_memory", counters_.out_of_memory},
-            {"quarantined", quarantined_},
+            {"messages", counters_.messages.load()},
+            {"dropped", counters_.dropped.load()},
+            {"rewritten", counters_.rewritten.load()},
+            {"errors", counters_.errors.load()},
+            {"timeouts", counters_.timeouts.load()},
+            {"out_of_memory", counters_.out_of_memory.load()},
+            {"quarantined", quarantined()},
             {"memory_bytes", memory_in_use()},
-            {"last_error", last_error_}};
+            {"last_error", last_error()}};
 }
 
 }  // namespace plexus::daemon::monitor

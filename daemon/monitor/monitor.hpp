@@ -1,5 +1,7 @@
 #pragma once
-// Threading: the daemon's one thread.
+// Threading: one thread at a time -- created on the daemon's thread, then used only on its stage's
+// strand (monitor/stage.hpp). counters(), quarantined(), last_error(), memory_in_use() and stats()
+// may be read from the daemon's thread meanwhile.
 //
 // One port monitor on one side of one connection: a Lua script in its own sandboxed state
 // (lua_monitor.*) or a compiled plugin (plugin_monitor.*), behind the same shell. It sees each
@@ -7,8 +9,10 @@
 // its state closed, its memory returned -- when it keeps failing. The shell keeps the counters,
 // the failure policy and the PortMonitor functions both kinds call (setEvent, publish, ...).
 
+#include <atomic>
 #include <cstdint>
 #include <map>
+#include <mutex>
 #include <memory>
 #include <optional>
 #include <string>
@@ -67,13 +71,35 @@ struct MonitorPolicy {
     std::uint32_t quarantine_after = 5;  ///< consecutive failed calls
 };
 
+/// A count written by one thread (the monitor's worker) and read by others (`plexus stats` on the
+/// daemon's thread): relaxed atomic loads and stores, no locked instruction on the per-message path.
+class MonitorCount {
+public:
+    MonitorCount() = default;
+    MonitorCount(const MonitorCount& other) : value_(other.load()) {}
+    MonitorCount& operator=(const MonitorCount& other) {
+        value_.store(other.load(), std::memory_order_relaxed);
+        return *this;
+    }
+    MonitorCount& operator+=(std::uint64_t n) {
+        value_.store(load() + n, std::memory_order_relaxed);  // one writer: no read-modify-write
+        return *this;
+    }
+    MonitorCount& operator++() { return *this += 1; }
+    std::uint64_t load() const { return value_.load(std::memory_order_relaxed); }
+    operator std::uint64_t() const { return load(); }
+
+private:
+    std::atomic<std::uint64_t> value_{0};
+};
+
 struct MonitorCounters {
-    std::uint64_t messages = 0;   ///< messages the monitor saw
-    std::uint64_t dropped = 0;    ///< by accept (or by a failure with the drop policy)
-    std::uint64_t rewritten = 0;  ///< payloads replaced
-    std::uint64_t errors = 0;     ///< failed calls of any callback, timeouts included
-    std::uint64_t timeouts = 0;
-    std::uint64_t out_of_memory = 0;
+    MonitorCount messages;   ///< messages the monitor saw
+    MonitorCount dropped;    ///< by accept (or by a failure with the drop policy)
+    MonitorCount rewritten;  ///< payloads replaced
+    MonitorCount errors;     ///< failed calls of any callback, timeouts included
+    MonitorCount timeouts;
+    MonitorCount out_of_memory;
 };
 
 class Monitor {
@@ -114,8 +140,12 @@ public:
     std::uint64_t id() const { return id_; }
     const MonitorSpec& spec() const { return spec_; }
     const MonitorCounters& counters() const { return counters_; }
-    bool quarantined() const { return quarantined_; }
-    const std::string& last_error() const { return last_error_; }
+    bool quarantined() const { return quarantined_.load(std::memory_order_relaxed); }
+    /// A copy: the monitor's worker may be writing it.
+    std::string last_error() const {
+        std::lock_guard lock(last_error_mutex_);
+        return last_error_;
+    }
     std::size_t memory_in_use() const;
     /// "certainty (recv)", for logs.
     std::string description() const;
@@ -123,7 +153,12 @@ public:
 
 private:
     Monitor(MonitorSpec spec, const MonitorPolicy& policy, MonitorHost& host);
-    void succeeded() { consecutive_failures_ = 0; }
+    void succeeded() {
+        consecutive_failures_ = 0;
+        note_memory();
+    }
+    /// What memory_in_use() reports, read where the state is (the monitor's worker).
+    void note_memory();
     void failed(const char* callback, const ScriptError& error);
     void quarantine();
     Verdict verdict_on_failure(bool in_accept) const;
@@ -141,7 +176,10 @@ private:
     bool has_update_ = false;
     MonitorCounters counters_;
     std::uint32_t consecutive_failures_ = 0;
-    bool quarantined_ = false;
+    // Read by `plexus stats` on the daemon's thread while the worker writes them.
+    std::atomic<bool> quarantined_{false};
+    std::atomic<std::size_t> memory_in_use_{0};
+    mutable std::mutex last_error_mutex_;
     std::string last_error_;
 };
 
