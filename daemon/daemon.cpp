@@ -16,6 +16,9 @@ namespace plexus::daemon {
 
 namespace {
 constexpr auto shutdown_grace = std::chrono::seconds(3);
+/// Of which monitors may use this much to finish what they hold (SIGTERM must end a daemon within
+/// 2 s whatever a script is doing).
+constexpr auto monitors_grace = std::chrono::seconds(1);
 }
 
 Daemon::Daemon(asio::io_context& io, DaemonConfig config)
@@ -314,10 +317,19 @@ Task<void> Daemon::shutdown() {
         });
         return !sessions_.empty() || !links_.empty();
     };
-    while (busy() && std::chrono::steady_clock::now() < deadline) {
+    // Monitors get a second of it to hand on what they hold; a slow script gets no more.
+    const auto monitors_deadline = std::chrono::steady_clock::now() + monitors_grace;
+    bool monitors_closed = false;
+    while ((busy() || !monitors_closed) && std::chrono::steady_clock::now() < deadline) {
+        if (!monitors_closed && (scripts_->in_flight() == 0 || std::chrono::steady_clock::now() >= monitors_deadline)) {
+            scripts_->close_stages();
+            monitors_closed = true;
+            continue;
+        }
         asio::steady_timer tick(io_, std::chrono::milliseconds(20));
         co_await tick.async_wait(use_nothrow);
     }
+    scripts_->close_stages();
     io_.stop();
 }
 

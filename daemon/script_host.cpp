@@ -103,6 +103,22 @@ std::shared_ptr<monitor::MonitorStage> ScriptHost::make_stage(std::shared_ptr<mo
     return stage;
 }
 
+std::size_t ScriptHost::in_flight() const {
+    std::size_t total = 0;
+    for (const auto& [id, weak] : stages_) {
+        if (auto stage = weak.lock())
+            total += stage->in_flight();
+    }
+    return total;
+}
+
+void ScriptHost::close_stages() {
+    for (const auto& [id, weak] : stages_) {
+        if (auto stage = weak.lock())
+            stage->close();
+    }
+}
+
 double ScriptHost::now() const {
     return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }

@@ -45,6 +45,12 @@ public:
     double now() const override;
     void monitor_gone(monitor::Monitor& monitor) override;
 
+    /// Messages still in any monitors (shutdown waits a little for them).
+    std::size_t in_flight() const;
+    /// Shutdown: every stage lets its monitors go and drops what waits, so that no script, however
+    /// slow, holds the daemon past its grace.
+    void close_stages();
+
     std::uint64_t published() const { return published_; }
     std::uint64_t publish_dropped() const { return publish_dropped_; }
 

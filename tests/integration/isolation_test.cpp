@@ -1,0 +1,207 @@
+// A hostile monitor delays only its own connection (issue 19, DESIGN "Monitors, second pass"):
+// with a script from tests/monitors/hostile/ running on every message of one connection, a second
+// connection of the same daemon keeps delivering with p99 latency under 5 ms, `plexus list`
+// answers within 1 s, the hostile calls are stopped and counted, and SIGTERM stops the daemon
+// within 2 s. And order: 100,000 messages through a monitored connection arrive in order, none
+// lost, while other monitored connections run beside it.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <fstream>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "../common/slowdown.hpp"
+#include "harness.hpp"
+#include "plexus/client.hpp"
+
+namespace plexus::test {
+namespace {
+
+using namespace std::chrono_literals;
+using Clock = std::chrono::steady_clock;
+using nlohmann::json;
+
+/// A daemon that never quarantines, so the hostile script keeps running on every message.
+std::vector<std::string> hostile_daemon_flags(const TempDir& dir) {
+    const std::string config = dir.file("never-quarantine.json");
+    std::ofstream(config) << R"({"monitor_quarantine_after": 1000000})";
+    return {"--scripts", PLEXUS_HOSTILE_DIR, "--scripts", monitors_dir(), "--config", config};
+}
+
+/// Writes 1, 2, 3... every `pace` on a thread of its own until stopped (also when a test fails).
+class PacedWriter {
+public:
+    PacedWriter(Port& port, std::chrono::microseconds pace, std::uint64_t count = 0)
+        : thread_([this, &port, pace, count] {
+              auto next = Clock::now();
+              while (!stop_ && (count == 0 || written_ < count)) {
+                  port.write(Value(static_cast<std::int64_t>(written_ + 1)));
+                  ++written_;
+                  next += pace;
+                  std::this_thread::sleep_until(next);
+              }
+          }) {}
+    ~PacedWriter() { stop(); }
+    void stop() {
+        stop_ = true;
+        if (thread_.joinable())
+            thread_.join();
+    }
+
+private:
+    std::atomic<std::uint64_t> written_{0};
+    std::atomic<bool> stop_{false};
+    std::thread thread_;
+};
+
+double ms(Clock::duration d) {
+    return std::chrono::duration<double, std::milli>(d).count();
+}
+
+class Isolation_test : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(Isolation_test, AHostileMonitorDelaysNothingButItsOwnConnection) {
+    const std::string script = GetParam();
+    TempDir dir;
+    Daemon daemon(dir, "solo", "", hostile_daemon_flags(dir));
+    {
+        Client::Options options;
+        options.socket = daemon.socket();
+        Client client(options);
+        auto hostile_out = client.open("/hostile/out");
+        auto hostile_in = client.open("/hostile/in", {QueuePolicy::latest, 16});
+        auto calm_out = client.open("/calm/out");
+        auto calm_in = client.open("/calm/in");
+        client.connect("/hostile/out", "/hostile/in", "local+recv.portmonitor+type.lua+file." + script);
+        client.connect("/calm/out", "/calm/in", "local");
+
+        // The hostile connection gets a message every 5 ms: its script is busy all the time.
+        PacedWriter hostile(hostile_out, 5ms);
+        ASSERT_TRUE(eventually([&] {
+            auto stats = json::parse(run_cli(dir, daemon, {"stats", "/hostile/in", "--json"}).out);
+            return stats["ports"][0]["inbound"][0]["monitors"][0]["errors"].get<std::uint64_t>() >= 2;
+        })) << script << ": the hostile calls were not stopped and counted";
+
+        // Meanwhile, a 500 Hz stream on the other connection.
+        constexpr std::uint64_t count = 1000;
+        PacedWriter calm(calm_out, 2ms, count);
+        std::vector<double> latencies;
+        const auto deadline = Clock::now() + slower(30s);
+        while (latencies.size() < count && Clock::now() < deadline) {
+            auto message = calm_in.read(200ms);
+            if (!message)
+                continue;
+            const auto now_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                    std::chrono::system_clock::now().time_since_epoch())
+                                    .count();
+            latencies.push_back(static_cast<double>(now_ns - static_cast<std::int64_t>(message->envelope.time_ns)) /
+                                1e6);
+            EXPECT_EQ(message->envelope.seq, latencies.size()) << "out of order or lost";
+        }
+        ASSERT_EQ(latencies.size(), count) << script << ": the calm connection stopped delivering";
+        std::sort(latencies.begin(), latencies.end());
+        const double p50 = latencies[latencies.size() / 2];
+        const double p99 = latencies[latencies.size() * 99 / 100];
+
+        const auto asked = Clock::now();
+        auto listed = run_cli(dir, daemon, {"list"});
+        const double list_ms = ms(Clock::now() - asked);
+        EXPECT_EQ(listed.status, 0) << listed.err;
+
+        auto stats = json::parse(run_cli(dir, daemon, {"stats", "/hostile/in", "--json"}).out);
+        const auto monitor = stats["ports"][0]["inbound"][0]["monitors"][0];
+        std::cout << "  " << script << ": calm p50 " << p50 << " ms, p99 " << p99 << " ms; plexus list " << list_ms
+                  << " ms; hostile calls " << monitor["messages"] << ", errors " << monitor["errors"]
+                  << " (timeouts " << monitor["timeouts"] << ", out of memory " << monitor["out_of_memory"]
+                  << ")\n";
+        EXPECT_LT(p99, 5.0 * slowdown()) << script;
+        EXPECT_LT(list_ms, 1000.0 * slowdown()) << script;
+        EXPECT_GE(monitor["errors"].get<std::uint64_t>(), 2u);
+        EXPECT_EQ(monitor["quarantined"], false);
+        hostile.stop();
+    }
+    // SIGTERM while the script may still be inside a call.
+    const auto asked = Clock::now();
+    daemon.process().signal(SIGTERM);
+    const auto status = daemon.process().wait(slower(std::chrono::milliseconds(2000)));
+    const double stop_ms = ms(Clock::now() - asked);
+    std::cout << "  " << script << ": SIGTERM to exit " << stop_ms << " ms\n";
+    ASSERT_TRUE(status.has_value()) << script << ": the daemon did not stop within 2 s of SIGTERM";
+}
+
+// One of each kind: a pure Lua busy loop, a pattern inside the string library, a comparator called
+// from C, the memory cap.
+INSTANTIATE_TEST_SUITE_P(Hostile, Isolation_test,
+                         ::testing::Values("busy_loop", "pattern_find", "sort_slow_comparator", "rep_to_cap"));
+
+TEST(Isolation_test, AHundredThousandMessagesThroughAMonitorArriveInOrderBesideOtherMonitors) {
+    TempDir dir;
+    Daemon daemon(dir, "solo", "", hostile_daemon_flags(dir));
+    Client::Options options;
+    options.socket = daemon.socket();
+    Client client(options);
+    // Three monitored connections at once; the first is the one counted.
+    std::vector<Port> outs;
+    std::vector<Port> ins;
+    for (int i = 0; i < 3; ++i) {
+        outs.push_back(client.open("/order/out" + std::to_string(i)));
+        ins.push_back(client.open("/order/in" + std::to_string(i)));
+        client.connect("/order/out" + std::to_string(i), "/order/in" + std::to_string(i),
+                       "local+recv.portmonitor+type.lua+file.certainty+threshold.-1");
+    }
+    constexpr std::uint64_t count = 100'000;
+    std::atomic<bool> others_stop{false};
+    std::vector<std::thread> others;
+    for (int i = 1; i < 3; ++i) {
+        others.emplace_back([&, i] {
+            for (std::uint64_t n = 1; !others_stop; ++n)
+                outs[i].write(Value{{"certainty", 1.0}, {"n", n}}, n % 64 == 0);
+        });
+    }
+    std::thread drain_others([&] {
+        while (!others_stop) {
+            for (int i = 1; i < 3; ++i)
+                ins[i].read(1ms);
+        }
+    });
+    std::thread writer([&] {
+        for (std::uint64_t n = 1; n <= count; ++n) {
+            outs[0].write(Value{{"certainty", 1.0}, {"n", n}}, n % 64 == 0 || n == count);
+        }
+    });
+    std::uint64_t expected = 1;
+    bool in_order = true;
+    const auto deadline = Clock::now() + slower(120s);
+    while (expected <= count && Clock::now() < deadline) {
+        auto message = ins[0].read(200ms);
+        if (!message)
+            continue;
+        const auto n = message->data.at("n").get<std::uint64_t>();
+        if (n != expected) {
+            in_order = false;
+            ADD_FAILURE() << "expected message " << expected << ", got " << n;
+            break;
+        }
+        ++expected;
+    }
+    writer.join();
+    others_stop = true;
+    for (auto& other : others)
+        other.join();
+    drain_others.join();
+    EXPECT_TRUE(in_order);
+    EXPECT_EQ(expected - 1, count) << "messages lost or late";
+    auto stats = json::parse(run_cli(dir, daemon, {"stats", "/order/in0", "--json"}).out);
+    const auto inbound = stats["ports"][0]["inbound"][0];
+    EXPECT_EQ(inbound["received"], count);
+    EXPECT_EQ(inbound["delivered"], count);
+    EXPECT_EQ(inbound["dropped_by_accept"], 0);
+}
+
+}  // namespace
+}  // namespace plexus::test
