@@ -61,6 +61,10 @@ int main(int argc, char** argv) {
                       "also run `accept_empty`: an accept that returns true without touching msg, "
                       "the cost of calling a script at all");
     monitor->callback([&] { status = run_monitor(options); });
+    auto* scaling = app.add_subcommand(
+        "monitor-scaling", "total throughput of 1, 2, 4 independent connections with a ~20 us monitor each");
+    add_common(scaling);
+    scaling->callback([&] { status = run_monitor_scaling(options); });
 
     auto* arbitration = app.add_subcommand("arbitration",
                                            "added CPU per message with 2, 4, 8 competing connections "
