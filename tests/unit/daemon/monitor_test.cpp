@@ -7,6 +7,7 @@
 #include <cstring>
 
 #include "plexus/proto/message.hpp"
+#include "test_messages.hpp"
 
 namespace plexus::daemon::monitor {
 namespace {
@@ -52,20 +53,10 @@ MonitorSpec spec_for(const std::string& code, std::map<std::string, std::string>
 }
 
 Message make_message(const json& payload, std::uint64_t seq = 7) {
-    const auto cbor = json::to_cbor(payload);
-    proto::Bytes bytes;
-    proto::append_record(bytes, "/a", seq, 1'500'000'000'000'000'000ull, cbor);
-    auto chunk = std::make_shared<Chunk>(bytes.size());
-    std::memcpy(chunk->data(), bytes.data(), bytes.size());
-    const proto::ByteView view(chunk->data(), bytes.size());
-    return Message{std::move(chunk), view, seq};
+    return daemon::test::json_message(payload, seq);
 }
 
-json payload_of(const Message& message) {
-    auto record = proto::decode_record(message.record);
-    EXPECT_TRUE(record.ok());
-    return json::from_cbor(record->payload.begin(), record->payload.end());
-}
+using daemon::test::payload_of;
 
 struct Fixture : ::testing::Test {
     FakeHost host;

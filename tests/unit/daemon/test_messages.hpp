@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "core/batch.hpp"
 #include "core/message.hpp"
 #include "plexus/proto/message.hpp"
@@ -36,6 +38,23 @@ inline std::vector<std::uint64_t> seqs_of(const Message& message) {
     for_each_record(message,
                     [&](const Message& single) { seqs.push_back(proto::decode_record(single.record)->seq); });
     return seqs;
+}
+
+/// One record from /a with `seq`, a fixed time and `payload` as CBOR: what a monitor sees.
+inline Message json_message(const nlohmann::json& payload, std::uint64_t seq = 7) {
+    proto::Bytes bytes;
+    proto::append_record(bytes, "/a", seq, 1'500'000'000'000'000'000ull, nlohmann::json::to_cbor(payload));
+    Message message = message_holding(bytes);
+    message.seq = seq;
+    return message;
+}
+
+/// The payload of a one-record message, decoded.
+inline nlohmann::json payload_of(const Message& message) {
+    auto record = proto::decode_record(message.record);
+    if (!record.ok())
+        return nlohmann::json();  // the caller's comparison fails and shows it
+    return nlohmann::json::from_cbor(record->payload.begin(), record->payload.end());
 }
 
 }  // namespace plexus::daemon::test
