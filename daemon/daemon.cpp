@@ -19,7 +19,7 @@ constexpr auto shutdown_grace = std::chrono::seconds(3);
 /// Of which monitors may use this much to finish what they hold (SIGTERM must end a daemon within
 /// 2 s whatever a script is doing).
 constexpr auto monitors_grace = std::chrono::seconds(1);
-}
+}  // namespace
 
 Daemon::Daemon(asio::io_context& io, DaemonConfig config)
     : io_(io),
@@ -321,7 +321,8 @@ Task<void> Daemon::shutdown() {
     const auto monitors_deadline = std::chrono::steady_clock::now() + monitors_grace;
     bool monitors_closed = false;
     while ((busy() || !monitors_closed) && std::chrono::steady_clock::now() < deadline) {
-        if (!monitors_closed && (scripts_->in_flight() == 0 || std::chrono::steady_clock::now() >= monitors_deadline)) {
+        if (!monitors_closed &&
+            (scripts_->in_flight() == 0 || std::chrono::steady_clock::now() >= monitors_deadline)) {
             scripts_->close_stages();
             monitors_closed = true;
             continue;

@@ -82,7 +82,7 @@ private:
     DaemonConfig config_;
     std::unique_ptr<monitor::Workers> workers_;  ///< the threads monitors run on
     std::unique_ptr<ScriptHost> scripts_;        ///< before router_: monitors in connections die first
-    arbitration::SteadyClock clock_;       ///< event lifetimes and stimulation decay
+    arbitration::SteadyClock clock_;             ///< event lifetimes and stimulation decay
     Router router_;
     Signal space_;
     DaemonCounters counters_;

@@ -29,7 +29,8 @@ proto::Result<monitor::MonitorSpec> spec_of(const proto::Clause& clause, const p
         const std::string value = param.value.value_or("");
         if (param.key == "type") {
             if (value != "lua" && value != "so")
-                return proto::Error{"portmonitor type '" + value + "' is not supported (type.lua or type.so)"};
+                return proto::Error{"portmonitor type '" + value +
+                                    "' is not supported (type.lua or type.so)"};
             spec.type = value == "so" ? monitor::MonitorType::plugin : monitor::MonitorType::lua;
         } else if (param.key == "file") {
             file = value;
@@ -138,8 +139,8 @@ proto::Status ScriptHost::publish(monitor::Monitor& monitor, const std::string& 
     return proto::Ok{};
 }
 
-void ScriptHost::publish_now(std::uint64_t monitor_id, const std::string& description, const std::string& name,
-                             const nlohmann::json& value, int depth) {
+void ScriptHost::publish_now(std::uint64_t monitor_id, const std::string& description,
+                             const std::string& name, const nlohmann::json& value, int depth) {
     auto& owned = ports_[monitor_id];
     std::shared_ptr<Port> port;
     for (const auto& candidate : owned) {

@@ -72,8 +72,8 @@ private:
     Daemon& daemon_;
     monitor::Workers& workers_;
     std::map<std::uint64_t, std::weak_ptr<monitor::MonitorStage>> stages_;  ///< by monitor id
-    std::map<std::uint64_t, Trig> trigs_;                                ///< by monitor id
-    std::map<std::uint64_t, std::vector<std::shared_ptr<Port>>> ports_;  ///< published, by monitor id
+    std::map<std::uint64_t, Trig> trigs_;                                   ///< by monitor id
+    std::map<std::uint64_t, std::vector<std::shared_ptr<Port>>> ports_;     ///< published, by monitor id
     std::map<std::string, std::uint64_t> port_seq_;
     std::uint64_t next_generation_ = 1;
     std::uint64_t published_ = 0;

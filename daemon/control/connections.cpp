@@ -86,8 +86,8 @@ proto::Result<std::shared_ptr<MessageSink>> ControlPlane::udp_sending_end(std::s
             " gave no usable udp port and stream for this connection (udp needs IP addresses)"};
     }
     asio::ip::udp::endpoint to(address, static_cast<std::uint16_t>(port));
-    std::shared_ptr<MessageSink> sink = std::make_shared<UdpLink>(host_.udp(), to, stream, std::move(link),
-                                                                  std::move(description), dscp);
+    std::shared_ptr<MessageSink> sink =
+        std::make_shared<UdpLink>(host_.udp(), to, stream, std::move(link), std::move(description), dscp);
     return sink;
 }
 

@@ -37,8 +37,8 @@ proto::Status apply(const monitor::MonitorChain& chain, const nlohmann::json& bo
 
 /// apply() where the monitors run: their scripts are theirs only, and a slow getparam delays only
 /// this request.
-Task<proto::Status> apply_on_worker(const std::shared_ptr<MessageFilter>& monitors, const nlohmann::json& body,
-                                    nlohmann::json& results, bool& any_setparam) {
+Task<proto::Status> apply_on_worker(const std::shared_ptr<MessageFilter>& monitors,
+                                    const nlohmann::json& body, nlohmann::json& results, bool& any_setparam) {
     auto* stage = monitor::stage_of(monitors);
     if (!stage)
         co_return proto::Ok{};

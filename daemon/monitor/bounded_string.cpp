@@ -40,7 +40,9 @@ std::int64_t bytes_cost(std::size_t bytes) {
 }
 
 /// Characters of a conversion between '%' and its letter (flags, width, precision).
-bool is_spec_character(char c) { return c != '\0' && std::strchr("-+ #0123456789.", c) != nullptr; }
+bool is_spec_character(char c) {
+    return c != '\0' && std::strchr("-+ #0123456789.", c) != nullptr;
+}
 
 /// The checks the stock function makes on conversion `conversion`'s argument, made here at the
 /// argument's real position, so that an error names the argument as the stock function would.
@@ -48,10 +50,23 @@ void check_argument(lua_State* L, int index, int arguments, char conversion) {
     if (index > arguments)
         luaL_argerror(L, index, "no value");
     switch (conversion) {
-        case 'c': case 'd': case 'i': case 'u': case 'o': case 'x': case 'X':
+        case 'c':
+        case 'd':
+        case 'i':
+        case 'u':
+        case 'o':
+        case 'x':
+        case 'X':
             luaL_checkinteger(L, index);
             break;
-        case 'a': case 'A': case 'e': case 'E': case 'f': case 'F': case 'g': case 'G':
+        case 'a':
+        case 'A':
+        case 'e':
+        case 'E':
+        case 'f':
+        case 'F':
+        case 'g':
+        case 'G':
             luaL_checknumber(L, index);
             break;
         case 'q': {
@@ -82,7 +97,8 @@ int string_rep(lua_State* L) {
     const std::size_t unit = size + separator_size;
     if (unit < size || unit > max_result / static_cast<std::size_t>(n))
         return luaL_error(L, "resulting string too large");
-    const std::size_t total = static_cast<std::size_t>(n) * size + static_cast<std::size_t>(n - 1) * separator_size;
+    const std::size_t total =
+        static_cast<std::size_t>(n) * size + static_cast<std::size_t>(n - 1) * separator_size;
     luaL_Buffer buffer;
     char* out = luaL_buffinitsize(L, &buffer, total);
     // One repetition with its separator (the last one has none), then the filled part doubles,
@@ -130,7 +146,8 @@ int string_format(lua_State* L) {
         while (position < size && conversions < piece_conversions && position - start < piece_text) {
             if (format[position] != '%') {
                 const std::size_t limit = std::min(size, start + piece_text);
-                const auto* percent = static_cast<const char*>(std::memchr(format + position, '%', limit - position));
+                const auto* percent =
+                    static_cast<const char*>(std::memchr(format + position, '%', limit - position));
                 position = percent ? static_cast<std::size_t>(percent - format) : limit;
                 continue;
             }
@@ -146,7 +163,8 @@ int string_format(lua_State* L) {
             position = std::min(letter + 1, size);
             ++conversions;
         }
-        LuaSandbox::charge(L, bytes_cost(position - start) + conversion_cost * static_cast<std::int64_t>(conversions));
+        LuaSandbox::charge(
+            L, bytes_cost(position - start) + conversion_cost * static_cast<std::int64_t>(conversions));
         const int count = static_cast<int>(conversions);
         lua_pushvalue(L, lua_upvalueindex(1));
         lua_pushlstring(L, format + start, position - start);

@@ -16,7 +16,9 @@ namespace {
 
 enum Access { read = 1, write = 2, length = 4 };
 
-void step(lua_State* L) { LuaSandbox::charge(L, 4); }
+void step(lua_State* L) {
+    LuaSandbox::charge(L, 4);
+}
 
 /// Lua's checktab: a table, or a value whose metatable has the metamethods `what` needs.
 void check_table(lua_State* L, int index, int what) {
@@ -28,8 +30,8 @@ void check_table(lua_State* L, int index, int what) {
         ++pushed;
         return lua_rawget(L, -pushed) != LUA_TNIL;
     };
-    if (lua_getmetatable(L, index) && (!(what & read) || has("__index")) && (!(what & write) || has("__newindex")) &&
-        (!(what & length) || has("__len"))) {
+    if (lua_getmetatable(L, index) && (!(what & read) || has("__index")) &&
+        (!(what & write) || has("__newindex")) && (!(what & length) || has("__len"))) {
         lua_pop(L, pushed);
         return;
     }
@@ -102,8 +104,9 @@ int table_insert(lua_State* L) {
         case 3:
             position = luaL_checkinteger(L, 2);
             // position in [1, first_empty]
-            luaL_argcheck(L, static_cast<lua_Unsigned>(position) - 1u < static_cast<lua_Unsigned>(first_empty), 2,
-                          "position out of bounds");
+            luaL_argcheck(L,
+                          static_cast<lua_Unsigned>(position) - 1u < static_cast<lua_Unsigned>(first_empty),
+                          2, "position out of bounds");
             for (lua_Integer i = first_empty; i > position; --i) {
                 step(L);
                 lua_geti(L, 1, i - 1);
@@ -148,7 +151,8 @@ int table_move(lua_State* L) {
         const lua_Integer count = last - first + 1;
         luaL_argcheck(L, target <= LUA_MAXINTEGER - count + 1, 4, "destination wrap around");
         // Overlapping ranges in the same table move from the end, as in Lua.
-        if (target > last || target <= first || (destination != 1 && !lua_compare(L, 1, destination, LUA_OPEQ))) {
+        if (target > last || target <= first ||
+            (destination != 1 && !lua_compare(L, 1, destination, LUA_OPEQ))) {
             for (lua_Integer i = 0; i < count; ++i) {
                 step(L);
                 lua_geti(L, 1, first + i);

@@ -15,7 +15,9 @@ constexpr std::uint32_t max_unicode = 0x10FFFFu;
 constexpr std::uint32_t max_utf = 0x7FFFFFFFu;
 constexpr const char* invalid_code = "invalid UTF-8 code";
 
-bool is_continuation(const char* p) { return (static_cast<unsigned char>(*p) & 0xC0) == 0x80; }
+bool is_continuation(const char* p) {
+    return (static_cast<unsigned char>(*p) & 0xC0) == 0x80;
+}
 
 /// Lua's u_posrelat: negative positions count from the end; too negative gives 0.
 lua_Integer relative_position(lua_Integer position, std::size_t size) {
@@ -53,7 +55,9 @@ const char* decode(const char* s, std::uint32_t* value, bool strict) {
     return s + 1;
 }
 
-void step(lua_State* L) { LuaSandbox::charge(L, 1); }
+void step(lua_State* L) {
+    LuaSandbox::charge(L, 1);
+}
 
 int codes_next(lua_State* L, bool strict) {
     std::size_t size = 0;
@@ -76,8 +80,12 @@ int codes_next(lua_State* L, bool strict) {
     return 2;
 }
 
-int codes_next_strict(lua_State* L) { return codes_next(L, true); }
-int codes_next_lax(lua_State* L) { return codes_next(L, false); }
+int codes_next_strict(lua_State* L) {
+    return codes_next(L, true);
+}
+int codes_next_lax(lua_State* L) {
+    return codes_next(L, false);
+}
 
 }  // namespace
 
@@ -87,7 +95,8 @@ int utf8_len(lua_State* L) {
     lua_Integer first = relative_position(luaL_optinteger(L, 2, 1), size);
     lua_Integer last = relative_position(luaL_optinteger(L, 3, -1), size);
     const bool lax = lua_toboolean(L, 4);
-    luaL_argcheck(L, 1 <= first && --first <= static_cast<lua_Integer>(size), 2, "initial position out of bounds");
+    luaL_argcheck(L, 1 <= first && --first <= static_cast<lua_Integer>(size), 2,
+                  "initial position out of bounds");
     luaL_argcheck(L, --last < static_cast<lua_Integer>(size), 3, "final position out of bounds");
     lua_Integer count = 0;
     while (first <= last) {
@@ -138,7 +147,8 @@ int utf8_offset(lua_State* L) {
     lua_Integer n = luaL_checkinteger(L, 2);
     const lua_Integer default_start = n >= 0 ? 1 : static_cast<lua_Integer>(size) + 1;
     lua_Integer position = relative_position(luaL_optinteger(L, 3, default_start), size);
-    luaL_argcheck(L, 1 <= position && --position <= static_cast<lua_Integer>(size), 3, "position out of bounds");
+    luaL_argcheck(L, 1 <= position && --position <= static_cast<lua_Integer>(size), 3,
+                  "position out of bounds");
     if (n == 0) {
         while (position > 0 && is_continuation(s + position)) {  // back to the start of this character
             step(L);

@@ -25,25 +25,50 @@ constexpr int max_depth = 200;
 constexpr std::ptrdiff_t capture_unfinished = -1;
 constexpr std::ptrdiff_t capture_position = -2;
 
-unsigned char byte_at(const char* p) { return static_cast<unsigned char>(*p); }
+unsigned char byte_at(const char* p) {
+    return static_cast<unsigned char>(*p);
+}
 
 /// One %x class: letters select a <cctype> test (an upper-case letter negates it); anything else
 /// stands for itself.
 bool class_matches(int c, int class_letter) {
     bool result = false;
     switch (std::tolower(class_letter)) {
-        case 'a': result = std::isalpha(c); break;
-        case 'c': result = std::iscntrl(c); break;
-        case 'd': result = std::isdigit(c); break;
-        case 'g': result = std::isgraph(c); break;
-        case 'l': result = std::islower(c); break;
-        case 'p': result = std::ispunct(c); break;
-        case 's': result = std::isspace(c); break;
-        case 'u': result = std::isupper(c); break;
-        case 'w': result = std::isalnum(c); break;
-        case 'x': result = std::isxdigit(c); break;
-        case 'z': result = c == 0; break;  // deprecated, but Lua 5.4 still has it
-        default: return class_letter == c;
+        case 'a':
+            result = std::isalpha(c);
+            break;
+        case 'c':
+            result = std::iscntrl(c);
+            break;
+        case 'd':
+            result = std::isdigit(c);
+            break;
+        case 'g':
+            result = std::isgraph(c);
+            break;
+        case 'l':
+            result = std::islower(c);
+            break;
+        case 'p':
+            result = std::ispunct(c);
+            break;
+        case 's':
+            result = std::isspace(c);
+            break;
+        case 'u':
+            result = std::isupper(c);
+            break;
+        case 'w':
+            result = std::isalnum(c);
+            break;
+        case 'x':
+            result = std::isxdigit(c);
+            break;
+        case 'z':
+            result = c == 0;
+            break;  // deprecated, but Lua 5.4 still has it
+        default:
+            return class_letter == c;
     }
     return std::isupper(class_letter) ? !result : result;
 }
@@ -75,7 +100,10 @@ class Matcher {
 public:
     Matcher(lua_State* L, const char* subject, std::size_t subject_size, const char* pattern,
             std::size_t pattern_size)
-        : L_(L), subject_(subject), subject_end_(subject + subject_size), pattern_end_(pattern + pattern_size) {}
+        : L_(L),
+          subject_(subject),
+          subject_end_(subject + subject_size),
+          pattern_end_(pattern + pattern_size) {}
 
     void set_state(lua_State* L) { L_ = L; }
     /// Before each attempt at a new position.
@@ -164,10 +192,14 @@ private:
             return false;
         const int c = byte_at(s);
         switch (*p) {
-            case '.': return true;
-            case escape: return class_matches(c, byte_at(p + 1));
-            case '[': return set_matches(c, p, class_end - 1);
-            default: return byte_at(p) == c;
+            case '.':
+                return true;
+            case escape:
+                return class_matches(c, byte_at(p + 1));
+            case '[':
+                return set_matches(c, p, class_end - 1);
+            default:
+                return byte_at(p) == c;
         }
     }
 
@@ -235,9 +267,12 @@ private:
                     p = end + 1;
                     continue;
                 }
-                case '+': return max_expand(s + 1, p, end);
-                case '*': return max_expand(s, p, end);
-                case '-': return min_expand(s, p, end);
+                case '+':
+                    return max_expand(s + 1, p, end);
+                case '*':
+                    return max_expand(s, p, end);
+                case '-':
+                    return min_expand(s, p, end);
                 default:
                     ++s;
                     p = end;
@@ -365,7 +400,8 @@ bool has_specials(const char* p, std::size_t size) {
 
 /// A plain substring search. memchr + memcmp like Lua's, so it is O(subject x needle) at worst:
 /// each comparison is charged by the needle's size.
-const char* find_plain(lua_State* L, const char* s, std::size_t size, const char* needle, std::size_t needle_size) {
+const char* find_plain(lua_State* L, const char* s, std::size_t size, const char* needle,
+                       std::size_t needle_size) {
     if (needle_size == 0)
         return s;
     if (needle_size > size)
@@ -373,7 +409,8 @@ const char* find_plain(lua_State* L, const char* s, std::size_t size, const char
     const std::int64_t compare_cost = 1 + static_cast<std::int64_t>(needle_size) / LuaSandbox::bytes_per_step;
     const char* end = s + (size - needle_size) + 1;  // the last place a match can start, plus one
     while (s < end) {
-        const auto* hit = static_cast<const char*>(std::memchr(s, *needle, static_cast<std::size_t>(end - s)));
+        const auto* hit =
+            static_cast<const char*>(std::memchr(s, *needle, static_cast<std::size_t>(end - s)));
         if (!hit)
             return nullptr;
         LuaSandbox::charge(L, compare_cost + (hit - s) / LuaSandbox::bytes_per_step);
@@ -428,7 +465,7 @@ int find_or_match(lua_State* L, bool find) {
 /// What a gmatch iterator keeps between calls (a userdata: trivially destructible).
 struct GmatchState {
     Matcher matcher;
-    const char* next;        ///< where the next search starts
+    const char* next;  ///< where the next search starts
     const char* pattern;
     const char* last_match;  ///< the end of the last match: an empty match there is skipped
 };
@@ -507,9 +544,13 @@ bool add_replacement(lua_State* L, Matcher& matcher, luaL_Buffer& out, const cha
 
 }  // namespace
 
-int string_find(lua_State* L) { return find_or_match(L, true); }
+int string_find(lua_State* L) {
+    return find_or_match(L, true);
+}
 
-int string_match(lua_State* L) { return find_or_match(L, false); }
+int string_match(lua_State* L) {
+    return find_or_match(L, false);
+}
 
 int string_gmatch(lua_State* L) {
     std::size_t subject_size = 0;

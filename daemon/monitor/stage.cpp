@@ -104,7 +104,8 @@ void MonitorStage::process_batch(const Message& batch, std::vector<Filtered>& re
     std::uint32_t run_count = 0;
     auto end_run = [&] {
         if (run_count > 0)
-            results.push_back({Message{batch.storage, {run_begin, run_end}, 0, run_count}, FilterVerdict::pass});
+            results.push_back(
+                {Message{batch.storage, {run_begin, run_end}, 0, run_count}, FilterVerdict::pass});
         run_count = 0;
     };
     proto::BatchRecords records(batch.record, batch.batch);

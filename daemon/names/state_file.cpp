@@ -77,9 +77,10 @@ StateRead read_state(const std::string& path) {
     }
     std::size_t index = 0;
     for (const auto& entry : state["persistent"]) {
-        const bool whole_entry = entry.is_object() && entry.contains("source") && entry["source"].is_string() &&
-                                 entry.contains("destination") && entry["destination"].is_string() &&
-                                 entry.contains("carrier") && entry["carrier"].is_string();
+        const bool whole_entry = entry.is_object() && entry.contains("source") &&
+                                 entry["source"].is_string() && entry.contains("destination") &&
+                                 entry["destination"].is_string() && entry.contains("carrier") &&
+                                 entry["carrier"].is_string();
         if (whole_entry) {
             read.persistent.push_back({entry["source"].get<std::string>(),
                                        entry["destination"].get<std::string>(),

@@ -256,8 +256,9 @@ bool UdpCarrier::send(const asio::ip::udp::endpoint& to, std::uint64_t stream, s
         if (sent < 0 && errno == EINVAL && marks && !priority_refused_) {
             // Linux before 6.13 takes no SO_PRIORITY as ancillary data: the DSCP alone still goes.
             priority_refused_ = true;
-            spdlog::warn("this kernel does not take SO_PRIORITY per datagram: udp/mcast connections with "
-                         "qos.dscp carry their DSCP but not the matching socket priority");
+            spdlog::warn(
+                "this kernel does not take SO_PRIORITY per datagram: udp/mcast connections with "
+                "qos.dscp carry their DSCP but not the matching socket priority");
             marks->drop_priority();
             for (std::size_t i = 0; i < batch; ++i)
                 messages[i].msg_hdr.msg_controllen = marks->size();

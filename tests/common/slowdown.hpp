@@ -29,7 +29,8 @@ inline double slowdown() {
 /// A speed bound stretched by slowdown().
 template <typename Rep, typename Period>
 std::chrono::duration<Rep, Period> slower(std::chrono::duration<Rep, Period> bound) {
-    return std::chrono::duration<Rep, Period>(static_cast<Rep>(static_cast<double>(bound.count()) * slowdown()));
+    return std::chrono::duration<Rep, Period>(
+        static_cast<Rep>(static_cast<double>(bound.count()) * slowdown()));
 }
 
 }  // namespace plexus::test

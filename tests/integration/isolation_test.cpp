@@ -85,7 +85,8 @@ TEST_P(Isolation_test, AHostileMonitorDelaysNothingButItsOwnConnection) {
         ASSERT_TRUE(eventually([&] {
             auto stats = json::parse(run_cli(dir, daemon, {"stats", "/hostile/in", "--json"}).out);
             return stats["ports"][0]["inbound"][0]["monitors"][0]["errors"].get<std::uint64_t>() >= 2;
-        })) << script << ": the hostile calls were not stopped and counted";
+        })) << script
+            << ": the hostile calls were not stopped and counted";
 
         // Meanwhile, a 500 Hz stream on the other connection.
         constexpr std::uint64_t count = 1000;
@@ -99,8 +100,8 @@ TEST_P(Isolation_test, AHostileMonitorDelaysNothingButItsOwnConnection) {
             const auto now_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
                                     std::chrono::system_clock::now().time_since_epoch())
                                     .count();
-            latencies.push_back(static_cast<double>(now_ns - static_cast<std::int64_t>(message->envelope.time_ns)) /
-                                1e6);
+            latencies.push_back(
+                static_cast<double>(now_ns - static_cast<std::int64_t>(message->envelope.time_ns)) / 1e6);
             EXPECT_EQ(message->envelope.seq, latencies.size()) << "out of order or lost";
         }
         ASSERT_EQ(latencies.size(), count) << script << ": the calm connection stopped delivering";
@@ -115,10 +116,10 @@ TEST_P(Isolation_test, AHostileMonitorDelaysNothingButItsOwnConnection) {
 
         auto stats = json::parse(run_cli(dir, daemon, {"stats", "/hostile/in", "--json"}).out);
         const auto monitor = stats["ports"][0]["inbound"][0]["monitors"][0];
-        std::cout << "  " << script << ": calm p50 " << p50 << " ms, p99 " << p99 << " ms; plexus list " << list_ms
-                  << " ms; hostile calls " << monitor["messages"] << ", errors " << monitor["errors"]
-                  << " (timeouts " << monitor["timeouts"] << ", out of memory " << monitor["out_of_memory"]
-                  << ")\n";
+        std::cout << "  " << script << ": calm p50 " << p50 << " ms, p99 " << p99 << " ms; plexus list "
+                  << list_ms << " ms; hostile calls " << monitor["messages"] << ", errors "
+                  << monitor["errors"] << " (timeouts " << monitor["timeouts"] << ", out of memory "
+                  << monitor["out_of_memory"] << ")\n";
         EXPECT_LT(p99, 5.0 * slowdown()) << script;
         EXPECT_LT(list_ms, 1000.0 * slowdown()) << script;
         EXPECT_GE(monitor["errors"].get<std::uint64_t>(), 2u);
@@ -137,7 +138,8 @@ TEST_P(Isolation_test, AHostileMonitorDelaysNothingButItsOwnConnection) {
 // One of each kind: a pure Lua busy loop, a pattern inside the string library, a comparator called
 // from C, the memory cap.
 INSTANTIATE_TEST_SUITE_P(Hostile, Isolation_test,
-                         ::testing::Values("busy_loop", "pattern_find", "sort_slow_comparator", "rep_to_cap"));
+                         ::testing::Values("busy_loop", "pattern_find", "sort_slow_comparator",
+                                           "rep_to_cap"));
 
 TEST(Isolation_test, AHundredThousandMessagesThroughAMonitorArriveInOrderBesideOtherMonitors) {
     TempDir dir;

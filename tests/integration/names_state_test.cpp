@@ -46,12 +46,12 @@ TEST_P(NamesState_test, ADamagedStateFileIsReportedAndDoesNotStopTheNameServer) 
     EXPECT_FALSE(std::filesystem::exists(state + ".tmp"));
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    Damages, NamesState_test,
-    ::testing::Values(Damage{"Empty", "", "is empty"},
-                      Damage{"CutShort", R"({"persistent": [{"source": "/a", "destin)", "is not valid JSON"},
-                      Damage{"Garbage", "\x01\x02 not json", "is not valid JSON"}),
-    [](const ::testing::TestParamInfo<Damage>& info) { return info.param.name; });
+INSTANTIATE_TEST_SUITE_P(Damages, NamesState_test,
+                         ::testing::Values(Damage{"Empty", "", "is empty"},
+                                           Damage{"CutShort", R"({"persistent": [{"source": "/a", "destin)",
+                                                  "is not valid JSON"},
+                                           Damage{"Garbage", "\x01\x02 not json", "is not valid JSON"}),
+                         [](const ::testing::TestParamInfo<Damage>& info) { return info.param.name; });
 
 }  // namespace
 }  // namespace plexus::test

@@ -86,15 +86,15 @@ void arbitrate(const std::vector<std::string>& scripts, const std::string& ball_
         ASSERT_EQ(connected.status, 0) << carrier << ": " << connected.err << daemon.process().err();
     }
 
-    send(dir, daemon, ball_camera, "/ball/out", R"({"n":1})");  // nothing selected yet: dropped
+    send(dir, daemon, ball_camera, "/ball/out", R"({"n":1})");     // nothing selected yet: dropped
     send(dir, daemon, selector, "/selector/out", R"({"n":100})");  // selects the line
     expect_selected(dir, daemon, line, ball);
-    send(dir, daemon, ball_camera, "/ball/out", R"({"n":2})");  // dropped
-    send(dir, daemon, line_camera, "/line/out", R"({"n":3})");  // shown
+    send(dir, daemon, ball_camera, "/ball/out", R"({"n":2})");     // dropped
+    send(dir, daemon, line_camera, "/line/out", R"({"n":3})");     // shown
     send(dir, daemon, selector, "/selector/out", R"({"n":101})");  // selects the ball
     expect_selected(dir, daemon, ball, line);
-    send(dir, daemon, line_camera, "/line/out", R"({"n":4})");  // dropped
-    send(dir, daemon, ball_camera, "/ball/out", R"({"n":5})");  // shown
+    send(dir, daemon, line_camera, "/line/out", R"({"n":4})");     // dropped
+    send(dir, daemon, ball_camera, "/ball/out", R"({"n":5})");     // shown
     send(dir, daemon, selector, "/selector/out", R"({"n":102})");  // the line again
     expect_selected(dir, daemon, line, ball);
     send(dir, daemon, line_camera, "/line/out", R"({"n":6})");  // shown
@@ -125,8 +125,8 @@ TEST(YarpStyle_test, RequireOfAnythingButYarpRefusesTheConnect) {
     auto view = start_cli(dir, daemon, {"read", "/view/in", "--timeout", "30"}, "view");
     CliWriter writer(dir, daemon, "/a/out", "a");
     ASSERT_TRUE(wait_port(dir, daemon, "/view/in") && wait_port(dir, daemon, "/a/out"));
-    auto refused =
-        run_cli(dir, daemon, {"connect", "/a/out", "/view/in", "tcp+recv.portmonitor+type.lua+file.wants_os"});
+    auto refused = run_cli(dir, daemon,
+                           {"connect", "/a/out", "/view/in", "tcp+recv.portmonitor+type.lua+file.wants_os"});
     EXPECT_EQ(refused.status, 4) << refused.err;
     EXPECT_NE(refused.err.find("only require(\"yarp\")"), std::string::npos) << refused.err;
 }

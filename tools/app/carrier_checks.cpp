@@ -51,7 +51,8 @@ void check_scripts(const App& app, const AppConnection& connection, const proto:
             continue;
         }
         if (type_name == "so")
-            continue;  // a compiled monitor is found in the daemon's --monitor-libs, which the file does not name
+            continue;  // a compiled monitor is found in the daemon's --monitor-libs, which the file does not
+                       // name
         const bool has_extension = name.size() > 4 && name.compare(name.size() - 4, 4, ".lua") == 0;
         const std::string file_name = has_extension ? name : name + ".lua";
         bool found = false;

@@ -86,8 +86,8 @@ int run_monitor_scaling(const Options& options) {
             std::cout << R"({"scenario":"monitor_scaling","connections":)" << sizes[s] << R"(,"msgs_per_s":)"
                       << rate << R"(,"against_one":)" << rate / one << "}\n";
         else
-            std::cout << "  " << sizes[s] << " connection(s): " << static_cast<long>(rate) << " msgs/s in total, "
-                      << rate / one << "x one connection\n";
+            std::cout << "  " << sizes[s] << " connection(s): " << static_cast<long>(rate)
+                      << " msgs/s in total, " << rate / one << "x one connection\n";
     }
     return 0;
 }

@@ -24,7 +24,9 @@ const std::filesystem::path corpus = std::filesystem::path(__FILE__).parent_path
 
 class NullHost : public MonitorHost {
 public:
-    proto::Status publish(Monitor&, const std::string&, const nlohmann::json&) override { return proto::Ok{}; }
+    proto::Status publish(Monitor&, const std::string&, const nlohmann::json&) override {
+        return proto::Ok{};
+    }
     void set_trig_interval(Monitor&, double) override {}
     double now() const override { return 0; }
     void monitor_gone(Monitor&) override {}
@@ -66,7 +68,9 @@ std::vector<std::string> corpus_files() {
     return names;
 }
 
-TEST(HostileMonitors_test, CorpusIsThere) { EXPECT_GE(corpus_files().size(), 12u) << corpus; }
+TEST(HostileMonitors_test, CorpusIsThere) {
+    EXPECT_GE(corpus_files().size(), 12u) << corpus;
+}
 
 class Hostile_test : public ::testing::TestWithParam<std::string> {};
 
@@ -123,12 +127,11 @@ TEST_P(Hostile_test, EachCallIsStoppedWithinBudgetPlusFiveMsAndCounted) {
     std::cout << "  " << GetParam() << ": " << times << "(" << monitor.last_error().substr(0, 70) << ")\n";
 }
 
-INSTANTIATE_TEST_SUITE_P(Corpus, Hostile_test, ::testing::ValuesIn(corpus_files()),
-                         [](const auto& info) {
-                             auto name = info.param.substr(0, info.param.size() - 4);
-                             std::replace(name.begin(), name.end(), '.', '_');
-                             return name;
-                         });
+INSTANTIATE_TEST_SUITE_P(Corpus, Hostile_test, ::testing::ValuesIn(corpus_files()), [](const auto& info) {
+    auto name = info.param.substr(0, info.param.size() - 4);
+    std::replace(name.begin(), name.end(), '.', '_');
+    return name;
+});
 
 }  // namespace
 }  // namespace plexus::daemon::monitor

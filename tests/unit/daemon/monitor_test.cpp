@@ -255,11 +255,11 @@ TEST_F(Monitor_test, SandboxHasNoWayOut) {
             }
         end)");
     auto seen = *monitor->getparam();
-    for (const char* name :
-         {"io", "os", "package", "debug", "dofile", "loadfile", "dump", "collectgarbage"})
+    for (const char* name : {"io", "os", "package", "debug", "dofile", "loadfile", "dump", "collectgarbage"})
         EXPECT_EQ(seen[name], "nil") << name;
     // require exists for YARP's scripts, and gives nothing but the yarp module.
-    for (const char* attempt : {"execute", "loadlib", "bytecode", "bytecode_mode", "string_meta", "require_os"})
+    for (const char* attempt :
+         {"execute", "loadlib", "bytecode", "bytecode_mode", "string_meta", "require_os"})
         EXPECT_NE(seen[attempt], "open") << attempt << ": " << seen[attempt];
     EXPECT_NE(seen["bytecode"].get<std::string>().find("binary chunk"), std::string::npos)
         << seen["bytecode"];

@@ -51,7 +51,8 @@ TEST(YarpModule_test, AnythingElseWarnsOncePerNameAndReturnsNil) {
     )"),
               "");
     ASSERT_EQ(script.log.size(), 2u);
-    EXPECT_NE(script.log[0].find("yarp.Bottle is not available in Plexus"), std::string::npos) << script.log[0];
+    EXPECT_NE(script.log[0].find("yarp.Bottle is not available in Plexus"), std::string::npos)
+        << script.log[0];
     EXPECT_NE(script.log[1].find("yarp.Time_delay is not available"), std::string::npos) << script.log[1];
     EXPECT_NE(script.run("require('yarp'); yarp.Time_now = nil").find("read-only"), std::string::npos);
 }
@@ -60,8 +61,9 @@ TEST(YarpModule_test, EveryOtherModuleIsRefusedSayingWhy) {
     Script script;
     for (const std::string name : {"os", "io", "yarp.core", "YARP", "debug", ""}) {
         const auto error = script.run("require('" + name + "')");
-        EXPECT_NE(error.find("require('" + name + "'): monitor scripts have no modules; only require(\"yarp\")"),
-                  std::string::npos)
+        EXPECT_NE(
+            error.find("require('" + name + "'): monitor scripts have no modules; only require(\"yarp\")"),
+            std::string::npos)
             << error;
     }
     EXPECT_NE(script.run("require()").find("bad argument #1 to 'require'"), std::string::npos);

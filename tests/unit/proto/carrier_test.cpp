@@ -260,7 +260,6 @@ TEST(ValidateCarrier_test, AcceptsModifiersTheBuildImplements) {
               "modifier 'recv.priority' is not supported by this build");
 }
 
-
 TEST(CarrierQos_test, ReadsDscpAndPrioAnywhereAsTheConnections) {
     const Carrier before = parse("tcp+qos.dscp.46+qos.prio.7+recv.portmonitor+file.x");
     EXPECT_EQ(before.qos.dscp, 46);
@@ -285,12 +284,17 @@ TEST(CarrierQos_test, RefusesOutOfRangeAndMalformedValuesNamingThePart) {
     EXPECT_EQ(parse_error("tcp+qos.prio.-1"), "qos.prio value '-1' is out of range (0-7) at position 4");
     EXPECT_EQ(parse_error("tcp+qos.dscp.99999999999999"),
               "qos.dscp value '99999999999999' is out of range (0-63) at position 4");
-    EXPECT_EQ(parse_error("tcp+qos.dscp.EF"), "qos.dscp value 'EF' is not a whole number (0-63) at position 4");
-    EXPECT_EQ(parse_error("tcp+qos.prio.1.5"), "qos.prio value '1.5' is not a whole number (0-7) at position 4");
-    EXPECT_EQ(parse_error("tcp+qos.prio. 1"), "qos.prio value ' 1' is not a whole number (0-7) at position 4");
-    EXPECT_EQ(parse_error("tcp+qos.dscp"), "'qos.dscp' needs a value: 'qos.dscp.N' with N 0-63 at position 4");
-    EXPECT_EQ(parse_error("tcp+qos"),
-              "unknown qos setting 'qos.' (use qos.dscp.N with N 0-63, or qos.prio.N with N 0-7) at position 4");
+    EXPECT_EQ(parse_error("tcp+qos.dscp.EF"),
+              "qos.dscp value 'EF' is not a whole number (0-63) at position 4");
+    EXPECT_EQ(parse_error("tcp+qos.prio.1.5"),
+              "qos.prio value '1.5' is not a whole number (0-7) at position 4");
+    EXPECT_EQ(parse_error("tcp+qos.prio. 1"),
+              "qos.prio value ' 1' is not a whole number (0-7) at position 4");
+    EXPECT_EQ(parse_error("tcp+qos.dscp"),
+              "'qos.dscp' needs a value: 'qos.dscp.N' with N 0-63 at position 4");
+    EXPECT_EQ(
+        parse_error("tcp+qos"),
+        "unknown qos setting 'qos.' (use qos.dscp.N with N 0-63, or qos.prio.N with N 0-7) at position 4");
     EXPECT_EQ(parse_error("tcp+qos.tos.12"),
               "unknown qos setting 'qos.tos.12' (use qos.dscp.N with N 0-63, or qos.prio.N with N 0-7) at "
               "position 4");
