@@ -78,9 +78,26 @@ public:
               if (message.envelope.seq <= highest_)
                   out_of_order_ = true;
               highest_ = std::max(highest_, message.envelope.seq);
-              if (message.envelope.seq <= last_)
+              if (message.envelope.seq <= last_) {
                   latencies_.push_back(ms);
+                  if (ms > bound_ms) {
+                      if (late_ == 0)
+                          first_late_ = message.envelope.seq;
+                      ++late_;
+                      last_late_ = message.envelope.seq;
+                  }
+              }
           }) {}
+    /// How many of 1..last took longer than the bound, and where they were, for a reader of a
+    /// failure to tell one stall (a run of neighbours) from queueing spread over the run.
+    std::string late() {
+        std::lock_guard lock(mutex_);
+        if (late_ == 0)
+            return "none over " + std::to_string(static_cast<int>(bound_ms)) + " ms";
+        return std::to_string(late_) + " over " + std::to_string(static_cast<int>(bound_ms)) +
+               " ms, between numbers " + std::to_string(first_late_) + " and " + std::to_string(last_late_) +
+               ", worst " + std::to_string(*std::max_element(latencies_.begin(), latencies_.end())) + " ms";
+    }
     /// The highest seq seen.
     std::uint64_t highest() {
         std::lock_guard lock(mutex_);
@@ -109,6 +126,9 @@ private:
     std::mutex mutex_;
     std::vector<double> latencies_;
     std::uint64_t highest_ = 0;
+    std::uint64_t late_ = 0;
+    std::uint64_t first_late_ = 0;
+    std::uint64_t last_late_ = 0;
     bool out_of_order_ = false;
     Subscription subscription_;  // last: stopped before the rest goes
 };
@@ -226,7 +246,7 @@ TEST_P(Priority_test, AMarkedControlStreamKeepsItsLatencyOnASaturatedLinkAndAnUn
               << (base == "tcp" ? "; " + std::to_string(marked_seen) +
                                       " tcp socket(s) towards two with tos 0xb8 and priority 6"
                                 : std::string{})
-              << "\n"
+              << "\n             " << marked.late() << "\n"
               << "  unmarked (" << base << "):             " << plain.count() << " of " << control_count
               << " messages, p50 " << plain_p50 << " ms, p99 " << plain_p99 << " ms\n"
               << qdisc;
