@@ -30,8 +30,8 @@ Daemon::Daemon(asio::io_context& io, DaemonConfig config)
       udp_(io, config_.udp, config_.secret),
       signals_(io, SIGINT, SIGTERM),
       control_(io.get_executor(), *this) {
-    workers_ = std::make_unique<monitor::Workers>(config_.monitor_threads);
-    scripts_ = std::make_unique<ScriptHost>(io_, *this, *workers_);
+    workers_ = std::make_shared<monitor::Workers>(config_.monitor_threads);
+    scripts_ = std::make_unique<ScriptHost>(io_, *this, workers_);
 }
 
 Daemon::~Daemon() {

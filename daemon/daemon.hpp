@@ -80,7 +80,8 @@ private:
 
     asio::io_context& io_;
     DaemonConfig config_;
-    std::unique_ptr<monitor::Workers> workers_;  ///< the threads monitors run on
+    /// The threads monitors run on; shared with the stages, which may outlive the daemon (see stage.hpp).
+    std::shared_ptr<monitor::Workers> workers_;
     std::unique_ptr<ScriptHost> scripts_;        ///< before router_: monitors in connections die first
     arbitration::SteadyClock clock_;             ///< event lifetimes and stimulation decay
     Router router_;

@@ -55,8 +55,8 @@ proto::Result<monitor::MonitorSpec> spec_of(const proto::Clause& clause, const p
 
 }  // namespace
 
-ScriptHost::ScriptHost(asio::io_context& io, Daemon& daemon, monitor::Workers& workers)
-    : io_(io), daemon_(daemon), workers_(workers) {}
+ScriptHost::ScriptHost(asio::io_context& io, Daemon& daemon, std::shared_ptr<monitor::Workers> workers)
+    : io_(io), daemon_(daemon), workers_(std::move(workers)) {}
 
 ScriptHost::~ScriptHost() = default;
 
@@ -95,7 +95,7 @@ std::shared_ptr<monitor::MonitorStage> ScriptHost::make_stage(std::shared_ptr<mo
     std::vector<std::uint64_t> ids;
     for (const auto& m : chain->monitors)
         ids.push_back(m->id());
-    auto stage = std::make_shared<monitor::MonitorStage>(workers_.make_strand(), io_.get_executor(),
+    auto stage = std::make_shared<monitor::MonitorStage>(workers_, io_.get_executor(),
                                                          std::move(chain), std::move(member), options,
                                                          [this] { daemon_.notify_space(); });
     stage->attach(std::move(client));

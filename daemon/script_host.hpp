@@ -23,7 +23,7 @@ class Daemon;
 /// the clock. Also builds the monitor chains of a carrier string.
 class ScriptHost : public monitor::MonitorHost {
 public:
-    ScriptHost(asio::io_context& io, Daemon& daemon, monitor::Workers& workers);
+    ScriptHost(asio::io_context& io, Daemon& daemon, std::shared_ptr<monitor::Workers> workers);
     ~ScriptHost() override;
 
     /// The monitors of one side of a connection, created in carrier order. Fails (and creates
@@ -70,7 +70,7 @@ private:
 
     asio::io_context& io_;
     Daemon& daemon_;
-    monitor::Workers& workers_;
+    std::shared_ptr<monitor::Workers> workers_;
     std::map<std::uint64_t, std::weak_ptr<monitor::MonitorStage>> stages_;  ///< by monitor id
     std::map<std::uint64_t, Trig> trigs_;                                   ///< by monitor id
     std::map<std::uint64_t, std::vector<std::shared_ptr<Port>>> ports_;     ///< published, by monitor id

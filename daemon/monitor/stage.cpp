@@ -23,10 +23,11 @@ int current_publish_depth() {
     return t_publish_depth;
 }
 
-MonitorStage::MonitorStage(WorkerStrand strand, asio::any_io_executor io, std::shared_ptr<MonitorChain> chain,
+MonitorStage::MonitorStage(std::shared_ptr<Workers> workers, asio::any_io_executor io, std::shared_ptr<MonitorChain> chain,
                            std::shared_ptr<arbitration::Member> member, Options options,
                            std::function<void()> on_space)
-    : strand_(std::move(strand)),
+    : workers_(std::move(workers)),
+      strand_(workers_->make_strand()),
       io_(std::move(io)),
       chain_(std::move(chain)),
       member_(std::move(member)),

@@ -39,7 +39,9 @@ public:
     /// `member`: the connection's place in its input port's arbitration (recv side); messages the
     /// monitors pass are admitted by it on the strand, right after them, as the monitors' events
     /// stand. Null on the send side.
-    MonitorStage(WorkerStrand strand, asio::any_io_executor io, std::shared_ptr<MonitorChain> chain,
+    /// The stage keeps `workers` alive: its strand belongs to their pool, and a stage may be let go
+    /// after the daemon (the last owner can be a handler the io_context destroys at exit).
+    MonitorStage(std::shared_ptr<Workers> workers, asio::any_io_executor io, std::shared_ptr<MonitorChain> chain,
                  std::shared_ptr<arbitration::Member> member, Options options,
                  std::function<void()> on_space);
 
@@ -73,6 +75,7 @@ private:
     /// On the daemon's thread: hands verdicts to the client.
     void complete(std::vector<Filtered>& results);
 
+    std::shared_ptr<Workers> workers_;  ///< before strand_: outlives it
     WorkerStrand strand_;
     asio::any_io_executor io_;
     std::shared_ptr<MonitorChain> chain_;

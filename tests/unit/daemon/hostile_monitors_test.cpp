@@ -110,7 +110,7 @@ TEST_P(Hostile_test, EachCallIsStoppedWithinBudgetPlusFiveMsAndCounted) {
     // A script whose header says "-- Known gap:" is one the sandbox does not yet stop in time: its
     // times are printed and only the one-second bound above applies to it.
     if (code.find("-- Known gap:") == std::string::npos)
-        EXPECT_LT(quickest, budget + 5ms) << times;
+        EXPECT_LT(quickest, budget + plexus::test::slower(5ms)) << times;  // the slack is a speed bound, the budget not
     const auto& counters = monitor.counters();
     EXPECT_EQ(counters.errors, static_cast<std::uint64_t>(calls)) << monitor.last_error();
     if (expected == "timeout")
@@ -119,9 +119,10 @@ TEST_P(Hostile_test, EachCallIsStoppedWithinBudgetPlusFiveMsAndCounted) {
         // A script racing to the memory cap is stopped by whichever limit it meets first. In a
         // release build that is the cap; a sanitized build copies so much slower that the budget
         // can come first (docs/SANITIZERS.md). Either way it is stopped and counted.
+        // (A call can count as both: out of memory while its budget was also spent.)
         const std::uint64_t stopped =
-            counters.out_of_memory + (test::slowdown() > 1.0 ? counters.timeouts.load() : 0);
-        EXPECT_EQ(stopped, static_cast<std::uint64_t>(calls)) << monitor.last_error();
+            counters.out_of_memory + (plexus::test::slowdown() > 1.0 ? counters.timeouts.load() : 0);
+        EXPECT_GE(stopped, static_cast<std::uint64_t>(calls)) << monitor.last_error();
     }
     EXPECT_LE(monitor.memory_in_use(), policy.limits.memory_bytes);
     std::cout << "  " << GetParam() << ": " << times << "(" << monitor.last_error().substr(0, 70) << ")\n";

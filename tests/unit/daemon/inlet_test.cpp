@@ -36,7 +36,7 @@ Message batch_of(std::uint32_t n) {
 struct Inlet_test : ::testing::Test {
     QuietHost host;
     asio::io_context io;
-    monitor::Workers workers{1};
+    std::shared_ptr<monitor::Workers> workers = std::make_shared<monitor::Workers>(1);
     arbitration::ManualClock clock;
     std::shared_ptr<arbitration::Arbiter> arbiter = std::make_shared<arbitration::Arbiter>(clock);
     std::shared_ptr<Port> port = std::make_shared<Port>("/b", 1, QueuePolicy::strict, 100);
@@ -57,7 +57,7 @@ struct Inlet_test : ::testing::Test {
         auto chain = std::make_shared<monitor::MonitorChain>();
         chain->monitors.push_back(std::move(*created));
         auto stage =
-            std::make_shared<monitor::MonitorStage>(workers.make_strand(), io.get_executor(), chain, member,
+            std::make_shared<monitor::MonitorStage>(workers, io.get_executor(), chain, member,
                                                     monitor::MonitorStage::Options{}, nullptr);
         stage->attach(inlet);
         inlet->monitors = stage;
