@@ -326,12 +326,12 @@ Stopped run_with_budget(const std::string& code) {
 class Pathological_test : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(Pathological_test, StopsWithinTheBudgetPlusFiveMilliseconds) {
-    // Three tries, and the quickest must be within the bound: a C function that runs past the
+    // Five tries, and the quickest must be within the bound: a C function that runs past the
     // deadline does so every time, while on this shared 2-core machine a try now and then waits
     // for the processor for a few milliseconds right at its deadline.
     std::string times;
     auto quickest = std::chrono::steady_clock::duration::max();
-    for (int attempt = 0; attempt < 3; ++attempt) {
+    for (int attempt = 0; attempt < 5; ++attempt) {
         const auto stopped = run_with_budget(GetParam());
         ASSERT_TRUE(stopped.error) << "the call ended on its own";
         EXPECT_TRUE(stopped.error->timeout) << stopped.error->message;

@@ -92,10 +92,10 @@ TEST_P(Hostile_test, EachCallIsStoppedWithinBudgetPlusFiveMsAndCounted) {
     ASSERT_TRUE(created.ok()) << created.error().message;
     auto& monitor = **created;
 
-    // Three messages, three calls. The quickest must be within the bound; the others only within a
+    // Five messages, five calls. The quickest must be within the bound; the others only within a
     // second: on this shared 2-core machine a call now and then waits a few milliseconds for the
     // processor right at its deadline, while a C function that overruns does so every time.
-    constexpr int calls = 3;
+    constexpr int calls = 5;  // five: a loaded machine (ctest -j2 in CI) delays one now and then
     std::string times;
     auto quickest = std::chrono::steady_clock::duration::max();
     for (int i = 0; i < calls; ++i) {
