@@ -82,8 +82,8 @@ private:
     DaemonConfig config_;
     /// The threads monitors run on; shared with the stages, which may outlive the daemon (see stage.hpp).
     std::shared_ptr<monitor::Workers> workers_;
-    std::unique_ptr<ScriptHost> scripts_;        ///< before router_: monitors in connections die first
-    arbitration::SteadyClock clock_;             ///< event lifetimes and stimulation decay
+    std::unique_ptr<ScriptHost> scripts_;  ///< before router_: monitors in connections die first
+    arbitration::SteadyClock clock_;       ///< event lifetimes and stimulation decay
     Router router_;
     Signal space_;
     DaemonCounters counters_;

@@ -95,8 +95,8 @@ std::shared_ptr<monitor::MonitorStage> ScriptHost::make_stage(std::shared_ptr<mo
     std::vector<std::uint64_t> ids;
     for (const auto& m : chain->monitors)
         ids.push_back(m->id());
-    auto stage = std::make_shared<monitor::MonitorStage>(workers_, io_.get_executor(),
-                                                         std::move(chain), std::move(member), options,
+    auto stage = std::make_shared<monitor::MonitorStage>(workers_, io_.get_executor(), std::move(chain),
+                                                         std::move(member), options,
                                                          [this] { daemon_.notify_space(); });
     stage->attach(std::move(client));
     for (const auto id : ids)

@@ -23,9 +23,9 @@ int current_publish_depth() {
     return t_publish_depth;
 }
 
-MonitorStage::MonitorStage(std::shared_ptr<Workers> workers, asio::any_io_executor io, std::shared_ptr<MonitorChain> chain,
-                           std::shared_ptr<arbitration::Member> member, Options options,
-                           std::function<void()> on_space)
+MonitorStage::MonitorStage(std::shared_ptr<Workers> workers, asio::any_io_executor io,
+                           std::shared_ptr<MonitorChain> chain, std::shared_ptr<arbitration::Member> member,
+                           Options options, std::function<void()> on_space)
     : workers_(std::move(workers)),
       strand_(workers_->make_strand()),
       io_(std::move(io)),

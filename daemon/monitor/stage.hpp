@@ -41,9 +41,9 @@ public:
     /// stand. Null on the send side.
     /// The stage keeps `workers` alive: its strand belongs to their pool, and a stage may be let go
     /// after the daemon (the last owner can be a handler the io_context destroys at exit).
-    MonitorStage(std::shared_ptr<Workers> workers, asio::any_io_executor io, std::shared_ptr<MonitorChain> chain,
-                 std::shared_ptr<arbitration::Member> member, Options options,
-                 std::function<void()> on_space);
+    MonitorStage(std::shared_ptr<Workers> workers, asio::any_io_executor io,
+                 std::shared_ptr<MonitorChain> chain, std::shared_ptr<arbitration::Member> member,
+                 Options options, std::function<void()> on_space);
 
     /// Where verdicts go; set once the client exists.
     void attach(std::weak_ptr<FilterClient> client) { client_ = std::move(client); }

@@ -110,7 +110,8 @@ TEST_P(Hostile_test, EachCallIsStoppedWithinBudgetPlusFiveMsAndCounted) {
     // A script whose header says "-- Known gap:" is one the sandbox does not yet stop in time: its
     // times are printed and only the one-second bound above applies to it.
     if (code.find("-- Known gap:") == std::string::npos)
-        EXPECT_LT(quickest, budget + plexus::test::slower(5ms)) << times;  // the slack is a speed bound, the budget not
+        EXPECT_LT(quickest, budget + plexus::test::slower(5ms))
+            << times;  // the slack is a speed bound, the budget not
     const auto& counters = monitor.counters();
     EXPECT_EQ(counters.errors, static_cast<std::uint64_t>(calls)) << monitor.last_error();
     if (expected == "timeout")

@@ -56,9 +56,8 @@ struct Inlet_test : ::testing::Test {
         EXPECT_TRUE(created.ok()) << (created.ok() ? "" : created.error().message);
         auto chain = std::make_shared<monitor::MonitorChain>();
         chain->monitors.push_back(std::move(*created));
-        auto stage =
-            std::make_shared<monitor::MonitorStage>(workers, io.get_executor(), chain, member,
-                                                    monitor::MonitorStage::Options{}, nullptr);
+        auto stage = std::make_shared<monitor::MonitorStage>(workers, io.get_executor(), chain, member,
+                                                             monitor::MonitorStage::Options{}, nullptr);
         stage->attach(inlet);
         inlet->monitors = stage;
         return inlet;
