@@ -117,13 +117,11 @@ TEST_P(Hostile_test, EachCallIsStoppedWithinBudgetPlusFiveMsAndCounted) {
     if (expected == "timeout")
         EXPECT_EQ(counters.timeouts, static_cast<std::uint64_t>(calls)) << monitor.last_error();
     if (expected == "out_of_memory") {
-        // A script racing to the memory cap is stopped by whichever limit it meets first. In a
-        // release build that is the cap; a sanitized build copies so much slower that the budget
-        // can come first (docs/SANITIZERS.md). Either way it is stopped and counted.
-        // (A call can count as both: out of memory while its budget was also spent.)
-        const std::uint64_t stopped =
-            counters.out_of_memory + (plexus::test::slowdown() > 1.0 ? counters.timeouts.load() : 0);
-        EXPECT_GE(stopped, static_cast<std::uint64_t>(calls)) << monitor.last_error();
+        // A script racing to the memory cap is stopped by whichever limit it meets first: the cap
+        // on a quiet machine, the budget when the copying is slowed (a loaded machine, a sanitized
+        // build). Either way it is stopped and counted; a call can count as both.
+        EXPECT_GE(counters.out_of_memory + counters.timeouts, static_cast<std::uint64_t>(calls))
+            << monitor.last_error();
     }
     EXPECT_LE(monitor.memory_in_use(), policy.limits.memory_bytes);
     std::cout << "  " << GetParam() << ": " << times << "(" << monitor.last_error().substr(0, 70) << ")\n";
