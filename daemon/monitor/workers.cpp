@@ -17,19 +17,27 @@ std::size_t threads_for(std::size_t asked) {
 
 }  // namespace
 
-Workers::Workers(std::size_t threads) : threads_(threads_for(threads)), pool_(threads_) {}
+Workers::Workers(std::size_t threads)
+    : threads_(threads_for(threads)), pool_(std::make_unique<boost::asio::thread_pool>(threads_)) {}
 
 Workers::~Workers() {
-    pool_.stop();
-    pool_.join();
+    pool_->stop();
+    if (pool_->get_executor().running_in_this_thread()) {
+        // Joining here would free the pool under the handler still running on this thread (its
+        // strand's invoker touches the pool after the handler returns). A thread of its own
+        // destroys the pool, and so joins this thread, once that handler is over.
+        std::thread([pool = std::move(pool_)]() mutable { pool.reset(); }).detach();
+        return;
+    }
+    pool_->join();
 }
 
 WorkerStrand Workers::make_strand() {
-    return boost::asio::make_strand(pool_.get_executor());
+    return boost::asio::make_strand(pool_->get_executor());
 }
 
 void Workers::finish() {
-    pool_.join();
+    pool_->join();
 }
 
 }  // namespace plexus::daemon::monitor

@@ -20,6 +20,8 @@ class Workers {
 public:
     /// `threads` 0: one per core the machine has.
     explicit Workers(std::size_t threads);
+    /// Stops the threads and waits for them, except when the last owner lets go on one of them (a
+    /// stage freed by its last handler): a thread cannot wait for itself, so another one does.
     ~Workers();
     Workers(const Workers&) = delete;
     Workers& operator=(const Workers&) = delete;
@@ -32,7 +34,7 @@ public:
 
 private:
     std::size_t threads_;
-    boost::asio::thread_pool pool_;
+    std::unique_ptr<boost::asio::thread_pool> pool_;  ///< a pointer: may be handed to a joiner
 };
 
 /// How many of a monitor's publish calls led to the message the current thread is processing

@@ -40,6 +40,14 @@ struct Inlet_test : ::testing::Test {
     arbitration::ManualClock clock;
     std::shared_ptr<arbitration::Arbiter> arbiter = std::make_shared<arbitration::Arbiter>(clock);
     std::shared_ptr<Port> port = std::make_shared<Port>("/b", 1, QueuePolicy::strict, 100);
+    std::vector<std::shared_ptr<monitor::MonitorStage>> stages;
+
+    /// Like the daemon at its end: the monitors go on their worker while `host` still exists.
+    void TearDown() override {
+        for (auto& stage : stages)
+            stage->close();
+        workers->finish();
+    }
 
     std::shared_ptr<Inlet> inlet_with(const std::string& script) {
         auto member = std::make_shared<arbitration::Member>(arbiter, "/a");
@@ -60,6 +68,7 @@ struct Inlet_test : ::testing::Test {
                                                              monitor::MonitorStage::Options{}, nullptr);
         stage->attach(inlet);
         inlet->monitors = stage;
+        stages.push_back(stage);
         return inlet;
     }
 
