@@ -2,6 +2,7 @@
 
 #include <cstring>
 
+#include "lazy_map.hpp"
 #include "lua_guard.hpp"
 #include "lua_value.hpp"
 #include "plexus/proto/cbor.hpp"
@@ -17,6 +18,7 @@ constexpr const char* message_type = "plexus.msg";
 /// One message as a callback sees it; lives on the C++ stack for one process() call.
 struct MessageView {
     proto::RecordView record;
+    LazyMaps* lazy = nullptr;               ///< where a map payload becomes a lazy msg.data
     std::optional<nlohmann::json> decoded;  ///< the payload as first decoded: the hint for re-encoding
     bool touched = false;                   ///< msg.data exists as a Lua value (uservalue 1)
     bool assigned = false;                  ///< the script assigned msg.data
@@ -34,10 +36,11 @@ MessageView& view_of(lua_State* L) {
     return *box->view;
 }
 
-/// Pushes msg.data, decoding the payload on first touch.
+/// Pushes msg.data: on first touch, a map as a lazily decoded table, anything else decoded.
 void push_data(lua_State* L, MessageView& view) {
     if (!view.touched) {
-        push_cbor(L, view.record.payload);
+        if (!view.lazy->push(L, view.record.payload))
+            push_cbor(L, view.record.payload);
         lua_setiuservalue(L, 1, 1);
         view.touched = true;
     }
@@ -212,6 +215,7 @@ private:
     Monitor& monitor_;
     MonitorPolicy policy_;
     std::unique_ptr<LuaSandbox> sandbox_;
+    LazyMaps lazy_;                      ///< msg.data of a map payload
     int message_ref_ = LUA_NOREF;        ///< the one `msg` userdata, reused for every message
     MessageBox* message_box_ = nullptr;  ///< its memory: Lua never moves a userdata
     bool data_kept_ = false;             ///< its user value still holds the last message's data
@@ -326,6 +330,7 @@ proto::Status LuaMonitor::create() {
         lua_newtable(L);
         lua_setglobal(L, api_table);
         install_api(L);
+        lazy_.install(L);
         // The msg object: a userdata with one user value (msg.data) and a metatable.
         luaL_newmetatable(L, message_type);
         lua_pushcfunction(L, message_index);
@@ -396,7 +401,7 @@ MonitorBackend::Outcome LuaMonitor::process(Message& message) {
         outcome.accepted = false;  // the daemon checked it on arrival; cannot happen
         return outcome;
     }
-    MessageView view{*record, std::nullopt, false, false};
+    MessageView view{*record, &lazy_, std::nullopt, false, false};
     outcome.in_accept = has_accept_;
     std::optional<nlohmann::json> replacement;
     lua_State* L = sandbox_->state();
@@ -424,8 +429,9 @@ MonitorBackend::Outcome LuaMonitor::process(Message& message) {
                 const nlohmann::json* hint = hint_of(view);
                 if (!returned_msg) {
                     replacement = to_json(L, top + 1, hint);
-                } else if (view.touched) {
+                } else if (view.touched && (view.assigned || !lazy_.pending())) {
                     // msg.data may have been changed in place: compare with what was decoded.
+                    // (A table still lazy was neither written nor handed out in parts.)
                     lua_getiuservalue(L, msg, 1);
                     auto now = to_json(L, -1, hint);
                     if (view.assigned || !hint || now != *hint)
@@ -439,7 +445,9 @@ MonitorBackend::Outcome LuaMonitor::process(Message& message) {
     }
     // The userdata outlives the call (the registry holds it): detach it from this stack frame.
     message_box_->view = nullptr;
-    data_kept_ = view.touched || view.assigned;
+    // Its user value is let go before the next message, unless it is a lazy table still empty.
+    data_kept_ = view.assigned || (view.touched && !lazy_.pending());
+    lazy_.end_message();
     if (!outcome.error && outcome.accepted && replacement) {
         message = encode_message(view.record, *replacement);
         outcome.rewritten = true;

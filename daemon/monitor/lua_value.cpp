@@ -5,6 +5,8 @@
 #include <cstring>
 #include <string_view>
 
+#include "cbor_reader.hpp"
+#include "lazy_map.hpp"
 #include "plexus/proto/cbor.hpp"
 
 namespace plexus::daemon::monitor {
@@ -79,6 +81,7 @@ nlohmann::json convert_table(lua_State* L, int index, const nlohmann::json* hint
     if (depth > max_depth)
         luaL_error(L, "value nested deeper than %d levels (a cycle?)", max_depth);
     luaL_checkstack(L, 4, "value too deep");
+    materialize_if_lazy(L, index);  // a lazily decoded msg.data, read raw below
     lua_Integer length = 0;
     if (is_sequence(L, index, length)) {
         if (length == 0 && !(hint && hint->is_array()))
@@ -145,147 +148,106 @@ nlohmann::json convert(lua_State* L, int index, const nlohmann::json* hint, int 
     }
 }
 
-/// Reads CBOR as nlohmann's to_cbor writes it; `unusual` marks what it leaves to the json path.
-struct CborReader {
-    const std::uint8_t* at;
-    const std::uint8_t* end;
-    bool unusual = false;
+}  // namespace
 
-    std::size_t left() const { return static_cast<std::size_t>(end - at); }
-
-    bool argument(std::uint8_t info, std::uint64_t& value) {
-        if (info < 24) {
-            value = info;
-            return true;
+bool CborReader::push(lua_State* L, int depth) {
+    if (at >= end || depth > 64 || !lua_checkstack(L, 3))
+        return false;
+    const std::uint8_t initial = *at++;
+    const std::uint8_t major = initial >> 5;
+    const std::uint8_t info = initial & 0x1f;
+    if (major == 7) {
+        switch (info) {
+            case 20:
+            case 21:
+                lua_pushboolean(L, info == 21);
+                return true;
+            case 22:
+            case 23:
+                lua_pushnil(L);
+                return true;
+            default:
+                break;
         }
-        if (info > 27) {
-            unusual = true;  // indefinite length (31) or reserved
+        std::uint64_t bits = 0;
+        if (info < 25 || info > 27 || !argument(info, bits))
             return false;
-        }
-        const std::size_t n = std::size_t{1} << (info - 24);
-        if (left() < n)
-            return false;
-        value = 0;
-        for (std::size_t i = 0; i < n; ++i)
-            value = (value << 8) | *at++;
+        if (info == 25)
+            lua_pushnumber(L, half_to_double(static_cast<std::uint16_t>(bits)));
+        else if (info == 26)
+            lua_pushnumber(L, std::bit_cast<float>(static_cast<std::uint32_t>(bits)));
+        else
+            lua_pushnumber(L, std::bit_cast<double>(bits));
         return true;
     }
-
-    static double half_to_double(std::uint16_t half) {
-        const int exponent = (half >> 10) & 0x1f;
-        const int mantissa = half & 0x3ff;
-        double value = 0;
-        if (exponent == 0)
-            value = std::ldexp(mantissa, -24);
-        else if (exponent != 31)
-            value = std::ldexp(mantissa + 1024, exponent - 25);
-        else
-            value = mantissa == 0 ? INFINITY : NAN;
-        return (half & 0x8000) ? -value : value;
-    }
-
-    /// Pushes one value; false (nothing pushed) on malformed or unusual input.
-    bool push(lua_State* L, int depth) {
-        if (at >= end || depth > 64 || !lua_checkstack(L, 3))
-            return false;
-        const std::uint8_t initial = *at++;
-        const std::uint8_t major = initial >> 5;
-        const std::uint8_t info = initial & 0x1f;
-        if (major == 7) {
-            switch (info) {
-                case 20:
-                case 21:
-                    lua_pushboolean(L, info == 21);
-                    return true;
-                case 22:
-                case 23:
-                    lua_pushnil(L);
-                    return true;
-                default:
-                    break;
-            }
-            std::uint64_t bits = 0;
-            if (info < 25 || info > 27 || !argument(info, bits))
-                return false;
-            if (info == 25)
-                lua_pushnumber(L, half_to_double(static_cast<std::uint16_t>(bits)));
-            else if (info == 26)
-                lua_pushnumber(L, std::bit_cast<float>(static_cast<std::uint32_t>(bits)));
+    std::uint64_t n = 0;
+    if (!argument(info, n))
+        return false;
+    switch (major) {
+        case 0:
+            if (n <= static_cast<std::uint64_t>(LUA_MAXINTEGER))
+                lua_pushinteger(L, static_cast<lua_Integer>(n));
             else
-                lua_pushnumber(L, std::bit_cast<double>(bits));
+                lua_pushnumber(L, static_cast<lua_Number>(n));
+            return true;
+        case 1:
+            if (n <= static_cast<std::uint64_t>(LUA_MAXINTEGER))
+                lua_pushinteger(L, -1 - static_cast<lua_Integer>(n));
+            else
+                lua_pushnumber(L, -1.0 - static_cast<lua_Number>(n));
+            return true;
+        case 2:
+        case 3:
+            if (n > left())
+                return false;
+            lua_pushlstring(L, reinterpret_cast<const char*>(at), n);
+            at += n;
+            return true;
+        case 4: {
+            if (n > left())  // every element takes at least one byte
+                return false;
+            lua_createtable(L, static_cast<int>(n), 0);
+            for (std::uint64_t i = 1; i <= n; ++i) {
+                if (!push(L, depth + 1)) {
+                    lua_pop(L, 1);
+                    return false;
+                }
+                lua_rawseti(L, -2, static_cast<lua_Integer>(i));
+            }
             return true;
         }
-        std::uint64_t n = 0;
-        if (!argument(info, n))
-            return false;
-        switch (major) {
-            case 0:
-                if (n <= static_cast<std::uint64_t>(LUA_MAXINTEGER))
-                    lua_pushinteger(L, static_cast<lua_Integer>(n));
-                else
-                    lua_pushnumber(L, static_cast<lua_Number>(n));
-                return true;
-            case 1:
-                if (n <= static_cast<std::uint64_t>(LUA_MAXINTEGER))
-                    lua_pushinteger(L, -1 - static_cast<lua_Integer>(n));
-                else
-                    lua_pushnumber(L, -1.0 - static_cast<lua_Number>(n));
-                return true;
-            case 2:
-            case 3:
-                if (n > left())
-                    return false;
-                lua_pushlstring(L, reinterpret_cast<const char*>(at), n);
-                at += n;
-                return true;
-            case 4: {
-                if (n > left())  // every element takes at least one byte
-                    return false;
-                lua_createtable(L, static_cast<int>(n), 0);
-                for (std::uint64_t i = 1; i <= n; ++i) {
-                    if (!push(L, depth + 1)) {
-                        lua_pop(L, 1);
-                        return false;
-                    }
-                    lua_rawseti(L, -2, static_cast<lua_Integer>(i));
-                }
-                return true;
-            }
-            case 5: {
-                if (n > left() / 2)
-                    return false;
-                lua_createtable(L, 0, static_cast<int>(n));
-                for (std::uint64_t i = 0; i < n; ++i) {
-                    if (!push(L, depth + 1)) {
-                        lua_pop(L, 1);
-                        return false;
-                    }
-                    if (!push(L, depth + 1)) {
-                        lua_pop(L, 2);
-                        return false;
-                    }
-                    if (lua_isnil(L, -2)) {  // a null key: json cannot have one; drop the pair
-                        lua_pop(L, 2);
-                        continue;
-                    }
-                    lua_rawset(L, -3);
-                }
-                return true;
-            }
-            case 6:
-                // nlohmann's binary subtype: a tag, then the byte string itself.
-                if (info < 24 || info > 27 || at >= end || (*at >> 5) != 2) {
-                    unusual = true;
-                    return false;
-                }
-                return push(L, depth);
-            default:
+        case 5: {
+            if (n > left() / 2)
                 return false;
+            lua_createtable(L, 0, static_cast<int>(n));
+            for (std::uint64_t i = 0; i < n; ++i) {
+                if (!push(L, depth + 1)) {
+                    lua_pop(L, 1);
+                    return false;
+                }
+                if (!push(L, depth + 1)) {
+                    lua_pop(L, 2);
+                    return false;
+                }
+                if (lua_isnil(L, -2)) {  // a null key: json cannot have one; drop the pair
+                    lua_pop(L, 2);
+                    continue;
+                }
+                lua_rawset(L, -3);
+            }
+            return true;
         }
+        case 6:
+            // nlohmann's binary subtype: a tag, then the byte string itself.
+            if (info < 24 || info > 27 || at >= end || (*at >> 5) != 2) {
+                unusual = true;
+                return false;
+            }
+            return push(L, depth);
+        default:
+            return false;
     }
-};
-
-}  // namespace
+}
 
 void push_cbor(lua_State* L, std::span<const std::uint8_t> bytes) {
     const int top = lua_gettop(L);
