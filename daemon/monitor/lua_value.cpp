@@ -15,24 +15,38 @@ namespace {
 
 constexpr int max_depth = 64;
 
+/// UTF-8 as RFC 3629 has it: no overlong forms, no surrogates, nothing above U+10FFFF (what a CBOR
+/// text string must hold; the decoders of the other side refuse anything else).
 bool valid_utf8(std::string_view s) {
     std::size_t i = 0;
     while (i < s.size()) {
         const auto c = static_cast<unsigned char>(s[i]);
         std::size_t extra = 0;
-        if (c < 0x80)
-            extra = 0;
-        else if ((c & 0xe0) == 0xc0 && c >= 0xc2)
+        unsigned char low = 0x80;  // the range of the second byte; the others are 80..bf
+        unsigned char high = 0xbf;
+        if (c < 0x80) {
+            ++i;
+            continue;
+        }
+        if (c >= 0xc2 && c <= 0xdf) {
             extra = 1;
-        else if ((c & 0xf0) == 0xe0)
+        } else if (c >= 0xe0 && c <= 0xef) {
             extra = 2;
-        else if ((c & 0xf8) == 0xf0 && c <= 0xf4)
+            low = c == 0xe0 ? 0xa0 : 0x80;   // overlong below U+0800
+            high = c == 0xed ? 0x9f : 0xbf;  // surrogates U+D800..DFFF
+        } else if (c >= 0xf0 && c <= 0xf4) {
             extra = 3;
-        else
+            low = c == 0xf0 ? 0x90 : 0x80;   // overlong below U+10000
+            high = c == 0xf4 ? 0x8f : 0xbf;  // above U+10FFFF
+        } else {
             return false;
-        if (i + extra >= s.size() && extra > 0)
+        }
+        if (s.size() - i <= extra)
             return false;
-        for (std::size_t k = 1; k <= extra; ++k) {
+        const auto second = static_cast<unsigned char>(s[i + 1]);
+        if (second < low || second > high)
+            return false;
+        for (std::size_t k = 2; k <= extra; ++k) {
             if ((static_cast<unsigned char>(s[i + k]) & 0xc0) != 0x80)
                 return false;
         }

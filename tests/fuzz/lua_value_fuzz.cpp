@@ -6,7 +6,9 @@
 //     integer above Lua's largest integer comes back as a float; a string that is not UTF-8 comes
 //     back as a binary blob;
 //   - push_cbor (the fast path a monitor's msg.data takes) and push_json of the decoded value give
-//     Lua values that convert back to the same json.
+//     Lua values that convert back to the same json;
+//   - a map read lazily (monitor/lazy_map.hpp, msg.data of a map) gives, field by field, the values
+//     of the table push_cbor builds, and converts back to the same json.
 // Lua errors (nesting deeper than the conversion allows, a NaN map key) are allowed answers:
 // everything runs inside lua_pcall, as in the monitors.
 #include <cmath>
@@ -19,6 +21,7 @@
 #include <nlohmann/json.hpp>
 
 #include "fuzz_check.hpp"
+#include "monitor/lazy_map.hpp"
 #include "monitor/lua_value.hpp"
 #include "plexus/proto/cbor.hpp"
 #include "same_json.hpp"
@@ -90,6 +93,8 @@ struct Trip {
     const json* value = nullptr;
     std::optional<json> through_json;  ///< push_json, then to_json
     std::optional<json> through_cbor;  ///< push_cbor, then to_json
+    std::optional<json> through_lazy;  ///< a lazy map read field by field, then to_json
+    bool lazy_fields_differ = false;
 };
 
 /// The two conversions, each in its own protected call so that a Lua error in one leaves the other.
@@ -104,6 +109,39 @@ int via_cbor(lua_State* L) {
     auto* trip = static_cast<Trip*>(lua_touserdata(L, 1));
     monitor::push_cbor(L, trip->bytes);
     trip->through_cbor = monitor::to_json(L, -1, trip->value);
+    return 0;
+}
+
+/// Whether the values at the top two slots are the same (tables: through json; NaN is NaN).
+bool same_value(lua_State* L) {
+    if (lua_type(L, -1) == LUA_TTABLE || lua_type(L, -2) == LUA_TTABLE)
+        return lua_type(L, -1) == lua_type(L, -2) &&
+               plexus::fuzz::same_json(monitor::to_json(L, -1), monitor::to_json(L, -2));
+    if (lua_type(L, -1) == LUA_TNUMBER && lua_type(L, -2) == LUA_TNUMBER && !lua_isinteger(L, -1) &&
+        !lua_isinteger(L, -2) && std::isnan(lua_tonumber(L, -1)) && std::isnan(lua_tonumber(L, -2)))
+        return true;
+    return lua_rawequal(L, -1, -2) != 0;
+}
+
+int via_lazy(lua_State* L) {
+    auto* trip = static_cast<Trip*>(lua_touserdata(L, 1));
+    monitor::push_cbor(L, trip->bytes);  // raises for malformed bytes: then nothing to compare
+    const int eager = lua_gettop(L);
+    monitor::LazyMaps maps;
+    maps.install(L);
+    if (!lua_istable(L, eager) || !maps.push(L, trip->bytes))
+        return 0;
+    const int lazy = lua_gettop(L);
+    lua_pushnil(L);
+    while (lua_next(L, eager) != 0) {
+        lua_pushvalue(L, -2);
+        lua_gettable(L, lazy);  // the lazy read (or, once materialized, the plain one)
+        if (!same_value(L))
+            trip->lazy_fields_differ = true;
+        lua_pop(L, 2);
+    }
+    trip->through_lazy = monitor::to_json(L, lazy, trip->value);
+    maps.end_message();
     return 0;
 }
 
@@ -131,7 +169,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         protected_call(L, via_json, trip);
     // push_cbor takes any bytes: malformed ones must give a Lua error, not a crash.
     protected_call(L, via_cbor, trip);
+    protected_call(L, via_lazy, trip);
     lua_close(L);
+    // The lazy reads hold for any map push_cbor takes (integer keys too, which json has not).
+    PLEXUS_FUZZ_CHECK(!trip.lazy_fields_differ);
+    if (trip.through_cbor && trip.through_lazy)
+        PLEXUS_FUZZ_CHECK(plexus::fuzz::same_json(*trip.through_cbor, *trip.through_lazy));
     if (!decoded)
         return 0;
     if (trip.through_json) {

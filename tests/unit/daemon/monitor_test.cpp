@@ -342,5 +342,26 @@ TEST(MonitorNesting_test, ACallNestedInTheScriptsOwnCallReportsItsErrorWithATrac
     ASSERT_EQ(host.published.size(), 2u);
 }
 
+TEST_F(Monitor_test, OnlyStrictUtf8BecomesTextOtherStringsBlobs) {
+    // The lua_value fuzz target found U+119F3C (f4 99 bc bc, above U+10FFFF) written as a CBOR
+    // text string, which decoders refuse; surrogates and overlong forms likewise.
+    const std::pair<const char*, bool> cases[] = {
+        {"'\\195\\169'", true},             // U+00E9
+        {"'\\244\\143\\191\\191'", true},   // U+10FFFF
+        {"'\\244\\153\\188\\188'", false},  // above U+10FFFF
+        {"'\\237\\160\\128'", false},       // a surrogate
+        {"'\\224\\128\\175'", false},       // an overlong '/'
+        {"'\\240\\130\\130\\172'", false},  // an overlong euro sign
+    };
+    for (const auto& [literal, text] : cases) {
+        auto monitor = make(std::string("PortMonitor.update = function(msg) return ") + literal + " end");
+        auto message = make_message(json{{"x", 1}});
+        ASSERT_EQ(monitor->process(message), Monitor::Verdict::pass) << literal;
+        const auto payload = payload_of(message);
+        EXPECT_EQ(payload.is_string(), text) << literal << " became " << payload.dump();
+        EXPECT_EQ(payload.is_binary(), !text) << literal;
+    }
+}
+
 }  // namespace
 }  // namespace plexus::daemon::monitor
