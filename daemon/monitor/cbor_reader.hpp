@@ -9,6 +9,8 @@
 
 #include <lua.hpp>
 
+#include "plexus/proto/bytes.hpp"
+
 namespace plexus::daemon::monitor {
 
 /// The head of a CBOR item: major type, additional info and argument (a length, a count, an
@@ -39,9 +41,8 @@ struct CborReader {
         const std::size_t n = std::size_t{1} << (info - 24);
         if (left() < n)
             return false;
-        value = 0;
-        for (std::size_t i = 0; i < n; ++i)
-            value = (value << 8) | *at++;
+        value = proto::read_big_endian(at, n);
+        at += n;
         return true;
     }
 

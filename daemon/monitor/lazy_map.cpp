@@ -197,10 +197,7 @@ int LazyMaps::index(lua_State* L) {
     // The most common field, a float64, straight; a map or an array is a table the script may
     // change in place: the plain table holds it.
     if (*found == 0xfb) {
-        std::uint64_t bits = 0;
-        for (int i = 1; i <= 8; ++i)
-            bits = (bits << 8) | found[i];
-        lua_pushnumber(L, std::bit_cast<double>(bits));
+        lua_pushnumber(L, std::bit_cast<double>(proto::read_big_endian(found + 1, 8)));
         return 1;
     }
     const int major = *found >> 5;

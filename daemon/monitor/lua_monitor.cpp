@@ -396,7 +396,7 @@ std::optional<ScriptError> LuaMonitor::destroy() {
 
 MonitorBackend::Outcome LuaMonitor::process(Message& message) {
     Outcome outcome;
-    auto record = proto::decode_record(message.record);
+    auto record = proto::read_record(message.record);
     if (!record) {
         outcome.accepted = false;  // the daemon checked it on arrival; cannot happen
         return outcome;

@@ -126,7 +126,7 @@ PluginMonitor::~PluginMonitor() {
 
 MonitorBackend::Outcome PluginMonitor::process(Message& message) {
     Outcome outcome;
-    auto record = proto::decode_record(message.record);
+    auto record = proto::read_record(message.record);
     if (!record) {
         outcome.accepted = false;  // the daemon checked it on arrival; cannot happen
         return outcome;

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstring>
 
+#include "plexus/proto/bytes.hpp"
+
 namespace plexus::daemon::monitor::plugin_values {
 
 namespace {
@@ -45,9 +47,7 @@ bool read_head(const Byte* at, const Byte* end, Head& head) {
         const std::size_t width = std::size_t{1} << (head.info - 24);
         if (static_cast<std::size_t>(end - at) < width)
             return false;
-        head.argument = 0;
-        for (std::size_t i = 0; i < width; ++i)
-            head.argument = (head.argument << 8) | at[i];
+        head.argument = proto::read_big_endian(at, width);
         at += width;
     } else if (head.info == info_indefinite && head.major >= major_bytes && head.major <= major_map) {
         head.indefinite = true;

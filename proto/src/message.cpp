@@ -50,6 +50,24 @@ Result<RecordView> decode_record(ByteView record) {
     return RecordView{*source, *seq, *time_ns, reader.rest()};
 }
 
+std::optional<RecordView> read_record(ByteView record) {
+    auto length = decode_varint(record);
+    if (length.status != VarintStatus::ok || length.value > max_port_name ||
+        length.value > record.size() - length.used)
+        return std::nullopt;
+    ByteView rest = record.subspan(length.used);
+    const auto source = as_string_view(rest.first(static_cast<std::size_t>(length.value)));
+    rest = rest.subspan(source.size());
+    const auto seq = decode_varint(rest);
+    if (seq.status != VarintStatus::ok)
+        return std::nullopt;
+    rest = rest.subspan(seq.used);
+    const auto time_ns = decode_varint(rest);
+    if (time_ns.status != VarintStatus::ok)
+        return std::nullopt;
+    return RecordView{source, seq.value, time_ns.value, rest.subspan(time_ns.used)};
+}
+
 void append_data_frame(Bytes& out, std::uint64_t handle, ByteView record) {
     out.reserve(out.size() + max_varint_size * 2 + 1 + record.size());
     append_data_frame_prefix(out, handle, record.size());

@@ -1,7 +1,8 @@
 // The decoders of data and data_batch frames and of message records (message.hpp) on arbitrary
 // fields. Properties, when they decode: what they read, written again with the matching append_*,
 // reads back the same; the fast checks (record_from, batch_records_from) never say yes to what
-// decode_record refuses.
+// decode_record refuses; read_record (the monitors' lean decoder) takes exactly what decode_record
+// takes and reads the same fields.
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -24,8 +25,13 @@ proto::Bytes copy(proto::ByteView bytes) {
 /// decode_record, and the same record written again by append_record.
 void check_record(proto::ByteView bytes) {
     const auto record = proto::decode_record(bytes);
+    const auto lean = proto::read_record(bytes);
+    PLEXUS_FUZZ_CHECK(record.ok() == lean.has_value());
     if (!record)
         return;
+    PLEXUS_FUZZ_CHECK(lean->source == record->source && lean->seq == record->seq &&
+                      lean->time_ns == record->time_ns && lean->payload.data() == record->payload.data() &&
+                      lean->payload.size() == record->payload.size());
     PLEXUS_FUZZ_CHECK(record->source.size() <= proto::max_port_name);
     proto::Bytes again;
     proto::append_record(again, record->source, record->seq, record->time_ns, record->payload);

@@ -69,6 +69,28 @@ TEST(Record_test, RefusesSourceLongerThanPortNameLimit) {
     EXPECT_EQ(view.error().message, "bad record: source longer than 255 bytes (256)");
 }
 
+TEST(Record_test, TheLeanReaderTakesAndRefusesWhatDecodeRecordDoes) {
+    const std::string longest(max_port_name, 'a');
+    const Bytes records[] = {make_record("/camera/out", 1000, 1ull << 40, {1, 2, 3}),
+                             make_record(longest, max_u64, max_u64, {}),
+                             make_record(longest + "a", 1, 1, {})};
+    for (const auto& record : records) {
+        for (std::size_t n = 0; n <= record.size(); ++n) {
+            const ByteView cut = ByteView(record).first(n);
+            const auto full = decode_record(cut);
+            const auto lean = read_record(cut);
+            ASSERT_EQ(full.ok(), lean.has_value()) << "cut at " << n << " of " << record.size();
+            if (!lean)
+                continue;
+            EXPECT_EQ(lean->source, full->source);
+            EXPECT_EQ(lean->seq, full->seq);
+            EXPECT_EQ(lean->time_ns, full->time_ns);
+            EXPECT_EQ(lean->payload.data(), full->payload.data());
+            EXPECT_EQ(lean->payload.size(), full->payload.size());
+        }
+    }
+}
+
 TEST(Record_test, NamesTruncatedField) {
     Bytes record;
     append_string(record, "/a");

@@ -31,6 +31,9 @@ std::size_t record_size(std::string_view source, std::uint64_t seq, std::uint64_
                         std::size_t payload_size);
 /// Decodes a record; the source must be at most max_port_name bytes.
 Result<RecordView> decode_record(ByteView record);
+/// The same without the reason when it fails: for the per-message paths that read records the
+/// daemon checked on arrival (a monitor's), where building an error's text is never needed.
+std::optional<RecordView> read_record(ByteView record);
 
 struct DataView {
     std::uint64_t handle = 0;

@@ -46,21 +46,26 @@ struct VarintDecode {
 /// Decodes a varint from the start of `input`. `bad` when it runs past 10 bytes or overflows 64 bits;
 /// `need_more` when `input` ends inside it. Inline: every field of every message goes through it.
 inline VarintDecode decode_varint(ByteView input) {
+    const std::uint8_t* bytes = input.data();
+    if (!input.empty() && bytes[0] < 0x80)  // most lengths, counts and handles: one byte
+        return {VarintStatus::ok, bytes[0], 1};
+    // The first nine bytes carry 7 bits each and need no other check.
+    const std::size_t plain = input.size() < max_varint_size - 1 ? input.size() : max_varint_size - 1;
     std::uint64_t value = 0;
-    const std::size_t available = input.size() < max_varint_size ? input.size() : max_varint_size;
-    for (std::size_t i = 0; i < available; ++i) {
-        const std::uint8_t byte = input[i];
-        const std::uint64_t bits = byte & 0x7f;
-        // The tenth byte holds bit 63 only: anything more would not fit in 64 bits, and a
-        // continuation bit there would make the varint longer than ten bytes. Both are refused
-        // as soon as they are seen, without waiting for more input.
-        if (i == max_varint_size - 1 && ((byte & 0x80) != 0 || bits > 1))
-            return {VarintStatus::bad};
-        value |= bits << (7 * i);
-        if ((byte & 0x80) == 0)
+    for (std::size_t i = 0; i < plain; ++i) {
+        value |= static_cast<std::uint64_t>(bytes[i] & 0x7f) << (7 * i);
+        if ((bytes[i] & 0x80) == 0)
             return {VarintStatus::ok, value, i + 1};
     }
-    return {VarintStatus::need_more};  // input ended inside the varint (ten bytes always end it)
+    if (input.size() < max_varint_size)
+        return {VarintStatus::need_more};  // input ended inside the varint (ten bytes always end it)
+    // The tenth byte holds bit 63 only: anything more would not fit in 64 bits, and a
+    // continuation bit there would make the varint longer than ten bytes. Both are refused as
+    // soon as they are seen, without waiting for more input.
+    const std::uint8_t last = bytes[max_varint_size - 1];
+    if (last > 1)
+        return {VarintStatus::bad};
+    return {VarintStatus::ok, value | (static_cast<std::uint64_t>(last) << 63), max_varint_size};
 }
 
 }  // namespace plexus::proto
