@@ -61,6 +61,11 @@ int main(int argc, char** argv) {
                       "also run `accept_empty`: an accept that returns true without touching msg, "
                       "the cost of calling a script at all");
     monitor->callback([&] { status = run_monitor(options); });
+    auto* monitor_latency = app.add_subcommand(
+        "monitor-latency",
+        "one-hop p50/p99 without a monitor and with a recv monitor (which runs on a worker)");
+    add_common(monitor_latency);
+    monitor_latency->callback([&] { status = run_monitor_latency(options); });
     auto* scaling = app.add_subcommand(
         "monitor-scaling", "total throughput of 1, 2, 4 independent connections with a ~20 us monitor each");
     add_common(scaling);

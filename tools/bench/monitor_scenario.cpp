@@ -2,6 +2,7 @@
 // alternated run by run: no monitor, a recv-side accept that reads one field, and a recv-side
 // update that rewrites the payload. The figures that matter are the differences to `none`.
 #include <fstream>
+#include <iterator>
 #include <stdexcept>
 
 #include "plexus_measurements.hpp"
@@ -23,6 +24,9 @@ constexpr const char* empty_script = R"(-- the least a monitor can do: called, t
 PortMonitor.accept = function(msg) return true end
 )";
 
+constexpr const char* latency_script = R"(-- reads the payload of each message (a blob)
+PortMonitor.accept = function(msg) return #msg.data > 0 end
+)";
 constexpr const char* update_script = R"(-- rewrites the payload: one field changed, one added
 PortMonitor.update = function(msg)
     local d = msg.data
@@ -83,6 +87,43 @@ int run_monitor(const Options& options) {
                    " B maps: " + std::to_string(throughput_count(options)) + " messages per run, median of " +
                    std::to_string(options.repeat) + " runs";
     for (std::size_t i = 0; i < variants.size(); ++i)
+        result.systems.emplace_back(variants[i].first, median_of(runs[i]));
+    print(result, options.json);
+    return 0;
+}
+
+int run_monitor_latency(const Options& options) {
+    TempDir dir;
+    std::ofstream(dir.file("latency_accept.lua")) << latency_script;
+    const auto topology = Topology::plexus(dir, options.plexusd, 1, {"--scripts", dir.path()});
+    const std::pair<std::string, std::string> variants[] = {
+        {"none", "local"},
+        {"accept_on_worker", "local+recv.portmonitor+type.lua+file.latency_accept"},
+    };
+    std::vector<std::unique_ptr<Measurement>> measurements;
+    for (const auto& [name, carrier] : variants) {
+        Options variant = options;
+        variant.carrier = carrier;
+        variant.port_tag = name;
+        measurements.push_back(plexus_latency(*topology, variant));
+    }
+    std::vector<std::vector<RunResult>> runs(std::size(variants));
+    {
+        RunDeadline deadline;
+        for (int run = 0; run < options.repeat; ++run) {
+            for (std::size_t i = 0; i < std::size(variants); ++i) {
+                RunDeadline per_run;
+                runs[i].push_back(measurements[i]->run());
+            }
+        }
+    }
+    VariantsResult result;
+    result.scenario = "monitor_latency_1hop";
+    result.size = options.size;
+    result.title = "one-hop latency with and without a recv monitor (on a worker thread), " +
+                   std::to_string(options.size) + " B: " + std::to_string(latency_count(options)) +
+                   " round trips per run, median of " + std::to_string(options.repeat) + " runs";
+    for (std::size_t i = 0; i < std::size(variants); ++i)
         result.systems.emplace_back(variants[i].first, median_of(runs[i]));
     print(result, options.json);
     return 0;

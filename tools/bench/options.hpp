@@ -21,6 +21,8 @@ struct Options {
     /// non-empty one also prefixes their port names ("/bench/udp-ping"), so that scenarios on
     /// different carriers can share daemons.
     std::string carrier;
+    /// Prefix of the port names instead of the carrier's ("monitored" -> "/bench/monitored-ping").
+    std::string port_tag;
 };
 
 /// Round trips per latency run when --count is not given: about 32 MiB each way, 100 to 10,000.

@@ -63,6 +63,8 @@ PortOptions queue(const Options& options) {
 
 /// "udp-" for options.carrier "udp": keeps the ports of scenarios on different carriers apart.
 std::string carrier_tag(const Options& options) {
+    if (!options.port_tag.empty())
+        return options.port_tag + "-";
     return options.carrier.empty() ? "" : options.carrier + "-";
 }
 

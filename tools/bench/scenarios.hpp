@@ -15,6 +15,8 @@ int run_memory(const Options& options);
 int run_memcpy(const Options& options);
 /// Throughput and daemon CPU with no monitor, a one-field accept and a rewriting update.
 int run_monitor(const Options& options);
+/// One-hop latency with and without a recv monitor, alternated run by run.
+int run_monitor_latency(const Options& options);
 /// Total throughput of 1, 2 and 4 independent monitored connections with a ~20 us script.
 int run_monitor_scaling(const Options& options);
 /// Added CPU per message with 2, 4 and 8 competing connections (constraints, priority), and the
