@@ -134,6 +134,10 @@ int via_lazy(lua_State* L) {
     const int lazy = lua_gettop(L);
     lua_pushnil(L);
     while (lua_next(L, eager) != 0) {
+        if (lua_type(L, -2) == LUA_TTABLE) {  // a map or array as a key: a different table in each
+            lua_pop(L, 1);                    // decoding, found by identity only; no script can name it
+            continue;
+        }
         lua_pushvalue(L, -2);
         lua_gettable(L, lazy);  // the lazy read (or, once materialized, the plain one)
         if (!same_value(L))
