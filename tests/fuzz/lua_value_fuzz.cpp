@@ -8,7 +8,7 @@
 //   - push_cbor (the fast path a monitor's msg.data takes) and push_json of the decoded value give
 //     Lua values that convert back to the same json;
 //   - a map read lazily (monitor/lazy_map.hpp, msg.data of a map) gives, field by field, the values
-//     of the table push_cbor builds, and converts back to the same json.
+//     of the table push_cbor builds, and once made whole holds the same keys and values.
 // Lua errors (nesting deeper than the conversion allows, a NaN map key) are allowed answers:
 // everything runs inside lua_pcall, as in the monitors.
 #include <cmath>
@@ -93,7 +93,6 @@ struct Trip {
     const json* value = nullptr;
     std::optional<json> through_json;  ///< push_json, then to_json
     std::optional<json> through_cbor;  ///< push_cbor, then to_json
-    std::optional<json> through_lazy;  ///< a lazy map read field by field, then to_json
     bool lazy_fields_differ = false;
 };
 
@@ -144,7 +143,31 @@ int via_lazy(lua_State* L) {
             trip->lazy_fields_differ = true;
         lua_pop(L, 2);
     }
-    trip->through_lazy = monitor::to_json(L, lazy, trip->value);
+    // Then the whole table, as pairs makes it: the same keys with the same values (compared in
+    // Lua, not as json: to_json of a table holding both "-10" and -10 keeps whichever comes last).
+    monitor::materialize_if_lazy(L, lazy);
+    std::size_t eager_keys = 0;
+    std::size_t lazy_keys = 0;
+    lua_pushnil(L);
+    while (lua_next(L, eager) != 0) {
+        ++eager_keys;
+        lua_pop(L, 1);
+    }
+    lua_pushnil(L);
+    while (lua_next(L, lazy) != 0) {
+        ++lazy_keys;
+        if (lua_type(L, -2) != LUA_TTABLE) {
+            lua_pushvalue(L, -2);
+            lua_rawget(L, eager);
+            if (!same_value(L))
+                trip->lazy_fields_differ = true;
+            lua_pop(L, 1);
+        }
+        lua_pop(L, 1);
+    }
+    if (eager_keys != lazy_keys)
+        trip->lazy_fields_differ = true;
+    (void)monitor::to_json(L, lazy, trip->value);  // converting a table made lazily: no crash
     maps.end_message();
     return 0;
 }
@@ -177,8 +200,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     lua_close(L);
     // The lazy reads hold for any map push_cbor takes (integer keys too, which json has not).
     PLEXUS_FUZZ_CHECK(!trip.lazy_fields_differ);
-    if (trip.through_cbor && trip.through_lazy)
-        PLEXUS_FUZZ_CHECK(plexus::fuzz::same_json(*trip.through_cbor, *trip.through_lazy));
     if (!decoded)
         return 0;
     if (trip.through_json) {
