@@ -214,8 +214,8 @@ private:
 
     Monitor& monitor_;
     MonitorPolicy policy_;
+    LazyMaps lazy_;  ///< msg.data of a map payload; before sandbox_: its closures point here until lua_close
     std::unique_ptr<LuaSandbox> sandbox_;
-    LazyMaps lazy_;                      ///< msg.data of a map payload
     int message_ref_ = LUA_NOREF;        ///< the one `msg` userdata, reused for every message
     MessageBox* message_box_ = nullptr;  ///< its memory: Lua never moves a userdata
     bool data_kept_ = false;             ///< its user value still holds the last message's data
