@@ -83,14 +83,20 @@ private:
     std::thread thread_;
 };
 
-/// Sends one line and waits until the daemon has received it on that connection, so that
-/// messages of two writers reach the port in a known order.
+/// How many messages of that connection its monitors (if any) and the arbiter have judged. Not
+/// `received`: that counts a message on arrival, before a monitor's worker has run it.
+std::uint64_t judged(const TempDir& dir, const Daemon& daemon, const std::string& port, const std::string& source) {
+    return counter(dir, daemon, port, source, "accepted") + counter(dir, daemon, port, source, "dropped_by_accept");
+}
+
+/// Sends one line and waits until the daemon has judged it on that connection, so that messages
+/// of two writers reach the port, and its events, in a known order.
 void send_and_wait(const TempDir& dir, const Daemon& daemon, CliWriter& writer, const std::string& port,
                    const std::string& source, const std::string& line) {
-    const auto before = counter(dir, daemon, port, source, "received");
+    const auto before = judged(dir, daemon, port, source);
     writer.send(line + "\n");
-    ASSERT_TRUE(eventually([&] { return counter(dir, daemon, port, source, "received") > before; }))
-        << "the daemon never received " << line << " from " << source;
+    ASSERT_TRUE(eventually([&] { return judged(dir, daemon, port, source) > before; }))
+        << "the daemon never judged " << line << " from " << source;
 }
 
 TEST(Arbitration_test, GazeObjectInhibitsFaceWhileBothStreamAndFaceReturnsAfterTheObjectStops) {

@@ -31,6 +31,13 @@ json stats_of(const TempDir& dir, const Daemon& daemon, const std::string& port)
     return json::parse(result.out);
 }
 
+/// Whether the recv monitors of `port`'s first inbound connection have judged `count` messages.
+/// "received" alone is not enough: it counts a message on arrival, before the monitor's worker runs.
+bool judged(const TempDir& dir, const Daemon& daemon, const std::string& port, int count) {
+    auto inbound = stats_of(dir, daemon, port)["ports"][0]["inbound"][0];
+    return inbound["accepted"].get<int>() + inbound["dropped_by_accept"].get<int>() == count;
+}
+
 /// A reader on `sink`, a writer on `source`, connected with `carrier` from the writer's daemon.
 struct Pipeline {
     std::unique_ptr<Process> reader;
@@ -65,18 +72,12 @@ TEST(Monitor_test, CertaintyFilterOnTheRecvSideWithParamGetAndSet) {
     p.writer->send(
         "{\"c\":1,\"certainty\":0.9}\n{\"c\":2,\"certainty\":0.5}\n{\"c\":3,\"certainty\":0.81}\n");
     // Raise the threshold only once those three have been judged: the stats say so.
-    ASSERT_TRUE(eventually([&] {
-        auto s = stats_of(dir, daemon, "/consumer");
-        return s["ports"][0]["inbound"][0]["received"] == 3;
-    }));
+    ASSERT_TRUE(eventually([&] { return judged(dir, daemon, "/consumer", 3); }));
     auto set = run_cli(dir, daemon, {"param", "set", "/detector", "/consumer", "threshold=0.95"});
     ASSERT_EQ(set.status, 0) << set.err;
     EXPECT_EQ(json::parse(set.out)[0]["param"]["threshold"], 0.95);
     p.writer->send("{\"c\":4,\"certainty\":0.9}\n");
-    ASSERT_TRUE(eventually([&] {
-        auto s = stats_of(dir, daemon, "/consumer");
-        return s["ports"][0]["inbound"][0]["received"] == 4;
-    }));
+    ASSERT_TRUE(eventually([&] { return judged(dir, daemon, "/consumer", 4); }));
     auto inbound = stats_of(dir, daemon, "/consumer")["ports"][0]["inbound"][0];
     EXPECT_EQ(inbound["dropped_by_accept"], 2);
     EXPECT_EQ(inbound["monitors"][0]["dropped"], 2);
@@ -120,8 +121,7 @@ TEST(Monitor_test, CodecPairEncodesOnSendAndDecodesOnRecvAcrossTwoDaemons) {
     ASSERT_EQ(p.connected.status, 0) << p.connected.err;
     // Values exact in 32-bit floats come back exactly; a non-array passes untouched.
     p.writer->send("[1.5,2.25,-3.0,1024.0]\n{\"not\":\"a scan\"}\n[0.5]\n");
-    ASSERT_TRUE(eventually(
-        [&] { return stats_of(dir, second, "/mapper/scan")["ports"][0]["inbound"][0]["received"] == 3; }));
+    ASSERT_TRUE(eventually([&] { return judged(dir, second, "/mapper/scan", 3); }));
     auto sent = stats_of(dir, first, "/laser/scan")["ports"][0]["outgoing"][0]["monitors"][0];
     EXPECT_EQ(sent["side"], "send");
     EXPECT_EQ(sent["rewritten"], 2);
@@ -372,11 +372,15 @@ TEST(Monitor_test, HostileMonitorsAreQuarantinedWhileOtherConnectionsKeepFlowing
     EXPECT_EQ(json_lines(healthy.reader->out()).size(), 10000u);
 
     for (const auto& script : hostile) {
+        // "received" counts a message when it arrives, before the monitor's worker has run it:
+        // wait for the monitor itself to have seen all five and closed its state.
+        json monitor;
         ASSERT_TRUE(eventually([&] {
-            auto s = stats_of(dir, daemon, "/" + script + "/in");
-            return s["ports"][0]["inbound"][0]["received"] == 5;
-        })) << script;
-        auto monitor = stats_of(dir, daemon, "/" + script + "/in")["ports"][0]["inbound"][0]["monitors"][0];
+            auto inbound = stats_of(dir, daemon, "/" + script + "/in")["ports"][0]["inbound"][0];
+            monitor = inbound["monitors"][0];
+            return inbound["received"] == 5 && monitor["messages"] == 5 && monitor["quarantined"] == true &&
+                   monitor["memory_bytes"] == 0;
+        })) << script << ": " << monitor.dump();
         EXPECT_TRUE(monitor["quarantined"].get<bool>()) << script << ": " << monitor.dump();
         EXPECT_EQ(monitor["errors"], 3) << script;
         EXPECT_EQ(monitor["memory_bytes"], 0) << script;  // the state is closed, its memory returned

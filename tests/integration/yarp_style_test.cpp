@@ -34,13 +34,16 @@ bool has_event(const json& events, const std::string& name) {
     return false;
 }
 
-/// The `received` counter of the connection into `port` from `source`.
-std::uint64_t received(const TempDir& dir, const Daemon& daemon, const std::string& port,
-                       const std::string& source) {
+/// How many messages the monitors of the connection into `port` from `source` have judged.
+/// Not `received`: that counts a message on arrival, before the monitor's worker has run it.
+std::uint64_t judged(const TempDir& dir, const Daemon& daemon, const std::string& port,
+                     const std::string& source) {
     const auto events = events_of(dir, daemon, port);
     for (const auto& c : events.value("connections", json::array())) {
-        if (c["source"] == source)
-            return c["counters"]["received"].get<std::uint64_t>();
+        if (c["source"] == source) {
+            const auto& counters = c["counters"];
+            return counters["accepted"].get<std::uint64_t>() + counters["dropped_by_accept"].get<std::uint64_t>();
+        }
     }
     return 0;
 }
@@ -48,9 +51,9 @@ std::uint64_t received(const TempDir& dir, const Daemon& daemon, const std::stri
 /// Sends `line` and waits until the daemon has taken it on that connection (its monitor ran).
 void send(const TempDir& dir, const Daemon& daemon, CliWriter& writer, const std::string& source,
           const std::string& line) {
-    const auto before = received(dir, daemon, "/view/in", source);
+    const auto before = judged(dir, daemon, "/view/in", source);
     writer.send(line + "\n");
-    ASSERT_TRUE(eventually([&] { return received(dir, daemon, "/view/in", source) > before; })) << line;
+    ASSERT_TRUE(eventually([&] { return judged(dir, daemon, "/view/in", source) > before; })) << line;
 }
 
 /// The selection after a selector message: `chosen` is set and `other` is not.
