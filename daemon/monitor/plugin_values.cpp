@@ -116,6 +116,27 @@ const Byte* skip(const Byte* at, const Byte* end, std::size_t depth) {
     }
 }
 
+/// skip() for the one item at `at`, with the items a message's fields mostly hold (numbers,
+/// simple values, short strings) stepped over here and only the rest handed to skip().
+inline const Byte* skip_item(const Byte* at, const Byte* end) {
+    if (at >= end)
+        return nullptr;
+    const Byte major = static_cast<Byte>(*at >> 5);
+    const Byte info = static_cast<Byte>(*at & 0x1f);
+    const auto left = static_cast<std::size_t>(end - at - 1);
+    if (major == major_unsigned || major == major_negative || major == major_simple) {
+        if (info < 24)
+            return at + 1;
+        if (info <= 27) {
+            const std::size_t width = std::size_t{1} << (info - 24);
+            return left >= width ? at + 1 + width : nullptr;
+        }
+    } else if ((major == major_text || major == major_bytes) && info < 24) {
+        return left >= info ? at + 1 + info : nullptr;
+    }
+    return skip(at, end, 1);
+}
+
 const Byte* begin_of(plexus_value value) {
     return value.bytes;
 }
@@ -239,6 +260,11 @@ int get_int(plexus_value value, std::int64_t* out) {
 }
 
 int get_number(plexus_value value, double* out) {
+    // A double, as nlohmann writes every non-integral number: read here without the general walk.
+    if (out && value.bytes && value.size >= 9 && value.bytes[0] == 0xfb) {
+        *out = std::bit_cast<double>(proto::read_big_endian(value.bytes + 1, 8));
+        return PLEXUS_MONITOR_OK;
+    }
     Head head;
     if (!out || !untagged_head(value, head))
         return PLEXUS_MONITOR_ERROR;
@@ -347,24 +373,35 @@ plexus_value map_get(plexus_value map, const char* key) {
         return found;
     }
     // The per-message path (a monitor reading one field): text keys are compared where they lie,
-    // only values are skipped.
+    // only values are skipped; short keys and simple values without the general head reader.
     const Byte* p = head.next;
     const Byte* end = end_of(map);
     const std::size_t key_size = std::strlen(key);
     for (std::uint64_t i = 0; i < head.argument; ++i) {
-        Head key_head;
-        if (!read_head(p, end, key_head))
+        if (p >= end)
             return absent;
         bool matched = false;
-        if (key_head.major == major_text && !key_head.indefinite) {
-            if (key_head.argument > static_cast<std::uint64_t>(end - key_head.next))
+        if (*p >= 0x60 && *p < 0x60 + 24) {  // a text key shorter than 24 bytes: its head is one byte
+            const std::size_t size = *p & 0x1f;
+            ++p;
+            if (size > static_cast<std::size_t>(end - p))
                 return absent;
-            matched = key_head.argument == key_size && std::memcmp(key_head.next, key, key_size) == 0;
-            p = key_head.next + key_head.argument;
-        } else if (!(p = skip(p, end, 1))) {
-            return absent;
+            matched = size == key_size && std::memcmp(p, key, size) == 0;
+            p += size;
+        } else {
+            Head key_head;
+            if (!read_head(p, end, key_head))
+                return absent;
+            if (key_head.major == major_text && !key_head.indefinite) {
+                if (key_head.argument > static_cast<std::uint64_t>(end - key_head.next))
+                    return absent;
+                matched = key_head.argument == key_size && std::memcmp(key_head.next, key, key_size) == 0;
+                p = key_head.next + key_head.argument;
+            } else if (!(p = skip(p, end, 1))) {
+                return absent;
+            }
         }
-        const Byte* value_end = skip(p, end, 1);
+        const Byte* value_end = skip_item(p, end);
         if (!value_end)
             return absent;
         if (matched)

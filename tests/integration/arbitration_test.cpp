@@ -85,8 +85,10 @@ private:
 
 /// How many messages of that connection its monitors (if any) and the arbiter have judged. Not
 /// `received`: that counts a message on arrival, before a monitor's worker has run it.
-std::uint64_t judged(const TempDir& dir, const Daemon& daemon, const std::string& port, const std::string& source) {
-    return counter(dir, daemon, port, source, "accepted") + counter(dir, daemon, port, source, "dropped_by_accept");
+std::uint64_t judged(const TempDir& dir, const Daemon& daemon, const std::string& port,
+                     const std::string& source) {
+    return counter(dir, daemon, port, source, "accepted") +
+           counter(dir, daemon, port, source, "dropped_by_accept");
 }
 
 /// Sends one line and waits until the daemon has judged it on that connection, so that messages

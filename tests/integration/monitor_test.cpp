@@ -380,7 +380,8 @@ TEST(Monitor_test, HostileMonitorsAreQuarantinedWhileOtherConnectionsKeepFlowing
             monitor = inbound["monitors"][0];
             return inbound["received"] == 5 && monitor["messages"] == 5 && monitor["quarantined"] == true &&
                    monitor["memory_bytes"] == 0;
-        })) << script << ": " << monitor.dump();
+        })) << script
+            << ": " << monitor.dump();
         EXPECT_TRUE(monitor["quarantined"].get<bool>()) << script << ": " << monitor.dump();
         EXPECT_EQ(monitor["errors"], 3) << script;
         EXPECT_EQ(monitor["memory_bytes"], 0) << script;  // the state is closed, its memory returned

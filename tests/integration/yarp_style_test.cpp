@@ -42,7 +42,8 @@ std::uint64_t judged(const TempDir& dir, const Daemon& daemon, const std::string
     for (const auto& c : events.value("connections", json::array())) {
         if (c["source"] == source) {
             const auto& counters = c["counters"];
-            return counters["accepted"].get<std::uint64_t>() + counters["dropped_by_accept"].get<std::uint64_t>();
+            return counters["accepted"].get<std::uint64_t>() +
+                   counters["dropped_by_accept"].get<std::uint64_t>();
         }
     }
     return 0;

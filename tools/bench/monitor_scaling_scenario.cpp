@@ -115,25 +115,26 @@ int run_monitor_scaling(const Options& options) {
     // Each message needs 20 us of a worker plus `overhead` of CPU elsewhere; `cores` cores can at
     // best give every message both, and one connection can never go faster than its one worker.
     const double ceiling = std::min(cores * 1e6 / (20 + overhead), 2 * 1e6 / 20);
-    std::cout << "monitor-scaling: " << count << " messages per connection, a ~20 us accept on each, " << cores
-              << " cores, median of " << options.repeat << " runs\n";
+    std::cout << "monitor-scaling: " << count << " messages per connection, a ~20 us accept on each, "
+              << cores << " cores, median of " << options.repeat << " runs\n";
     for (std::size_t s = 0; s < sizes.size(); ++s) {
         const double rate = median(rates[s]);
         if (options.json)
             std::cout << R"({"scenario":"monitor_scaling","connections":)" << sizes[s] << R"(,"msgs_per_s":)"
-                      << rate << R"(,"against_one":)" << rate / one << R"(,"cpu_us_per_msg":)" << median(cpu[s])
-                      << "}\n";
+                      << rate << R"(,"against_one":)" << rate / one << R"(,"cpu_us_per_msg":)"
+                      << median(cpu[s]) << "}\n";
         else
-            std::cout << "  " << sizes[s] << " connection(s): " << static_cast<long>(rate) << " msgs/s in total, "
-                      << rate / one << "x one connection, " << median(cpu[s]) << " us CPU per message\n";
+            std::cout << "  " << sizes[s] << " connection(s): " << static_cast<long>(rate)
+                      << " msgs/s in total, " << rate / one << "x one connection, " << median(cpu[s])
+                      << " us CPU per message\n";
     }
     if (options.json)
         std::cout << R"({"scenario":"monitor_scaling_outside_script","cpu_us_per_msg":)" << overhead
                   << R"(,"ceiling_msgs_per_s":)" << ceiling << "}\n";
     else
         std::cout << "  outside the script (2 connections, accept returns at once): " << overhead
-                  << " us CPU per message (daemon + clients); ceiling on " << cores << " cores: "
-                  << static_cast<long>(ceiling) << " msgs/s\n";
+                  << " us CPU per message (daemon + clients); ceiling on " << cores
+                  << " cores: " << static_cast<long>(ceiling) << " msgs/s\n";
     return 0;
 }
 

@@ -321,6 +321,56 @@ TEST(PluginValues_test, EveryTruncationReadsAsInvalidOrAbsentNeverPastTheEnd) {
     }
 }
 
+TEST(PluginValues_test, MapGetFindsEveryKindOfValueBehindEveryKindOfKey) {
+    // map_get steps over short text keys and simple values itself and hands the rest to the
+    // general walk: each lookup must give exactly the value's bytes, whatever came before it.
+    const std::string long_key(40, 'k');
+    json value = {{"a", 1},
+                  {"ab", 300},
+                  {"abc", 70000},
+                  {"abcd", 5000000000ull},
+                  {"neg", -20000},
+                  {"f", 0.1},
+                  {"t", false},
+                  {"n", nullptr},
+                  {"short", "hi"},
+                  {"long", std::string(30, 'x')},
+                  {"bytes", json::binary({1, 2, 3})},
+                  {"nested", {{"deep", {1, {{"x", 2}}}}}},
+                  {long_key, "after a long key"},
+                  {"last", 42}};
+    auto cbor = json::to_cbor(value);
+    for (const auto& [key, expected] : value.items()) {
+        const plexus_value found = values::map_get(view_of(cbor), key.c_str());
+        ASSERT_NE(found.bytes, nullptr) << key;
+        EXPECT_EQ(json::from_cbor(std::vector<std::uint8_t>(found.bytes, found.bytes + found.size)), expected)
+            << key;
+    }
+    EXPECT_EQ(values::map_get(view_of(cbor), "lon").bytes, nullptr);  // a prefix of a key
+    EXPECT_EQ(values::map_get(view_of(cbor), "lastly").bytes, nullptr);
+    // Half and single floats, which nlohmann does not write: written here by hand.
+    const std::vector<std::uint8_t> floats{0xa2, 0x61, 'h',  0xf9, 0x3c, 0x00,         // "h": 1.0 (f16)
+                                           0x61, 's',  0xfa, 0x3f, 0xc0, 0x00, 0x00};  // "s": 1.5 (f32)
+    double number = 0;
+    EXPECT_EQ(values::get_number(values::map_get(view_of(floats), "s"), &number), PLEXUS_MONITOR_OK);
+    EXPECT_EQ(number, 1.5);
+    EXPECT_EQ(values::get_number(values::map_get(view_of(floats), "h"), &number), PLEXUS_MONITOR_OK);
+    EXPECT_EQ(number, 1.0);
+    // A map with a non-text key before the one looked for.
+    const std::vector<std::uint8_t> mixed{0xa2, 0x01, 0x02, 0x61, 'k', 0x03};  // {1: 2, "k": 3}
+    std::int64_t whole = 0;
+    EXPECT_EQ(values::get_int(values::map_get(view_of(mixed), "k"), &whole), PLEXUS_MONITOR_OK);
+    EXPECT_EQ(whole, 3);
+    // Cut anywhere, nothing is read past the end (AddressSanitizer watches the exact copy).
+    for (std::size_t cut = 0; cut < cbor.size(); ++cut) {
+        const std::vector<std::uint8_t> part(cbor.begin(), cbor.begin() + static_cast<long>(cut));
+        const plexus_value view{part.empty() ? nullptr : part.data(), part.size()};
+        // nlohmann writes keys in order: "t" comes last, and its value is never whole before the end.
+        EXPECT_EQ(values::map_get(view, "t").bytes, nullptr) << cut;
+        values::get_number(values::map_get(view, "f"), &number);
+    }
+}
+
 TEST(PluginValues_test, BuilderWritesWhatNlohmannReadsAndRefusesMisuse) {
     plexus_builder builder;
     values::begin_map(&builder, 2);

@@ -112,6 +112,60 @@ TEST(Varint_test, AcceptsPaddedEncodingWithinTenBytes) {
     EXPECT_EQ(decoded.used, 10u);
 }
 
+/// LEB128 decoded a byte at a time, as the format defines it: the reference for the fast paths.
+VarintDecode reference_decode(ByteView input) {
+    std::uint64_t value = 0;
+    for (std::size_t i = 0; i < max_varint_size; ++i) {
+        if (i == input.size())
+            return {VarintStatus::need_more};
+        const std::uint64_t group = input[i] & 0x7f;
+        if (i == max_varint_size - 1 && input[i] > 1)
+            return {VarintStatus::bad};
+        value |= group << (7 * i);
+        if ((input[i] & 0x80) == 0)
+            return {VarintStatus::ok, value, i + 1};
+    }
+    return {VarintStatus::bad};
+}
+
+TEST(Varint_test, EveryLengthFollowedByOtherBytesDecodesAsTheReferenceDoes) {
+    // Followed by more bytes, a varint takes the eight-bytes-at-once path whatever its length;
+    // each length is checked with its groups all ones, all zeros and mixed, and the bytes after
+    // it with and without continuation bits (they must not leak into the value).
+    for (std::size_t length = 1; length <= max_varint_size; ++length) {
+        for (const std::uint8_t group : {0x00, 0x7f, 0x55, 0x2a, 0x01}) {
+            for (const std::uint8_t after : {0x00, 0xff, 0x80, 0x7f}) {
+                Bytes bytes(length, static_cast<std::uint8_t>(group | 0x80));
+                bytes.back() = group;
+                if (length == max_varint_size)
+                    bytes.back() = group & 1;
+                bytes.insert(bytes.end(), 12, after);
+                for (std::size_t extra = 0; extra <= 12; ++extra) {
+                    const ByteView view = ByteView(bytes).first(length + extra);
+                    const VarintDecode fast = decode_varint(view);
+                    const VarintDecode reference = reference_decode(view);
+                    ASSERT_EQ(fast.status, reference.status) << length << " " << int(group) << " " << extra;
+                    EXPECT_EQ(fast.value, reference.value) << length << " " << int(group);
+                    EXPECT_EQ(fast.used, reference.used) << length << " " << int(group);
+                }
+            }
+        }
+    }
+    // And every value around each power of two, with a tail.
+    for (int bit = 0; bit < 64; ++bit) {
+        const std::uint64_t power = std::uint64_t{1} << bit;
+        for (const std::uint64_t value : {power - 1, power, power + 1, power | (power - 1)}) {
+            Bytes bytes = encode(value);
+            const std::size_t size = bytes.size();
+            bytes.insert(bytes.end(), {0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff});
+            const VarintDecode decoded = decode_varint(bytes);
+            ASSERT_EQ(decoded.status, VarintStatus::ok) << value;
+            EXPECT_EQ(decoded.value, value);
+            EXPECT_EQ(decoded.used, size) << value;
+        }
+    }
+}
+
 TEST(FieldReader_test, ReadsFieldsInOrder) {
     Bytes body;
     append_varint(body, 300);

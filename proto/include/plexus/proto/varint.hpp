@@ -1,8 +1,10 @@
 #pragma once
 // Unsigned LEB128 varints: 7 bits per byte, low bits first, high bit set on every byte but the last.
 
+#include <bit>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 
 #include "plexus/proto/bytes.hpp"
 
@@ -49,6 +51,33 @@ inline VarintDecode decode_varint(ByteView input) {
     const std::uint8_t* bytes = input.data();
     if (!input.empty() && bytes[0] < 0x80)  // most lengths, counts and handles: one byte
         return {VarintStatus::ok, bytes[0], 1};
+    if (input.size() >= 9) {
+        // Eight bytes at once (every record's time is a nine-byte varint): the first byte without
+        // a continuation bit ends it, and the 7-bit groups are packed together in three steps.
+        std::uint64_t word;
+        std::memcpy(&word, bytes, 8);
+        if constexpr (std::endian::native == std::endian::big)
+            word = __builtin_bswap64(word);
+        const std::uint64_t ends = ~word & 0x8080808080808080ull;
+        std::size_t used = 9;
+        std::uint64_t last = 0;
+        if (ends != 0) {
+            used = static_cast<std::size_t>(std::countr_zero(ends) / 8 + 1);
+            if (used < 8)
+                word &= (std::uint64_t{1} << (8 * used)) - 1;
+        } else if (bytes[8] < 0x80) {
+            last = static_cast<std::uint64_t>(bytes[8]) << 56;
+        } else {
+            used = 0;  // ten bytes: the general path below checks the tenth
+        }
+        if (used != 0) {
+            word &= 0x7f7f7f7f7f7f7f7full;
+            word = (word & 0x007f007f007f007full) | ((word & 0x7f007f007f007f00ull) >> 1);
+            word = (word & 0x00003fff00003fffull) | ((word & 0x3fff00003fff0000ull) >> 2);
+            word = (word & 0x000000000fffffffull) | ((word & 0x0fffffff00000000ull) >> 4);
+            return {VarintStatus::ok, word | last, used};
+        }
+    }
     // The first nine bytes carry 7 bits each and need no other check.
     const std::size_t plain = input.size() < max_varint_size - 1 ? input.size() : max_varint_size - 1;
     std::uint64_t value = 0;
