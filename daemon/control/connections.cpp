@@ -193,11 +193,19 @@ Task<proto::Reply> ControlPlane::connect_remote(const proto::Request& request, s
     connection->priority = qos_of(carrier).prio.value_or(0);
     connection->sink = end.sink;
     if (auto* mcast = dynamic_cast<McastLink*>(end.sink.get())) {
-        // The send-side monitors of mcast run once per message, in the port's one sender, not
-        // once per connection: all mcast connections of a port share them.
-        if (auto shared = mcast->share_send_monitors(std::move(send_chain), send_clauses(carrier)); !shared) {
+        // The send-side monitors of mcast run once per message, for the port's one sender, not
+        // once per connection: all mcast connections of a port share them, on one stage.
+        const auto& sender = mcast->shared_sender();
+        auto first = sender->share_send_clauses(send_clauses(carrier));
+        if (!first) {
             end.peer->close("send monitors differ");
-            co_return refuse(shared.error().message);
+            co_return refuse(first.error().message);
+        }
+        if (*first && send_chain) {
+            monitor::MonitorStage::Options options;
+            options.drop_oldest = true;  // datagrams never hold the writer back
+            sender->attach_send_stage(
+                host_.scripts().make_stage(std::move(send_chain), nullptr, options, sender));
         }
     } else {
         connection->send_monitors = send_stage(host_.scripts(), std::move(send_chain), connection);

@@ -6,6 +6,7 @@
 #include "core/inlet.hpp"
 #include "core/router.hpp"
 #include "monitor/stage.hpp"
+#include "net/udp_carrier.hpp"
 #include "request_fields.hpp"
 
 namespace plexus::daemon {
@@ -75,7 +76,11 @@ Task<proto::Reply> ControlPlane::param(std::shared_ptr<Session>, const proto::Re
                                       "ports " + source + " and " + destination + " are not connected");
     nlohmann::json results = nlohmann::json::array();
     bool any_setparam = false;
-    auto applied = co_await apply_on_worker(connection->send_monitors, request.body, results, any_setparam);
+    // An mcast connection's send-side monitors are its port's, shared by all its mcast connections.
+    std::shared_ptr<MessageFilter> send_side = connection->send_monitors;
+    if (const auto* mcast = dynamic_cast<const McastLink*>(connection->sink.get()))
+        send_side = mcast->sender().send_stage();
+    auto applied = co_await apply_on_worker(send_side, request.body, results, any_setparam);
     if (!applied)
         co_return proto::make_refusal(0, ReplyCode::refused, applied.error().message);
     if (!connection->remote) {

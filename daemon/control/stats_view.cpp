@@ -43,8 +43,8 @@ nlohmann::json ControlPlane::stats_json(const std::string& only_port) const {
                                   {"dropped_too_large", sent.dropped_too_large},
                                   {"dropped_send", sent.dropped_send},
                                   {"dropped_by_monitor", sent.dropped_by_monitor}};
-                if (const auto& shared = mcast->sender().send_monitors())
-                    entry["monitors"] = shared->stats();
+                if (const auto* stage = monitor::stage_of(mcast->sender().send_stage()))
+                    entry["monitors"] = stage->chain().stats();
             }
             if (const auto* udp = dynamic_cast<const UdpLink*>(c->sink.get())) {
                 const auto& sent = udp->counters();

@@ -9,7 +9,6 @@
 #include <spdlog/spdlog.h>
 
 #include "../core/batch.hpp"
-#include "../monitor/chain.hpp"
 #include "plexus/proto/datagram.hpp"
 #include "plexus/proto/message.hpp"
 
@@ -412,14 +411,15 @@ Task<void> UdpCarrier::expire_loop() {
     }
 }
 
-McastSender::~McastSender() = default;
+McastSender::~McastSender() {
+    if (stage_)
+        stage_->close();  // the monitors go on their worker; nothing more comes back
+}
 
-proto::Status McastSender::share_send_monitors(std::shared_ptr<monitor::MonitorChain> chain,
-                                               const std::string& clauses) {
+proto::Result<bool> McastSender::share_send_clauses(const std::string& clauses) {
     if (!clauses_) {
         clauses_ = clauses;
-        chain_ = std::move(chain);
-        return proto::Ok{};
+        return true;
     }
     if (*clauses_ != clauses) {
         return proto::Error{"mcast connections of " + source_ +
@@ -427,7 +427,7 @@ proto::Status McastSender::share_send_monitors(std::shared_ptr<monitor::MonitorC
                             "they are '" +
                             *clauses_ + "', not '" + clauses + "'"};
     }
-    return proto::Ok{};  // the new connection's own chain goes: the shared one serves it
+    return false;  // the new connection's own monitors go: the shared ones serve it
 }
 
 void McastSender::deliver(const Message& message) {
@@ -438,12 +438,23 @@ void McastSender::deliver(const Message& message) {
         return;
     }
     last_ = message;
-    for_each_record(message, [this](const Message& record) {
-        Message single = record;
-        if (chain_ && !chain_->process(single)) {
-            ++counters_.dropped_by_monitor;
-            return;
-        }
+    if (stage_)
+        stage_->submit(message);  // what the monitors pass comes back through filtered()
+    else
+        send(message);
+}
+
+void McastSender::filtered(std::vector<Filtered>& results) {
+    for (const auto& result : results) {
+        if (result.verdict == FilterVerdict::pass)
+            send(result.message);
+        else
+            counters_.dropped_by_monitor += result.message.count();
+    }
+}
+
+void McastSender::send(const Message& message) {
+    for_each_record(message, [this](const Message& single) {
         carrier_.send_counted(group_, 0, next_message_, single.record, counters_, "mcast " + source_,
                               marks_ ? &*marks_ : nullptr);
     });

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "../core/inlet.hpp"
+#include "../core/message_filter.hpp"
 #include "../core/reassembly.hpp"
 #include "asio.hpp"
 #include "packet_marks.hpp"
@@ -20,9 +21,6 @@
 namespace plexus::daemon {
 
 class McastSender;
-namespace monitor {
-struct MonitorChain;
-}
 
 /// Daemon-wide counters of the carrier (`plexus stats`, under "daemon").
 struct UdpCounters {
@@ -159,26 +157,33 @@ struct McastSendCounters : UdpSendCounters {
 /// The multicast sending end of one source port: every message goes out once, to the port's
 /// group, however many mcast connections (to however many daemons) the port has. Each of those
 /// connections hands it every message; it sends the first hand-over of each and skips the rest.
-class McastSender {
+/// Threading: the daemon's thread; its send-side monitors run on their own stage (a worker), as a
+/// connection's do, and their verdicts come back here (filtered()).
+class McastSender final : public FilterClient {
 public:
     McastSender(UdpCarrier& carrier, asio::ip::udp::endpoint group, std::string source)
         : carrier_(carrier), group_(std::move(group)), source_(std::move(source)) {}
-    ~McastSender();
+    ~McastSender() override;
     void deliver(const Message& message);
+    void filtered(std::vector<Filtered>& results) override;
     const McastSendCounters& counters() const { return counters_; }
     const asio::ip::udp::endpoint& group() const { return group_; }
-    /// The send-side monitors, run once per message before it goes to the group. The first mcast
-    /// connection of the port brings them (`clauses` is their carrier text, "" for none); every
-    /// later one must bring the same clauses (its own chain is then dropped), else an Error.
-    proto::Status share_send_monitors(std::shared_ptr<monitor::MonitorChain> chain,
-                                      const std::string& clauses);
-    const std::shared_ptr<monitor::MonitorChain>& send_monitors() const { return chain_; }
+    /// The send-side monitors run once per message before it goes to the group, so every mcast
+    /// connection of the port must ask for the same ones (`clauses`, their carrier text, "" for
+    /// none). True for the first connection: it brings them (attach_send_stage); false for a later
+    /// one asking for the same (its own monitors are let go); an Error for different clauses.
+    proto::Result<bool> share_send_clauses(const std::string& clauses);
+    /// The stage of the monitors the first connection brought (see share_send_clauses).
+    void attach_send_stage(std::shared_ptr<MessageFilter> stage) { stage_ = std::move(stage); }
+    const std::shared_ptr<MessageFilter>& send_stage() const { return stage_; }
     /// A connection of the port asks for `qos.dscp.N`. Its messages are the port's, sent once for
     /// all connections, so they carry the highest DSCP any connection asked for: the one that
     /// asked for most gets it, the others get more than they asked, never less.
     void mark(int dscp);
 
 private:
+    void send(const Message& message);
+
     UdpCarrier& carrier_;
     asio::ip::udp::endpoint group_;
     std::string source_;
@@ -188,7 +193,7 @@ private:
     Message last_;
     McastSendCounters counters_;
     std::optional<std::string> clauses_;  ///< set by the first connection
-    std::shared_ptr<monitor::MonitorChain> chain_;
+    std::shared_ptr<MessageFilter> stage_;
     std::optional<int> dscp_;
     std::optional<DatagramMarks> marks_;
 };
@@ -204,10 +209,7 @@ public:
     void deliver(const Message& message) override { sender_->deliver(message); }
     void close_after_flush() override { control_->close_when_drained(); }
     const McastSender& sender() const { return *sender_; }
-    proto::Status share_send_monitors(std::shared_ptr<monitor::MonitorChain> chain,
-                                      const std::string& clauses) {
-        return sender_->share_send_monitors(std::move(chain), clauses);
-    }
+    const std::shared_ptr<McastSender>& shared_sender() const { return sender_; }
 
 private:
     std::shared_ptr<McastSender> sender_;

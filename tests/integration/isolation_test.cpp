@@ -17,6 +17,7 @@
 
 #include "../common/slowdown.hpp"
 #include "harness.hpp"
+#include "netns.hpp"
 #include "plexus/client.hpp"
 
 namespace plexus::test {
@@ -63,6 +64,26 @@ double ms(Clock::duration d) {
     return std::chrono::duration<double, std::milli>(d).count();
 }
 
+/// Reads `count` messages of 1, 2, 3... from `in`; returns their latencies (ms, sorted), fewer if
+/// they stopped coming.
+std::vector<double> calm_latencies(Port& in, std::uint64_t count) {
+    std::vector<double> latencies;
+    const auto deadline = Clock::now() + slower(30s);
+    while (latencies.size() < count && Clock::now() < deadline) {
+        auto message = in.read(200ms);
+        if (!message)
+            continue;
+        const auto now_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                std::chrono::system_clock::now().time_since_epoch())
+                                .count();
+        latencies.push_back(
+            static_cast<double>(now_ns - static_cast<std::int64_t>(message->envelope.time_ns)) / 1e6);
+        EXPECT_EQ(message->envelope.seq, latencies.size()) << "out of order or lost";
+    }
+    std::sort(latencies.begin(), latencies.end());
+    return latencies;
+}
+
 class Isolation_test : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(Isolation_test, AHostileMonitorDelaysNothingButItsOwnConnection) {
@@ -91,21 +112,8 @@ TEST_P(Isolation_test, AHostileMonitorDelaysNothingButItsOwnConnection) {
         // Meanwhile, a 500 Hz stream on the other connection.
         constexpr std::uint64_t count = 1000;
         PacedWriter calm(calm_out, 2ms, count);
-        std::vector<double> latencies;
-        const auto deadline = Clock::now() + slower(30s);
-        while (latencies.size() < count && Clock::now() < deadline) {
-            auto message = calm_in.read(200ms);
-            if (!message)
-                continue;
-            const auto now_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
-                                    std::chrono::system_clock::now().time_since_epoch())
-                                    .count();
-            latencies.push_back(
-                static_cast<double>(now_ns - static_cast<std::int64_t>(message->envelope.time_ns)) / 1e6);
-            EXPECT_EQ(message->envelope.seq, latencies.size()) << "out of order or lost";
-        }
+        const auto latencies = calm_latencies(calm_in, count);
         ASSERT_EQ(latencies.size(), count) << script << ": the calm connection stopped delivering";
-        std::sort(latencies.begin(), latencies.end());
         const double p50 = latencies[latencies.size() / 2];
         const double p99 = latencies[latencies.size() * 99 / 100];
 
@@ -140,6 +148,52 @@ TEST_P(Isolation_test, AHostileMonitorDelaysNothingButItsOwnConnection) {
 INSTANTIATE_TEST_SUITE_P(Hostile, Isolation_test,
                          ::testing::Values("busy_loop", "pattern_find", "sort_slow_comparator",
                                            "rep_to_cap"));
+
+TEST(Isolation_test, AHostileSendMonitorOnAnMcastConnectionDelaysNothingElse) {
+    // The send-side monitors of mcast are the port's, run once per message for all its mcast
+    // connections: they too run on a worker, not on the daemon's thread.
+    PLEXUS_NEEDS_NETNS();
+    Network net(3);
+    TempDir dir;
+    NameServerProcess names(dir, net.host(0));
+    Daemon writer_side(dir, net.host(1), "writer", names.address(), hostile_daemon_flags(dir));
+    Daemon reader_side(dir, net.host(2), "reader", names.address(), hostile_daemon_flags(dir));
+    auto reader = start_cli(dir, reader_side, {"read", "/hostile/in", "--timeout", "60"}, "hostile-reader");
+    ASSERT_TRUE(wait_port(dir, writer_side, "/hostile/in"));
+    Client::Options options;
+    options.socket = writer_side.socket();
+    Client client(options);
+    auto hostile_out = client.open("/hostile/out");
+    auto calm_out = client.open("/calm/out");
+    auto calm_in = client.open("/calm/in");
+    client.connect("/hostile/out", "/hostile/in", "mcast+send.portmonitor+type.lua+file.busy_loop");
+    client.connect("/calm/out", "/calm/in", "local");
+
+    PacedWriter hostile(hostile_out, 5ms);
+    json monitor;
+    ASSERT_TRUE(eventually([&] {
+        auto stats = json::parse(run_cli(dir, writer_side, {"stats", "/hostile/out", "--json"}).out);
+        monitor = stats["ports"][0]["outgoing"][0]["monitors"][0];
+        return monitor.is_object() && monitor["errors"].get<std::uint64_t>() >= 2;
+    })) << "the hostile send-side calls were not stopped and counted: "
+        << monitor.dump();
+
+    constexpr std::uint64_t count = 1000;
+    PacedWriter calm(calm_out, 2ms, count);
+    const auto latencies = calm_latencies(calm_in, count);
+    ASSERT_EQ(latencies.size(), count) << "the calm connection stopped delivering";
+    const double p99 = latencies[latencies.size() * 99 / 100];
+    const auto asked = Clock::now();
+    auto listed = run_cli(dir, writer_side, {"list"});
+    const double list_ms = ms(Clock::now() - asked);
+    std::cout << "  mcast send-side busy_loop: calm p50 " << latencies[latencies.size() / 2] << " ms, p99 "
+              << p99 << " ms; plexus list " << list_ms << " ms\n";
+    EXPECT_LT(p99, 5.0 * slowdown());
+    EXPECT_EQ(listed.status, 0) << listed.err;
+    EXPECT_LT(list_ms, 1000.0 * slowdown());
+    hostile.stop();
+    reader->signal(SIGTERM);
+}
 
 TEST(Isolation_test, AHundredThousandMessagesThroughAMonitorArriveInOrderBesideOtherMonitors) {
     TempDir dir;

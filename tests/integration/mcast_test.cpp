@@ -67,6 +67,13 @@ TEST(Mcast_test, EveryMessageIsSentOnceToReadersOnThreeHostsWithAMonitorOnEachSi
         // The shared send-side monitor saw each message once.
         EXPECT_EQ(connection["monitors"][0]["messages"], count) << connection.dump();
     }
+    // `plexus param` reaches the shared send-side monitor (on its worker) and the receiving one.
+    auto param = run_cli(dir, writer_side, {"param", "get", "/a/out", "/r2/in"});
+    ASSERT_EQ(param.status, 0) << param.err;
+    const auto sides = json::parse(param.out);
+    ASSERT_EQ(sides.size(), 2u) << param.out;
+    EXPECT_EQ(sides[0]["side"], "send") << param.out;
+    EXPECT_EQ(sides[1]["side"], "recv") << param.out;
     for (int k = 2; k <= 4; ++k) {
         const std::string port = "/r" + std::to_string(k) + "/in";
         const auto stats = stats_of(dir, *readers_sides[k - 2], port);
