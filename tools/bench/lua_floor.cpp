@@ -13,6 +13,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -33,17 +34,27 @@ int messages_per_run = 300'000;
 int runs = 7;
 constexpr char pad[] = "xxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxx";  // 44 bytes: a 64 B map in all
 
-double median_ns_per_message(const std::function<void()>& one_message) {
-    std::vector<double> results;
-    for (int run = 0; run < runs; ++run) {
-        const auto start = Clock::now();
-        for (int i = 0; i < messages_per_run; ++i)
-            one_message();
-        results.push_back(std::chrono::duration<double, std::nano>(Clock::now() - start).count() /
-                          messages_per_run);
-    }
-    std::sort(results.begin(), results.end());
-    return results[results.size() / 2];
+/// One thing measured: a call per message, made `messages_per_run` times per run. Subjects are
+/// measured run by run in turn (run 1 of every row, then run 2...), so that a stretch of noise on
+/// the shared VM touches every row alike, and the ratios are taken run by run.
+class Subject {
+public:
+    virtual ~Subject() = default;
+    virtual void one_message() = 0;
+    /// False when the monitor did not do what the row says (a field not seen, a message dropped).
+    virtual bool right() const { return true; }
+};
+
+double ns_per_message(Subject& subject) {
+    const auto start = Clock::now();
+    for (int i = 0; i < messages_per_run; ++i)
+        subject.one_message();
+    return std::chrono::duration<double, std::nano>(Clock::now() - start).count() / messages_per_run;
+}
+
+double median(std::vector<double> values) {
+    std::sort(values.begin(), values.end());
+    return values[values.size() / 2];
 }
 
 /// msg.data as the contract has it: the decoded map, built as a table on each access.
@@ -107,37 +118,43 @@ int data_as_view(lua_State* L) {
 
 /// A plain Lua state with `accept` at stack index 1 and a msg userdata at 2 whose `data` field
 /// `data` pushes. With `hook`, the count hook of plexusd's time budget is set (it does nothing).
-double bare(const char* accept_body, lua_CFunction data, bool hook = false) {
-    lua_State* L = luaL_newstate();
-    luaL_openlibs(L);
-    lua_gc(L, LUA_GCGEN, 0, 0);
-    if (hook)
-        lua_sethook(
-            L, [](lua_State*, lua_Debug*) {}, LUA_MASKCOUNT, 1000);
-    lua_createtable(L, 0, 1);
-    lua_pushcfunction(L, view_index);
-    lua_setfield(L, -2, "__index");
-    lua_rawsetp(L, LUA_REGISTRYINDEX, &view_metatable_key);
-    const std::string chunk = std::string("return function(msg) ") + accept_body + " end";
-    if (luaL_dostring(L, chunk.c_str()) != LUA_OK) {
-        std::fprintf(stderr, "%s\n", lua_tostring(L, -1));
-        return -1;
+class BareSubject final : public Subject {
+public:
+    BareSubject(const char* accept_body, lua_CFunction data, bool hook) : L(luaL_newstate()) {
+        luaL_openlibs(L);
+        lua_gc(L, LUA_GCGEN, 0, 0);
+        if (hook)
+            lua_sethook(
+                L, [](lua_State*, lua_Debug*) {}, LUA_MASKCOUNT, 1000);
+        lua_createtable(L, 0, 1);
+        lua_pushcfunction(L, view_index);
+        lua_setfield(L, -2, "__index");
+        lua_rawsetp(L, LUA_REGISTRYINDEX, &view_metatable_key);
+        const std::string chunk = std::string("return function(msg) ") + accept_body + " end";
+        if (luaL_dostring(L, chunk.c_str()) != LUA_OK) {
+            std::fprintf(stderr, "%s\n", lua_tostring(L, -1));
+            right_ = false;
+            return;
+        }
+        lua_newuserdatauv(L, 8, 0);
+        lua_createtable(L, 0, 1);
+        lua_pushcfunction(L, data);
+        lua_setfield(L, -2, "__index");
+        lua_setmetatable(L, -2);
     }
-    lua_newuserdatauv(L, 8, 0);
-    lua_createtable(L, 0, 1);
-    lua_pushcfunction(L, data);
-    lua_setfield(L, -2, "__index");
-    lua_setmetatable(L, -2);
-    bool right = true;
-    const double ns = median_ns_per_message([L, &right] {
+    ~BareSubject() override { lua_close(L); }
+    void one_message() override {
         lua_pushvalue(L, 1);
         lua_pushvalue(L, 2);
-        right = lua_pcall(L, 1, 1, 0) == LUA_OK && lua_toboolean(L, -1) && right;
+        right_ = lua_pcall(L, 1, 1, 0) == LUA_OK && lua_toboolean(L, -1) && right_;
         lua_pop(L, 1);
-    });
-    lua_close(L);
-    return right ? ns : -1;  // -1: the script did not see the field it reads
-}
+    }
+    bool right() const override { return right_; }  // false: the script did not see its field
+
+private:
+    lua_State* L;
+    bool right_ = true;
+};
 
 class NoHost : public monitor::MonitorHost {
 public:
@@ -160,36 +177,45 @@ Message bench_message(const std::string& source, const char* key) {
     return Message{chunk, {chunk->data(), record.size()}, 1};
 }
 
-/// Monitor::process of `spec` on the bench message whose number is under `key`; -1 when the
-/// monitor cannot be made or drops the message.
-double in_plexusd(monitor::MonitorSpec spec, const char* key) {
-    NoHost host;
-    spec.source = "/bench/source";
-    spec.destination = "/bench/sink";
-    auto created = monitor::Monitor::create(spec, monitor::MonitorPolicy{}, host);
-    if (!created) {
-        std::fprintf(stderr, "%s\n", created.error().message.c_str());
-        return -1;
+/// Monitor::process of `spec` on the bench message whose number is under `key`.
+class PlexusdSubject final : public Subject {
+public:
+    PlexusdSubject(monitor::MonitorSpec spec, const char* key) {
+        spec.source = "/bench/source";
+        spec.destination = "/bench/sink";
+        auto created = monitor::Monitor::create(spec, monitor::MonitorPolicy{}, host_);
+        if (!created) {
+            std::fprintf(stderr, "%s\n", created.error().message.c_str());
+            passed_ = false;
+            return;
+        }
+        monitor_ = std::move(*created);
+        message_ = bench_message(spec.source, key);
     }
-    const Message message = bench_message(spec.source, key);
-    auto& monitor = **created;
-    bool passed = true;
-    const double ns = median_ns_per_message([&] {
-        Message copy = message;
-        passed = monitor.process(copy) == monitor::Monitor::Verdict::pass && passed;
-    });
-    return passed ? ns : -1;
-}
+    void one_message() override {
+        if (!monitor_)
+            return;
+        Message copy = message_;
+        passed_ = monitor_->process(copy) == monitor::Monitor::Verdict::pass && passed_;
+    }
+    bool right() const override { return passed_; }  // false: not made, or it dropped a message
 
-double in_plexusd(const char* accept_body) {
+private:
+    NoHost host_;
+    std::unique_ptr<monitor::Monitor> monitor_;
+    Message message_;
+    bool passed_ = true;
+};
+
+std::unique_ptr<Subject> in_plexusd(const char* accept_body) {
     monitor::MonitorSpec spec;
     spec.script = monitor::Script{"floor", "floor.lua",
                                   std::string("PortMonitor.accept = function(msg) ") + accept_body + " end"};
-    return in_plexusd(spec, "c");
+    return std::make_unique<PlexusdSubject>(spec, "c");
 }
 
 /// The certainty example plugin with threshold 0.5 and no event: one field read, compared.
-double compiled_one_field(const std::string& plugin_dir) {
+std::unique_ptr<Subject> compiled_one_field(const std::string& plugin_dir) {
     monitor::MonitorSpec spec;
     spec.type = monitor::MonitorType::plugin;
     spec.side = plexus::proto::Side::recv;
@@ -197,26 +223,29 @@ double compiled_one_field(const std::string& plugin_dir) {
     auto found = monitor::find_plugin("certainty", {plugin_dir});
     if (!found) {
         std::fprintf(stderr, "%s\n", found.error().message.c_str());
-        return -1;
+        std::exit(1);
     }
     spec.script = std::move(*found);
-    return in_plexusd(spec, "certainty");
+    return std::make_unique<PlexusdSubject>(spec, "certainty");
 }
 
 /// The loop alone: copying the message as the rows above do, no monitor.
-double loop_alone() {
-    const Message message = bench_message("/bench/source", "c");
-    std::size_t bytes = 0;
-    const double ns = median_ns_per_message([&] {
-        Message copy = message;
-        bytes += copy.record.size();
-    });
-    return bytes > 0 ? ns : -1;
-}
+class LoopSubject final : public Subject {
+public:
+    void one_message() override {
+        Message copy = message_;
+        bytes_ += copy.record.size();
+    }
+    bool right() const override { return bytes_ > 0; }
+
+private:
+    Message message_ = bench_message("/bench/source", "c");
+    std::size_t bytes_ = 0;
+};
 
 struct Row {
     const char* name;
-    std::function<double()> measure;
+    std::function<std::unique_ptr<Subject>()> make;
 };
 
 }  // namespace
@@ -232,32 +261,58 @@ int main(int argc, char** argv) {
     constexpr const char* one_field = "return msg.data.c > 0.5";
     const std::string plugin_dir = PLEXUS_EXAMPLE_PLUGINS_DIR;
     const std::vector<Row> rows = {
-        {"bare Lua, return true", [&] { return bare(empty, data_as_table); }},
-        {"bare Lua, msg.data.c > 0.5 (data as a table)", [&] { return bare(one_field, data_as_table); }},
-        {"  the same with the budget's count hook set", [&] { return bare(one_field, data_as_table, true); }},
+        {"bare Lua, return true", [&] { return std::make_unique<BareSubject>(empty, data_as_table, false); }},
+        {"bare Lua, msg.data.c > 0.5 (data as a table)",
+         [&] { return std::make_unique<BareSubject>(one_field, data_as_table, false); }},
+        {"  the same with the budget's count hook set",
+         [&] { return std::make_unique<BareSubject>(one_field, data_as_table, true); }},
         {"  the same, data as a userdata view (prototype)",
-         [&] { return bare(one_field, data_as_view, true); }},
+         [&] { return std::make_unique<BareSubject>(one_field, data_as_view, true); }},
         {"plexusd Monitor::process, return true", [&] { return in_plexusd(empty); }},
         {"plexusd Monitor::process, msg.data.c > 0.5", [&] { return in_plexusd(one_field); }},
-        {"the loop alone (a message copied, no monitor)", [&] { return loop_alone(); }},
+        {"the loop alone (a message copied, no monitor)", [&] { return std::make_unique<LoopSubject>(); }},
         {"plexusd Monitor::process, compiled (certainty.so)", [&] { return compiled_one_field(plugin_dir); }},
     };
     // `--row N`: that row alone (for a profiler or an instruction count).
+    std::vector<std::size_t> chosen;
     if (argc == 3 && std::string(argv[1]) == "--row") {
-        const auto& row = rows.at(std::stoul(argv[2]));
-        std::printf("%s: %.1f ns\n", row.name, row.measure());
+        chosen.push_back(std::stoul(argv[2]));
+        if (chosen.back() >= rows.size()) {
+            std::fprintf(stderr, "--row takes 0 to %zu\n", rows.size() - 1);
+            return 2;
+        }
+    } else {
+        for (std::size_t i = 0; i < rows.size(); ++i)
+            chosen.push_back(i);
+    }
+    std::vector<std::unique_ptr<Subject>> subjects;
+    for (const auto i : chosen)
+        subjects.push_back(rows[i].make());
+    // Run by run, every row in turn.
+    std::vector<std::vector<double>> times(subjects.size());
+    for (int run = 0; run < runs; ++run) {
+        for (std::size_t s = 0; s < subjects.size(); ++s)
+            times[s].push_back(ns_per_message(*subjects[s]));
+    }
+    auto figure = [&](std::size_t s) { return subjects[s]->right() ? median(times[s]) : -1.0; };
+    if (chosen.size() == 1) {
+        std::printf("%s: %.1f ns\n", rows[chosen[0]].name, figure(0));
         return 0;
     }
-    std::printf("Lua side of a port monitor, 64 B map, ns per message (median of %d runs of %d)\n", runs,
-                messages_per_run);
-    std::vector<double> figures;
-    for (const auto& row : rows) {
-        figures.push_back(row.measure());
-        std::printf("  %-52s %10.1f\n", row.name, figures.back());
-    }
+    std::printf("Lua side of a port monitor, 64 B map, ns per message (median of %d runs of %d, rows in turn)\n",
+                runs, messages_per_run);
+    for (std::size_t s = 0; s < subjects.size(); ++s)
+        std::printf("  %-52s %10.1f\n", rows[s].name, figure(s));
     // The targets of issue 19: the Lua one-field call within 1.2x the bare one with the budget's
-    // hook; the compiled one adds at most 30 ns to the loop.
-    std::printf("  %-52s %10.2f\n", "ratio plexusd one-field / bare with hook", figures[5] / figures[2]);
-    std::printf("  %-52s %10.1f\n", "compiled one-field added over the loop (ns)", figures[7] - figures[6]);
+    // hook; the compiled one adds at most 30 ns to the loop. Taken run by run (the rows of one run
+    // ran next to each other), then the median.
+    std::vector<double> ratios;
+    std::vector<double> added;
+    for (int run = 0; run < runs; ++run) {
+        ratios.push_back(times[5][run] / times[2][run]);
+        added.push_back(times[7][run] - times[6][run]);
+    }
+    std::printf("  %-52s %10.2f\n", "ratio plexusd one-field / bare with hook", median(ratios));
+    std::printf("  %-52s %10.1f\n", "compiled one-field added over the loop (ns)", median(added));
     return 0;
 }
