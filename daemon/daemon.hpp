@@ -17,6 +17,7 @@
 #include "names/name_client.hpp"
 #include "names/name_server.hpp"
 #include "net/asio.hpp"
+#include "net/session_host.hpp"
 #include "net/signal.hpp"
 #include "net/udp_carrier.hpp"
 #include "plexus/proto/control.hpp"
@@ -29,7 +30,7 @@ class ScriptHost;
 /// The node daemon: hosts ports for local clients, connects them, moves data. It binds, accepts
 /// sessions and shuts down; its control plane (control/) answers the sessions' requests, and
 /// reaches the daemon through ControlHost.
-class Daemon final : public ControlHost {
+class Daemon final : public ControlHost, public SessionHost {
 public:
     Daemon(asio::io_context& io, DaemonConfig config);
     ~Daemon() override;
@@ -39,20 +40,21 @@ public:
     /// Binds, starts, runs until SIGINT/SIGTERM; returns the exit status.
     int run();
 
-    // --- used by sessions ---
-    ControlPlane& control() { return control_; }
-    void session_closed(Session& session);
-    Signal& space() { return space_; }
+    // --- SessionHost, used by sessions ---
+    Task<proto::Reply> handle_request(std::shared_ptr<Session> session, proto::Request request) override {
+        return control_.handle(std::move(session), std::move(request));
+    }
+    void session_closed(Session& session) override;
+    Signal& space() override { return space_; }
+    std::shared_ptr<Session> session(std::uint64_t id) const override;
     std::uint64_t next_session_id() { return next_session_++; }
-    /// The session with this id, if it is still open.
-    std::shared_ptr<Session> session(std::uint64_t id) const;
 
     // --- used by the script host ---
     /// Opens a port that the daemon itself writes (a monitor's publish port) and registers it.
     proto::Result<std::shared_ptr<Port>> open_hosted_port(const std::string& name);
     void close_hosted_port(std::shared_ptr<Port> port) { forget_port(std::move(port)); }
 
-    // --- ControlHost, used by the control plane (and the config and counters by sessions) ---
+    // --- ControlHost, used by the control plane (the config and counters by sessions too) ---
     const DaemonConfig& config() const override { return config_; }
     std::string address() const override;
     Router& router() override { return router_; }

@@ -4,9 +4,9 @@
 
 #include "../core/batch.hpp"
 #include "../core/router.hpp"
-#include "../daemon.hpp"
 #include "plexus/proto/message.hpp"
 #include "plexus/proto/shm.hpp"
+#include "session_host.hpp"
 
 namespace plexus::daemon {
 
@@ -21,7 +21,7 @@ bool is_data(proto::FrameType type) {
 }
 }  // namespace
 
-Session::Session(Socket socket, Daemon& daemon, std::uint64_t id)
+Session::Session(Socket socket, SessionHost& daemon, std::uint64_t id)
     : FramedConnection(std::move(socket), daemon.config().max_frame, [&daemon] { daemon.notify_space(); }),
       daemon_(daemon),
       id_(id),
@@ -126,7 +126,7 @@ Task<void> Session::serve(proto::Request request) {
     const auto id = request.id;
     proto::Reply reply;
     try {
-        reply = co_await daemon_.control().handle(self, std::move(request));
+        reply = co_await daemon_.handle_request(self, std::move(request));
     } catch (const std::exception& e) {
         // A malformed field (wrong JSON type) must not take the daemon down: refuse the request.
         reply =

@@ -12,13 +12,13 @@
 
 namespace plexus::daemon {
 
-class Daemon;
+class SessionHost;
 
 /// A connection accepted by the daemon: a local client (Unix socket), the CLI or a component over
 /// TCP, another daemon forwarding a request, or another daemon's link carrying one connection.
 class Session : public FramedConnection {
 public:
-    Session(Socket socket, Daemon& daemon, std::uint64_t id);
+    Session(Socket socket, SessionHost& daemon, std::uint64_t id);
 
     std::uint64_t id() const { return id_; }
     const std::string& role() const { return role_; }
@@ -92,7 +92,7 @@ private:
     Task<void> serve(proto::Request request);
     Task<void> wait_for_space();
 
-    Daemon& daemon_;
+    SessionHost& daemon_;
     std::uint64_t id_;
     /// Requests being served: a peer that sends requests without reading the replies is held back
     /// (its socket no longer read) once this many are in progress, so replies cannot pile up.
