@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "core/reader_queue.hpp"
-#include "monitor/monitor.hpp"
+#include "monitor/monitor_policy.hpp"
 #include "net/udp_config.hpp"
 #include "plexus/proto/auth.hpp"
 #include "plexus/proto/endpoint.hpp"

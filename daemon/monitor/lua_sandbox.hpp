@@ -16,15 +16,11 @@
 
 #include <lua.hpp>
 
+#include "monitor_policy.hpp"
 #include "plexus/proto/bytes.hpp"
 #include "small_blocks.hpp"
 
 namespace plexus::daemon::monitor {
-
-struct SandboxLimits {
-    std::size_t memory_bytes = 16u * 1024u * 1024u;
-    std::chrono::milliseconds budget{20};  ///< per call into the script
-};
 
 /// How a call into the script went wrong.
 struct ScriptError {

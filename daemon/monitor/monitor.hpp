@@ -23,6 +23,7 @@
 #include "../arbitration/arbiter.hpp"
 #include "../core/message.hpp"
 #include "lua_sandbox.hpp"
+#include "monitor_policy.hpp"
 #include "plexus/proto/carrier.hpp"
 #include "script_library.hpp"
 
@@ -64,11 +65,6 @@ struct MonitorSpec {
     /// The connection's place in its input port's arbitration: setEvent, setConstraint... act on
     /// it. Recv side only; null on the send side, where those functions raise an error.
     std::shared_ptr<arbitration::Member> member;
-};
-
-struct MonitorPolicy {
-    SandboxLimits limits;
-    std::uint32_t quarantine_after = 5;  ///< consecutive failed calls
 };
 
 /// A count written by one thread (the monitor's worker) and read by others (`plexus stats` on the
