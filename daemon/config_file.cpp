@@ -106,6 +106,7 @@ void apply_config_text(const std::string& path, std::string_view text, DaemonCon
                                              "shm_region_bytes",
                                              "shm_total_bytes",
                                              "names_grace_ms",
+                                             "handshake_timeout_ms",
                                              "names_state",
                                              "scripts",
                                              "monitor_libs",
@@ -134,6 +135,10 @@ void apply_config_text(const std::string& path, std::string_view text, DaemonCon
         throw std::runtime_error("config " + path + ": shm_region_bytes must be 0 (off) or at least 1048576");
     config.names_grace =
         std::chrono::milliseconds(whole_number(json, "names_grace_ms", config.names_grace.count(), path));
+    config.handshake_timeout = std::chrono::milliseconds(
+        whole_number(json, "handshake_timeout_ms", config.handshake_timeout.count(), path));
+    if (config.handshake_timeout.count() < 100 || config.handshake_timeout.count() > 3'600'000)
+        throw std::runtime_error("config " + path + ": handshake_timeout_ms must be between 100 and 3600000");
     config.names_state = json.value("names_state", config.names_state);
     for (const auto& dir : json.value("scripts", std::vector<std::string>{}))
         config.script_dirs.push_back(dir);

@@ -66,6 +66,7 @@ proto::Status Daemon::bind() {
         names_config.listen = config_.names;
         names_config.state_file = config_.names_state;
         names_config.grace = config_.names_grace;
+        names_config.handshake_timeout = config_.handshake_timeout;
         names_config.secret = config_.secret;
         if (auto group = proto::discovery_group(); group)
             names_config.discovery = *group;
@@ -231,6 +232,7 @@ void Daemon::start_session(Socket socket, const std::string& description) {
     session->set_description(description + " #" + std::to_string(id));
     sessions_[id] = session;
     session->require_secret(config_.secret);  // only TCP peers are asked for it
+    session->set_handshake_timeout(config_.handshake_timeout);
     session->start({proto::protocol_version, "daemon", config_.node});
 }
 

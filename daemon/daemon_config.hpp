@@ -34,6 +34,9 @@ struct DaemonConfig {
     std::size_t link_capacity = 1024;     ///< messages queued towards another daemon per connection
     std::size_t queue_bytes = ReaderQueue::default_max_bytes;  ///< byte bound of every queue
     std::chrono::milliseconds names_grace{2000};
+    /// A peer (client, daemon, CLI) that has not said hello, and proved the secret when one is
+    /// needed, this long after connecting is cut off (config `handshake_timeout_ms`).
+    std::chrono::milliseconds handshake_timeout{10000};
     monitor::MonitorPolicy monitors;  ///< memory cap, time budget, quarantine of every port monitor
     std::size_t monitor_threads = 0;  ///< worker threads for monitors; 0: one per core
     /// Least size of the shared-memory region a local client may get per port it writes large
@@ -61,6 +64,7 @@ struct DaemonCounters {
     std::uint64_t shm_passed = 0;            ///< messages whose payload went to readers in shared memory
     std::uint64_t shm_copied = 0;     ///< written in shared memory, copied out for readers that needed it
     std::uint64_t auth_failures = 0;  ///< TCP peers that did not prove they hold the deployment secret
+    std::uint64_t handshake_timeouts = 0;  ///< peers cut off for not completing their handshake in time
 };
 
 }  // namespace plexus::daemon

@@ -23,10 +23,16 @@ int main(int argc, char** argv) {
     int grace_ms = 2000;
     std::string ready_file;
     std::string discovery;
+    int handshake_timeout_ms = 10000;
     app.add_option("--listen", listen, "HOST:PORT to serve on, TCP and UDP (env PLEXUS_NAMES)")
         ->capture_default_str();
     app.add_option("--state", state, "file that keeps persistent connections across restarts");
     app.add_option("--grace-ms", grace_ms, "how long a vanished daemon's ports stay registered")
+        ->capture_default_str();
+    app.add_option(
+           "--handshake-timeout-ms", handshake_timeout_ms,
+           "cut off a TCP peer that has not said hello (and proved the secret) this long after connecting")
+        ->check(CLI::Range(100, 3'600'000))
         ->capture_default_str();
     app.add_option("--ready-file", ready_file, "write {\"names\": HOST:PORT, \"pid\"} here once serving");
     app.add_option("--discovery", discovery,
@@ -81,6 +87,7 @@ int main(int argc, char** argv) {
     boost::asio::io_context io(1);
     plexus::daemon::names::NameServerConfig config{*endpoint, state, std::chrono::milliseconds(grace_ms)};
     config.discovery = *group;
+    config.handshake_timeout = std::chrono::milliseconds(handshake_timeout_ms);
     config.secret = *secret;
     {
         // A.B.C.D/PREFIX inside 224.0.0.0/4, at most 65,536 groups.

@@ -98,6 +98,7 @@ nlohmann::json ControlPlane::stats_json(const std::string& only_port) const {
               {"accept_errors", counters.accept_errors},
               {"protocol_errors", counters.protocol_errors},
               {"auth_failures", counters.auth_failures},
+              {"handshake_timeouts", counters.handshake_timeouts},
               {"dropped_unknown_port", counters.dropped_unknown_port},
               {"dropped_link_down", counters.dropped_link_down},
               {"shm_passed", counters.shm_passed},

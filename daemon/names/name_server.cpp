@@ -37,6 +37,7 @@ protected:
         co_return true;
     }
     void on_auth_failure(const std::string&) override { server_.count_auth_failure(); }
+    void on_handshake_timeout() override { server_.count_handshake_timeout(); }
     void on_closed(const std::string& reason) override {
         spdlog::debug("names: session {} closed: {}", id_, reason);
         server_.session_closed(id_);
@@ -190,6 +191,7 @@ Task<void> NameServer::accept_loop() {
         auto session = std::make_shared<NameSession>(Socket(std::move(socket)), *this, next_session_++);
         session->set_description("names session");
         session->require_secret(config_.secret);
+        session->set_handshake_timeout(config_.handshake_timeout);
         session->start({proto::protocol_version, "names", ""});
     }
 }
@@ -249,7 +251,9 @@ proto::Reply NameServer::handle(const proto::Request& request, std::uint64_t ses
     };
 
     if (asked == op::ping)
-        return ok({{"names", endpoint().text()}, {"auth_failures", auth_failures_}});
+        return ok({{"names", endpoint().text()},
+                   {"auth_failures", auth_failures_},
+                   {"handshake_timeouts", handshake_timeouts_}});
     if (asked == op::lookup) {
         auto entry = registry_.lookup(text_field(body, "port"));
         if (!entry)

@@ -17,6 +17,8 @@ struct NameServerConfig {
     proto::Endpoint listen{"127.0.0.1", 10100};
     std::string state_file;  ///< where persistent connections are kept; empty = not kept
     std::chrono::milliseconds grace{2000};
+    /// A TCP peer that has not completed its handshake this long after connecting is cut off.
+    std::chrono::milliseconds handshake_timeout{10000};
     std::size_t max_frame = 1024 * 1024;
     /// The multicast group it answers discovery queries on; none = no discovery. Only joined when
     /// it listens beyond loopback (a query never reaches a loopback-only name server anyway).
@@ -52,6 +54,7 @@ public:
     /// Peers that failed to prove they hold the secret.
     void count_auth_failure() { ++auth_failures_; }
     std::uint64_t auth_failures() const { return auth_failures_; }
+    void count_handshake_timeout() { ++handshake_timeouts_; }
 
 private:
     Task<void> accept_loop();
@@ -70,6 +73,7 @@ private:
     asio::ip::udp::socket discovery_;
     std::uint64_t next_session_ = 1;
     std::uint64_t auth_failures_ = 0;
+    std::uint64_t handshake_timeouts_ = 0;
     bool stopped_ = false;
 };
 

@@ -46,6 +46,20 @@ void FramedConnection::start(const proto::Hello& mine) {
         executor(), [self] { return self->read_loop(); }, asio::detached);
     asio::co_spawn(
         executor(), [self] { return self->write_loop(); }, asio::detached);
+    if (handshake_timeout_.count() > 0) {
+        asio::co_spawn(
+            executor(), [self] { return self->watch_handshake(); }, asio::detached);
+    }
+}
+
+Task<void> FramedConnection::watch_handshake() {
+    auto self = shared_from_this();
+    if (co_await wait_for_hello(handshake_timeout_) || closed_)
+        co_return;
+    on_handshake_timeout();
+    spdlog::warn("{}: no {} within {} ms of connecting: cut off", description_,
+                 needs_proof_ ? "hello and proof of the secret" : "hello", handshake_timeout_.count());
+    close("no handshake within " + std::to_string(handshake_timeout_.count()) + " ms");
 }
 
 void FramedConnection::send(proto::Bytes frame) {

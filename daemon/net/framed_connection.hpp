@@ -1,6 +1,7 @@
 #pragma once
 // Threading: one io_context thread; each connection runs one reader and one writer coroutine.
 
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -31,6 +32,10 @@ public:
         secret_ = std::move(secret);
         party_ = party;
     }
+    /// An accepted peer that has not completed its hello (and its proof, when one is needed) this
+    /// long after start() is cut off: a peer that connects and says nothing would otherwise hold a
+    /// socket and a session for good. Zero: no limit. Call before start().
+    void set_handshake_timeout(std::chrono::milliseconds timeout) { handshake_timeout_ = timeout; }
     /// Sends our hello and starts reading and writing.
     void start(const proto::Hello& mine);
     /// Queues a whole control frame.
@@ -80,6 +85,8 @@ protected:
     virtual void on_closed(const std::string& reason) = 0;
     /// Called when a peer failed to prove it holds the deployment secret (before it is cut off).
     virtual void on_auth_failure(const std::string& /*reason*/) {}
+    /// Called when a peer did not complete its handshake in time (before it is cut off).
+    virtual void on_handshake_timeout() {}
 
 private:
     Task<void> read_loop();
@@ -89,6 +96,8 @@ private:
     /// Drops the first `sent` bytes from `buffers`.
     static void consume(std::vector<asio::const_buffer>& buffers, std::size_t sent);
     Task<void> close_after(std::chrono::steady_clock::duration grace);
+    /// Cuts the peer off if its handshake is not over within handshake_timeout_.
+    Task<void> watch_handshake();
     /// The peer's hello arrived: checks it, sends our proof when a secret is needed. False when the
     /// peer was refused.
     Task<bool> take_hello(InFrame& frame);
@@ -117,6 +126,7 @@ private:
     bool closed_ = false;
     bool draining_ = false;
     bool large_send_buffer_ = false;  ///< raised after the first large message
+    std::chrono::milliseconds handshake_timeout_{0};
 };
 
 }  // namespace plexus::daemon

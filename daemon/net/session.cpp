@@ -398,6 +398,10 @@ void Session::on_auth_failure(const std::string&) {
     ++daemon_.counters().auth_failures;
 }
 
+void Session::on_handshake_timeout() {
+    ++daemon_.counters().handshake_timeouts;
+}
+
 void Session::on_closed(const std::string& reason) {
     spdlog::debug("{} closed: {}", description(), reason);
     shm_regions_.clear();

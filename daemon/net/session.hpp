@@ -56,6 +56,7 @@ protected:
     Task<bool> on_frame(InFrame frame) override;
     void on_closed(const std::string& reason) override;
     void on_auth_failure(const std::string& reason) override;
+    void on_handshake_timeout() override;
 
 private:
     enum class DataOutcome { delivered, blocked, stop };

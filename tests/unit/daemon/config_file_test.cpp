@@ -15,6 +15,23 @@ TEST(ConfigFile_test, AppliesKnownKeysAndAllowsComments) {
     EXPECT_EQ(config.link_capacity, 8u);
 }
 
+TEST(ConfigFile_test, HandshakeTimeoutIsTakenWithinItsBoundsAndRefusedOutside) {
+    DaemonConfig config;
+    EXPECT_EQ(config.handshake_timeout, std::chrono::milliseconds(10000));  // the default
+    apply_config_text("test.json", R"({"handshake_timeout_ms": 250})", config);
+    EXPECT_EQ(config.handshake_timeout, std::chrono::milliseconds(250));
+    for (const char* text : {R"({"handshake_timeout_ms": 99})", R"({"handshake_timeout_ms": 3600001})"}) {
+        try {
+            apply_config_text("test.json", text, config);
+            ADD_FAILURE() << "accepted " << text;
+        } catch (const std::runtime_error& e) {
+            EXPECT_NE(std::string(e.what()).find("handshake_timeout_ms must be between 100 and 3600000"),
+                      std::string::npos)
+                << e.what();
+        }
+    }
+}
+
 TEST(ConfigFile_test, RefusesAnUnknownKey) {
     DaemonConfig config;
     EXPECT_THROW(apply_config_text("test.json", R"({"max_frames": 1})", config), std::runtime_error);
