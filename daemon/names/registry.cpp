@@ -67,6 +67,7 @@ proto::Status Registry::unregister_port(const std::string& name, std::uint64_t s
     if (it->second.node != node_name)
         return proto::Error{"port " + name + " belongs to node '" + it->second.node + "'"};
     ports_.erase(it);
+    release_mcast_group(name);
     std::erase_if(connections_, [&](const ConnectionEntry& c) {
         return !c.persistent && (c.source == name || c.destination == name);
     });
@@ -168,6 +169,7 @@ void Registry::remove_ports_of(const std::string& node, std::vector<std::string>
             const std::string name = it->first;
             removed.push_back(name);
             it = ports_.erase(it);
+            release_mcast_group(name);
             std::erase_if(connections_, [&](const ConnectionEntry& c) {
                 return !c.persistent && (c.source == name || c.destination == name);
             });
@@ -211,22 +213,30 @@ nlohmann::json Registry::list() const {
     return {{"ports", ports}, {"connections", connections}};
 }
 
+void Registry::release_mcast_group(const std::string& port) {
+    auto it = mcast_groups_.find(port);
+    if (it == mcast_groups_.end())
+        return;
+    mcast_released_.push_back(it->second);
+    mcast_groups_.erase(it);
+}
+
 proto::Result<std::string> Registry::mcast_group(const std::string& port) {
     if (!ports_.contains(port))
         return proto::Error{"port " + port + " is not registered"};
     auto it = mcast_groups_.find(port);
     if (it == mcast_groups_.end()) {
-        if (mcast_groups_.size() >= mcast_count_) {
+        if (mcast_next_fresh_ >= mcast_count_ && mcast_released_.empty()) {
             return proto::Error{"all " + std::to_string(mcast_count_) +
                                 " multicast groups of the name server's range are given out"};
         }
-        // The lowest offset not in use (groups are few: a scan is fine).
-        std::vector<bool> used(mcast_count_, false);
-        for (const auto& [name, offset] : mcast_groups_)
-            used[offset] = true;
         std::uint32_t offset = 0;
-        while (used[offset])
-            ++offset;
+        if (mcast_next_fresh_ < mcast_count_) {
+            offset = mcast_next_fresh_++;
+        } else {
+            offset = mcast_released_.front();
+            mcast_released_.pop_front();
+        }
         it = mcast_groups_.emplace(port, offset).first;
     }
     const std::uint32_t address = mcast_first_ + it->second;

@@ -3,6 +3,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <deque>
 #include <map>
 #include <optional>
 #include <string>
@@ -54,8 +55,10 @@ public:
     std::vector<std::string> expire(Clock::time_point now);
 
     /// The multicast group of `port` ("A.B.C.D:PORT"), given out from the range the first time it
-    /// is asked for and the same for as long as this name server runs. An Error when the port is
-    /// not registered or the range is used up.
+    /// is asked for and the same for as long as the port stays registered. A port that goes gives
+    /// its group back; groups never given out come first, then those given back, oldest first, so
+    /// that a group is reused as late as possible (a reader still joined to it drops what is not
+    /// from its source). An Error when the port is not registered or every group is in use.
     proto::Result<std::string> mcast_group(const std::string& port);
     /// The range groups are given out from: `first` (an IPv4 multicast address, as a number),
     /// `count` addresses, all on UDP port `udp_port`.
@@ -77,12 +80,16 @@ private:
     const Node* node_of_session(std::uint64_t session, std::string* name) const;
     proto::Status owns_source(const std::string& source, std::uint64_t session) const;
     void remove_ports_of(const std::string& node, std::vector<std::string>& removed);
+    /// The port is gone: its multicast group, if it had one, can be given to another.
+    void release_mcast_group(const std::string& port);
 
     Clock::duration grace_;
     std::map<std::string, Node> nodes_;
     std::map<std::string, PortEntry> ports_;
     std::vector<ConnectionEntry> connections_;
     std::map<std::string, std::uint32_t> mcast_groups_;                     ///< port -> offset in the range
+    std::uint32_t mcast_next_fresh_ = 0;                                    ///< offsets below were given out
+    std::deque<std::uint32_t> mcast_released_;                              ///< given back, oldest first
     std::uint32_t mcast_first_ = (239u << 24) | (255u << 16) | (81u << 8);  // 239.255.81.0
     std::uint32_t mcast_count_ = 256;
     std::uint16_t mcast_port_ = 10102;

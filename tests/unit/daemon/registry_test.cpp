@@ -130,5 +130,37 @@ TEST(Registry_test, ListShowsEachConnectionsQos) {
     }
 }
 
+TEST(Registry_test, AGoneDaemonsPortsGiveTheirMulticastGroupsBackOldestReusedFirst) {
+    Registry registry(2s);
+    // Three groups: 239.1.1.0 to .2 on port 5000.
+    registry.set_mcast_range((239u << 24) | (1u << 16) | (1u << 8), 3, 5000);
+    ASSERT_TRUE(registry.register_node("n1", "h:1", 1).ok());
+    ASSERT_TRUE(registry.register_node("n2", "h:2", 2).ok());
+    for (const char* port : {"/a", "/b", "/c"})
+        ASSERT_TRUE(registry.register_port(port, 1).ok());
+    ASSERT_TRUE(registry.register_port("/d", 2).ok());
+    EXPECT_EQ(*registry.mcast_group("/a"), "239.1.1.0:5000");
+    EXPECT_EQ(*registry.mcast_group("/b"), "239.1.1.1:5000");
+    EXPECT_EQ(*registry.mcast_group("/c"), "239.1.1.2:5000");
+    EXPECT_EQ(*registry.mcast_group("/a"), "239.1.1.0:5000");  // the same while the port stays
+    auto none = registry.mcast_group("/d");
+    ASSERT_FALSE(none.ok());
+    EXPECT_NE(none.error().message.find("all 3 multicast groups"), std::string::npos) << none.error().message;
+
+    // A port unregistered gives its group back, and so do the ports of a node whose grace ran out;
+    // given back first, reused first.
+    ASSERT_TRUE(registry.unregister_port("/b", 1).ok());
+    EXPECT_EQ(*registry.mcast_group("/d"), "239.1.1.1:5000");
+    const auto t0 = Clock::now();
+    registry.session_closed(1, t0);
+    registry.expire(t0 + 2s);  // /a and /c go
+    ASSERT_TRUE(registry.register_node("n3", "h:3", 3).ok());
+    ASSERT_TRUE(registry.register_port("/e", 3).ok());
+    ASSERT_TRUE(registry.register_port("/f", 3).ok());
+    EXPECT_EQ(*registry.mcast_group("/e"), "239.1.1.0:5000");
+    EXPECT_EQ(*registry.mcast_group("/f"), "239.1.1.2:5000");
+    EXPECT_FALSE(registry.mcast_group("/a").ok());  // gone with its node
+}
+
 }  // namespace
 }  // namespace plexus::daemon::names
