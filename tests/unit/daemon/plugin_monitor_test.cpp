@@ -12,6 +12,7 @@
 #include "monitor/monitor.hpp"
 #include "monitor/plugin_values.hpp"
 #include "plexus/proto/message.hpp"
+#include "monitor_fixture.hpp"
 #include "test_messages.hpp"
 
 namespace plexus::daemon::monitor {
@@ -23,33 +24,6 @@ namespace values = plugin_values;
 const std::string test_plugins = PLEXUS_TEST_PLUGINS_DIR;
 const std::string example_plugins = PLEXUS_EXAMPLE_PLUGINS_DIR;
 const std::string monitor_scripts = PLEXUS_MONITORS_DIR;
-
-class FakeHost : public MonitorHost {
-public:
-    proto::Status publish(Monitor&, const std::string& port, const json& value) override {
-        published.emplace_back(port, value);
-        return proto::Ok{};
-    }
-    void set_trig_interval(Monitor&, double seconds) override { trig_interval = seconds; }
-    double now() const override { return 1000.0; }
-    void monitor_gone(Monitor&) override { ++gone; }
-
-    std::vector<std::pair<std::string, json>> published;
-    double trig_interval = -1;
-    int gone = 0;
-};
-
-MonitorPolicy test_policy() {
-    MonitorPolicy policy;
-    policy.quarantine_after = 3;
-    return policy;
-}
-
-Message make_message(const json& payload, std::uint64_t seq = 7) {
-    return daemon::test::json_message(payload, seq);
-}
-
-using daemon::test::payload_of;
 
 /// A recv-side spec for plugin NAME in `directory`, or for NAME.lua from the shipped monitors.
 proto::Result<MonitorSpec> spec_for(MonitorType type, const std::string& name, const std::string& directory,
