@@ -85,7 +85,10 @@ int main(int argc, char** argv) {
         return 2;
     }
     boost::asio::io_context io(1);
-    plexus::daemon::names::NameServerConfig config{*endpoint, state, std::chrono::milliseconds(grace_ms)};
+    plexus::daemon::names::NameServerConfig config;
+    config.listen = *endpoint;
+    config.state_file = state;
+    config.grace = std::chrono::milliseconds(grace_ms);
     config.discovery = *group;
     config.handshake_timeout = std::chrono::milliseconds(handshake_timeout_ms);
     config.secret = *secret;
