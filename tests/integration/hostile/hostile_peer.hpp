@@ -55,7 +55,8 @@ inline const long max_rss_growth_kib = static_cast<long>(16 * 1024 * slowdown())
 // Listeners
 
 enum class Listener { daemon_tcp, daemon_unix, names_tcp, names_udp };
-inline constexpr std::array stream_listeners{Listener::daemon_tcp, Listener::daemon_unix, Listener::names_tcp};
+inline constexpr std::array stream_listeners{Listener::daemon_tcp, Listener::daemon_unix,
+                                             Listener::names_tcp};
 
 inline std::string listener_name(Listener listener) {
     switch (listener) {
@@ -497,6 +498,14 @@ inline void expect_everyone_still_served(const Daemon& daemon) {
          {Listener::daemon_tcp, Listener::daemon_unix, Listener::names_tcp, Listener::names_udp}) {
         EXPECT_TRUE(still_answers(daemon, listener)) << listener_name(listener) << " stopped answering";
     }
+}
+
+/// What every attack ends with: the daemon's memory grew by far less than any lie declared, it
+/// still runs, and every listener still serves a well-behaved peer.
+inline void expect_unharmed(Daemon& daemon, long rss_before) {
+    EXPECT_LT(daemon.rss_kib() - rss_before, max_rss_growth_kib);
+    EXPECT_TRUE(daemon.process().running());
+    expect_everyone_still_served(daemon);
 }
 
 inline const std::array<std::uint64_t, 3> lying_lengths{std::uint64_t{1} << 31, std::uint64_t{1} << 32,
