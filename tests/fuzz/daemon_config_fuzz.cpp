@@ -34,7 +34,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     PLEXUS_FUZZ_CHECK(config.shm_region_bytes == 0 || config.shm_region_bytes >= 1024 * 1024);
     PLEXUS_FUZZ_CHECK(config.monitors.limits.memory_bytes >= 256 * 1024);
     PLEXUS_FUZZ_CHECK(config.monitors.limits.budget.count() >= 1 && config.monitors.quarantine_after >= 1);
-    PLEXUS_FUZZ_CHECK(config.handshake_timeout.count() >= 100 && config.handshake_timeout.count() <= 3'600'000);
+    PLEXUS_FUZZ_CHECK(config.handshake_timeout.count() >= 100 &&
+                      config.handshake_timeout.count() <= 3'600'000);
     // "log_level" sets spdlog's global level; put it back so the fuzzer's own runs stay quiet.
     spdlog::set_level(spdlog::level::off);
     return 0;

@@ -299,8 +299,9 @@ int main(int argc, char** argv) {
         std::printf("%s: %.1f ns\n", rows[chosen[0]].name, figure(0));
         return 0;
     }
-    std::printf("Lua side of a port monitor, 64 B map, ns per message (median of %d runs of %d, rows in turn)\n",
-                runs, messages_per_run);
+    std::printf(
+        "Lua side of a port monitor, 64 B map, ns per message (median of %d runs of %d, rows in turn)\n",
+        runs, messages_per_run);
     for (std::size_t s = 0; s < subjects.size(); ++s)
         std::printf("  %-52s %10.1f\n", rows[s].name, figure(s));
     // The targets of issue 19: the Lua one-field call within 1.2x the bare one with the budget's

@@ -11,8 +11,8 @@
 #include "arbitration/arbiter.hpp"
 #include "monitor/monitor.hpp"
 #include "monitor/plugin_values.hpp"
-#include "plexus/proto/message.hpp"
 #include "monitor_fixture.hpp"
+#include "plexus/proto/message.hpp"
 #include "test_messages.hpp"
 
 namespace plexus::daemon::monitor {
