@@ -76,6 +76,8 @@ public:
     int native_handle() const { return fd_; }
 
 private:
+    /// Bytes the receive buffer grows by; it takes more when less than a quarter is free.
+    static constexpr std::size_t read_chunk = 256 * 1024;
     /// A region the daemon gave this client to write the large payloads of one port into.
     struct WriterRegion {
         WriterRegion(std::uint64_t id_, int fd_, std::uint8_t* data_, std::size_t size_)
