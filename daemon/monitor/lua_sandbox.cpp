@@ -185,6 +185,24 @@ int LuaSandbox::text_only_load(lua_State* L) {
     return lua_gettop(L);
 }
 
+int LuaSandbox::no_finalizer_setmetatable(lua_State* L) {
+    // Lua 5.4 runs __gc metamethods with the debug hooks off: a finalizer would run outside the
+    // budget, for ever if it loops. An object is marked for finalization only if its metatable has
+    // __gc when it is set, so refusing such a metatable here closes that door for good.
+    if (lua_type(L, 2) == LUA_TTABLE) {
+        lua_pushliteral(L, "__gc");
+        const bool finalizer = lua_rawget(L, 2) != LUA_TNIL;
+        lua_pop(L, 1);
+        if (finalizer)
+            return luaL_error(L, "setmetatable: a metatable with __gc is refused in monitors (finalizers "
+                                 "would run outside the time budget)");
+    }
+    lua_pushvalue(L, lua_upvalueindex(1));
+    lua_insert(L, 1);
+    lua_call(L, lua_gettop(L) - 1, LUA_MULTRET);
+    return lua_gettop(L);
+}
+
 int LuaSandbox::print_to_log(lua_State* L) {
     luaL_Buffer line;
     luaL_buffinit(L, &line);
@@ -239,6 +257,9 @@ void LuaSandbox::open_safe_libraries() {
     lua_getglobal(L, "load");
     lua_pushcclosure(L, &LuaSandbox::text_only_load, 1);
     lua_setglobal(L, "load");
+    lua_getglobal(L, "setmetatable");
+    lua_pushcclosure(L, &LuaSandbox::no_finalizer_setmetatable, 1);
+    lua_setglobal(L, "setmetatable");
     lua_pushcfunction(L, &LuaSandbox::print_to_log);
     lua_setglobal(L, "print");
     // `require` answers "yarp" only: the first line of scripts written for YARP.

@@ -73,6 +73,7 @@ private:
     static int guarded_call(lua_State* L);
     static int guarded_continue(lua_State* L, int status, lua_KContext context);
     static int text_only_load(lua_State* L);
+    static int no_finalizer_setmetatable(lua_State* L);
     static int print_to_log(lua_State* L);
     static LuaSandbox& of(lua_State* L) { return **static_cast<LuaSandbox**>(lua_getextraspace(L)); }
     /// True once the deadline has passed; the first look at the clock in a call sets the deadline.
