@@ -17,8 +17,11 @@ std::size_t threads_for(std::size_t asked) {
 
 }  // namespace
 
-Workers::Workers(std::size_t threads)
-    : threads_(threads_for(threads)), pool_(std::make_unique<boost::asio::thread_pool>(threads_)) {}
+Workers::Workers(std::size_t threads, boost::asio::io_context* loop)
+    : threads_(threads_for(threads)), pool_(std::make_unique<boost::asio::thread_pool>(threads_)) {
+    if (loop)
+        stand_in_ = std::make_unique<LoopStandIn>(*loop);
+}
 
 Workers::~Workers() {
     pool_->stop();
