@@ -1,5 +1,7 @@
 #pragma once
-// Threading: the whole daemon runs on one io_context thread (like Redis and Mosquitto); no locks.
+// Threading: the whole daemon runs on one io_context, one thread at a time (like Redis and
+// Mosquitto); no locks. That thread is the main one, or the LoopStandIn while a cheap monitor running
+// inline overruns (monitor/loop_stand_in.hpp).
 
 #include <map>
 #include <memory>

@@ -69,6 +69,11 @@ int main(int argc, char** argv) {
                    "threads that run port monitors, so that a slow script delays only its own "
                    "connection (0: one per core)")
         ->capture_default_str();
+    bool no_inline_monitors = false;
+    app.add_flag("--no-inline-monitors", no_inline_monitors,
+                 "run every monitor on the worker threads; by default a monitor that costs under 10 us a "
+                 "message runs on the daemon's thread, which saves two thread wake-ups per message "
+                 "(docs/MONITORS.md)");
     app.add_option("--config", config_file,
                    "JSON config file (max_frame, default_capacity, link_capacity, monitor_memory_bytes, "
                    "monitor_budget_ms, monitor_quarantine_after, udp_fragment_bytes, udp_max_message, "
@@ -100,6 +105,8 @@ int main(int argc, char** argv) {
         spdlog::info("name server {} ({})", found->address, found->how());
         config.listen = endpoint_or_throw(listen, "--listen");
         config.embedded_names = embedded;
+        if (no_inline_monitors)
+            config.monitor_inline = false;
         if (!names_state.empty())
             config.names_state = names_state;
         config.socket_path = socket;

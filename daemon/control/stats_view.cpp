@@ -11,6 +11,18 @@
 
 namespace plexus::daemon {
 
+namespace {
+
+/// A monitored side's counters: its monitors', and where they run (monitor/stage.hpp).
+void add_stage_counters(nlohmann::json& entry, const monitor::MonitorStage& stage) {
+    entry["monitors"] = stage.chain().stats();
+    entry["dropped_monitor_backlog"] = stage.dropped_backlog();
+    entry["monitors_inline"] = stage.runs_inline();
+    entry["monitor_inline_overruns"] = stage.inline_overruns();
+}
+
+}  // namespace
+
 Task<proto::Reply> ControlPlane::stats(std::shared_ptr<Session>, const proto::Request& request) {
     const std::string port = text(request.body, "port");
     if (!port.empty() && !host_.router().find(port))
@@ -54,8 +66,7 @@ nlohmann::json ControlPlane::stats_json(const std::string& only_port) const {
                                 {"dropped_send", sent.dropped_send}};
             }
             if (const auto* stage = monitor::stage_of(c->send_monitors)) {
-                entry["monitors"] = stage->chain().stats();
-                entry["dropped_monitor_backlog"] = stage->dropped_backlog();
+                add_stage_counters(entry, *stage);
             }
             connections.push_back(entry);
         }
@@ -68,8 +79,7 @@ nlohmann::json ControlPlane::stats_json(const std::string& only_port) const {
             entry["source"] = inlet->source();
             entry["carrier"] = inlet->carrier();
             if (const auto* stage = monitor::stage_of(inlet->monitors)) {
-                entry["monitors"] = stage->chain().stats();
-                entry["dropped_monitor_backlog"] = stage->dropped_backlog();
+                add_stage_counters(entry, *stage);
             }
             inbound.push_back(entry);
         }

@@ -1,5 +1,6 @@
 #pragma once
-// Threading: as its monitors (monitor.hpp): process() on the stage's strand, stats() from anywhere.
+// Threading: as its monitors (monitor.hpp): process() under the stage's monitors lock, stats() from
+// anywhere.
 
 #include <memory>
 #include <vector>
@@ -18,6 +19,16 @@ struct MonitorChain {
     bool process(Message& message) {
         for (auto& monitor : monitors) {
             if (monitor->process(message) == Monitor::Verdict::drop)
+                return false;
+        }
+        return true;
+    }
+
+    /// True when every monitor is a script: the sandbox looks at the clock while they run, so they
+    /// may run inline on the daemon's thread (stage.hpp). A compiled monitor cannot be watched.
+    bool interruptible() const {
+        for (const auto& monitor : monitors) {
+            if (monitor->spec().type != MonitorType::lua)
                 return false;
         }
         return true;

@@ -109,7 +109,19 @@ void LuaSandbox::arm_budget() {
     }
 }
 
+namespace {
+thread_local LuaSandbox::InlineSlice* t_inline_slice = nullptr;
+}  // namespace
+
+void LuaSandbox::watch_inline_slice(InlineSlice* slice) {
+    t_inline_slice = slice;
+}
+
 bool LuaSandbox::budget_spent(std::chrono::steady_clock::time_point now) {
+    if (auto* slice = t_inline_slice; slice && !slice->overran && now >= slice->deadline) {
+        slice->overran = true;  // before the call: it hands the event loop over, once
+        slice->overrun();
+    }
     if (aborting_)
         return true;
     if (!deadline_set_) {

@@ -1,5 +1,6 @@
 #pragma once
-// Threading: one Lua state, used from the daemon's one thread.
+// Threading: one Lua state, used by one thread at a time (its stage's strand, or the daemon's thread
+// when it runs inline: monitor/stage.hpp).
 //
 // A Lua state that untrusted scripts can run in: only the safe libraries, a memory cap enforced by
 // its allocator, and a time budget per call enforced by an instruction-count hook. Once the budget
@@ -65,6 +66,18 @@ public:
     static constexpr std::int64_t steps_per_check = 4096;
     /// Bytes copied or filled per step, for charges by size (allocations, memcpy).
     static constexpr std::int64_t bytes_per_step = 64;
+
+    /// While monitors run inline on the daemon's thread (monitor/stage.hpp): the first look at the
+    /// clock at or past `deadline`, in any sandbox on this thread, calls `overrun` once. The clock
+    /// is looked at every few microseconds of a script's work (the hook, C functions' charges, the
+    /// allocator), so `overrun` comes that soon after the deadline.
+    struct InlineSlice {
+        std::chrono::steady_clock::time_point deadline;
+        std::function<void()> overrun;
+        bool overran = false;
+    };
+    /// Watches `slice` on this thread until called again with null.
+    static void watch_inline_slice(InlineSlice* slice);
 
 private:
     static void* allocate(void* self, void* block, std::size_t old_size, std::size_t new_size);

@@ -1,7 +1,8 @@
 #pragma once
-// Threading: one thread at a time -- created on the daemon's thread, then used only on its stage's
-// strand (monitor/stage.hpp). counters(), quarantined(), last_error(), memory_in_use() and stats()
-// may be read from the daemon's thread meanwhile.
+// Threading: one thread at a time -- created on the daemon's thread, then used only under its
+// stage's monitors lock, on the stage's strand or inline on the daemon's thread (monitor/stage.hpp).
+// counters(), quarantined(), last_error(), memory_in_use() and stats() may be read from the daemon's
+// thread meanwhile.
 //
 // One port monitor on one side of one connection: a Lua script in its own sandboxed state
 // (lua_monitor.*) or a compiled plugin (plugin_monitor.*), behind the same shell. It sees each

@@ -1,8 +1,10 @@
 #include "stage.hpp"
 
+#include <algorithm>
 #include <limits>
 
 #include <boost/asio/post.hpp>
+#include <spdlog/spdlog.h>
 
 #include "../core/batch.hpp"
 
@@ -28,11 +30,14 @@ MonitorStage::MonitorStage(std::shared_ptr<Workers> workers, asio::any_io_execut
                            Options options, std::function<void()> on_space)
     : workers_(std::move(workers)),
       strand_(workers_->make_strand()),
+      stand_in_(workers_->stand_in()),
       io_(std::move(io)),
       chain_(std::move(chain)),
       member_(std::move(member)),
       options_(options),
-      on_space_(std::move(on_space)) {}
+      on_space_(std::move(on_space)) {
+    inline_now_ = stand_in_ != nullptr && chain_->interruptible();
+}
 
 std::size_t MonitorStage::room() const {
     if (options_.drop_oldest)
@@ -61,39 +66,107 @@ void MonitorStage::submit(const Message& message) {
     if (in_flight_ == 0)
         holding_.reset();
     if (start)
+        schedule_drain();
+}
+
+void MonitorStage::schedule_drain() {
+    // Inline drains are handlers of their own, not calls from here: the caller's frames (a
+    // session's read, a router) must not be on the stack if the loop is taken over meanwhile.
+    if (inline_now_ && !stand_in_->stepped_in())
+        asio::post(io_, [self = shared_from_this()] { self->drain_inline(); });
+    else
         asio::post(strand_, [self = shared_from_this()] { self->drain(); });
 }
 
-void MonitorStage::drain() {
-    std::vector<Filtered> results;
-    const auto started = std::chrono::steady_clock::now();
-    bool more = true;
-    while (more) {
+MonitorStage::Drained MonitorStage::process_waiting(std::vector<Filtered>& results, Clock::time_point until,
+                                                    std::size_t most) {
+    Drained drained;
+    for (;;) {
         Message message;
         {
             std::lock_guard lock(mutex_);
             if (waiting_.empty()) {
                 draining_ = false;
-                more = false;
-                break;
+                return drained;
             }
             message = std::move(waiting_.front());
             waiting_.pop_front();
         }
+        drained.messages += message.count();
         if (message.batch == 0)
             results.push_back(process(message));
         else
             process_batch(message, results);
-        if (results.size() >= slice_messages || std::chrono::steady_clock::now() - started >= slice_time)
-            break;
+        if (results.size() >= most || Clock::now() >= until) {
+            std::lock_guard lock(mutex_);
+            drained.more = !waiting_.empty();
+            if (!drained.more)
+                draining_ = false;
+            return drained;
+        }
     }
-    if (!results.empty()) {
-        asio::post(io_, [self = shared_from_this(), results = std::move(results)]() mutable {
-            self->complete(results);
-        });
+}
+
+void MonitorStage::drain() {
+    std::vector<Filtered> results;
+    const auto started = Clock::now();
+    Drained drained;
+    {
+        std::lock_guard monitors(monitors_mutex_);
+        drained = process_waiting(results, started + slice_time, slice_messages);
     }
-    if (more)  // the rest after whatever else waits for a worker
+    const auto took = Clock::now() - started;
+    if (!results.empty() || drained.messages > 0) {
+        asio::post(io_, [self = shared_from_this(), results = std::move(results), took,
+                         messages = drained.messages]() mutable { self->complete(results, took, messages); });
+    }
+    if (drained.more)  // the rest after whatever else waits for a worker
         asio::post(strand_, [self = shared_from_this()] { self->drain(); });
+}
+
+void MonitorStage::drain_inline() {
+    std::unique_lock monitors(monitors_mutex_, std::try_to_lock);
+    if (!monitors.owns_lock() || stand_in_->stepped_in()) {
+        // A trig or a param call has the monitors on the strand now, or the stand-in has the loop
+        // (it must not hand over in turn): these messages go to the strand.
+        asio::post(strand_, [self = shared_from_this()] { self->drain(); });
+        return;
+    }
+    std::vector<Filtered> results;
+    const auto started = Clock::now();
+    LuaSandbox::InlineSlice slice{started + inline_overrun_after, [this] { stand_in_->take_over(); }};
+    LuaSandbox::watch_inline_slice(&slice);
+    const auto drained = process_waiting(results, started + inline_batch_time, slice_messages);
+    LuaSandbox::watch_inline_slice(nullptr);
+    monitors.unlock();
+    if (slice.overran) {
+        stand_in_->give_back();  // from here on this thread has the loop again
+        ++inline_overruns_;
+        // On a worker until their measured cost there says they are cheap again (a long way down
+        // from here: a script that keeps overrunning never comes back).
+        cost_ns_ = std::max(cost_ns_, std::chrono::duration<double, std::nano>(inline_overrun_after).count());
+        inline_now_ = false;
+        spdlog::warn("monitors of {} ran past {} us on the daemon's thread; the event loop went on "
+                     "without them, and they run on a worker until they are cheap again",
+                     chain_->monitors.empty() ? std::string("a connection")
+                                              : chain_->monitors.front()->description(),
+                     std::chrono::duration_cast<std::chrono::microseconds>(inline_overrun_after).count());
+    }
+    complete(results, Clock::now() - started, drained.messages);
+    if (drained.more)
+        schedule_drain();
+}
+
+void MonitorStage::note_cost(Clock::duration took, std::size_t messages) {
+    if (messages == 0)
+        return;
+    const double per_message = std::chrono::duration<double, std::nano>(took).count() / static_cast<double>(messages);
+    cost_ns_ = cost_ns_ < 0 ? per_message : cost_ns_ + (per_message - cost_ns_) / 8;
+    const double limit = std::chrono::duration<double, std::nano>(inline_cost_limit).count();
+    if (inline_now_ && cost_ns_ > limit)
+        inline_now_ = false;
+    else if (!inline_now_ && stand_in_ && chain_->interruptible() && cost_ns_ < limit / 2)
+        inline_now_ = true;
 }
 
 void MonitorStage::process_batch(const Message& batch, std::vector<Filtered>& results) {
@@ -155,7 +228,8 @@ Filtered MonitorStage::process(const Message& message) {
     return out;
 }
 
-void MonitorStage::complete(std::vector<Filtered>& results) {
+void MonitorStage::complete(std::vector<Filtered>& results, Clock::duration took, std::size_t messages) {
+    note_cost(took, messages);
     for (const auto& result : results)
         in_flight_ -= result.message.count();
     if (auto client = client_.lock())
@@ -170,6 +244,7 @@ void MonitorStage::close() {
     client_.reset();
     holding_.reset();
     asio::post(strand_, [self = shared_from_this()] {
+        std::lock_guard monitors(self->monitors_mutex_);
         self->closed_ = true;
         self->chain_->monitors.clear();  // their destroy callbacks run here, on their thread
         std::lock_guard lock(self->mutex_);
@@ -179,6 +254,7 @@ void MonitorStage::close() {
 
 void MonitorStage::trig(std::uint64_t monitor_id) {
     asio::post(strand_, [self = shared_from_this(), monitor_id] {
+        std::lock_guard monitors(self->monitors_mutex_);
         if (self->closed_)
             return;
         for (auto& monitor : self->chain_->monitors) {
@@ -194,8 +270,11 @@ Task<void> MonitorStage::run(const std::function<void()>& work) {
     auto initiation = [self = shared_from_this(), &work](auto handler) {
         auto shared = std::make_shared<decltype(handler)>(std::move(handler));
         asio::post(self->strand_, [self, &work, shared] {
-            if (!self->closed_)
-                work();
+            {
+                std::lock_guard monitors(self->monitors_mutex_);
+                if (!self->closed_)
+                    work();
+            }
             auto executor = asio::get_associated_executor(*shared);
             asio::post(executor, std::move(*shared));
         });

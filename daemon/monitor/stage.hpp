@@ -1,18 +1,31 @@
 #pragma once
 // Threading: submit, in_flight, room, close, trig and run are called on the daemon's thread; the
-// monitors run on the stage's strand (one worker at a time, in order); verdicts are handed back on
-// the daemon's thread.
+// monitors run either inline on the daemon's thread (in a handler of their own, while they are
+// cheap) or on the stage's strand (one worker at a time, in order); verdicts are handed to the
+// client on the daemon's thread.
 //
-// Ownership: the chain's monitors (their Lua states) are touched only on the strand, from the
-// moment the stage is made until close() lets them go there. The daemon's thread reads their
-// counters for `plexus stats` (atomics; see monitor.hpp) and reaches them for `plexus param` through
-// run(). Lock order: the stage's queue lock, then nothing; the arbiter's lock (taken by the scripts'
-// event functions and by the arbitration after the monitors), then nothing. No lock is held while
-// a script runs.
+// Inline or on a worker: a worker costs each message two thread wake-ups (there and back), tens of
+// microseconds on an idle virtual machine, far more than a cheap script. So a stage starts inline
+// and moves its monitors to the strand when their cost per message (a moving average) grows past
+// `inline_cost_limit`, and back when it falls under half of it. An inline script that runs past
+// `inline_overrun_after` (counted from the drain's start) has the event loop taken over by the
+// LoopStandIn (loop_stand_in.hpp) for the rest of its call, and its stage goes to the strand until
+// its cost there is low again: whatever a script does, the daemon's other work waits at most that
+// long plus one look at the clock (a few microseconds of script) per inline drain.
+// Compiled monitors always run on the strand: nothing can look at the clock inside them.
+//
+// Ownership: the chain's monitors (their Lua states) are touched only under monitors_mutex_, which
+// an inline drain takes with try_lock (and gives way to the strand if it cannot) and strand work
+// takes outright; at most one drain of either kind exists at a time (draining_). The daemon's thread
+// reads their counters for `plexus stats` (atomics; see monitor.hpp) and reaches them for `plexus
+// param` through run(). Lock order: monitors_mutex_, then the stage's queue lock or the arbiter's
+// lock (taken by the scripts' event functions and by the arbitration after the monitors), then
+// nothing. No lock but monitors_mutex_ is held while a script runs.
 
 #include <chrono>
 #include <cstdint>
 #include <deque>
+#include <limits>
 #include <functional>
 #include <memory>
 #include <mutex>
@@ -21,6 +34,7 @@
 #include "../core/message_filter.hpp"
 #include "../net/asio.hpp"
 #include "chain.hpp"
+#include "loop_stand_in.hpp"
 #include "workers.hpp"
 
 namespace plexus::daemon::monitor {
@@ -65,18 +79,43 @@ public:
     const MonitorChain& chain() const { return *chain_; }
     /// Messages dropped because the monitors fell behind a destination that never waits.
     std::uint64_t dropped_backlog() const { return dropped_backlog_; }
+    /// Whether the monitors run inline now, and how many inline calls overran (see above).
+    bool runs_inline() const { return inline_now_; }
+    std::uint64_t inline_overruns() const { return inline_overruns_; }
+
+    /// Past this cost per message (a moving average), a stage's monitors go to a worker.
+    static constexpr auto inline_cost_limit = std::chrono::microseconds(10);
+    /// An inline drain takes no more messages after this long...
+    static constexpr auto inline_batch_time = std::chrono::microseconds(50);
+    /// ...and a script still running this long after the drain began has the loop taken over.
+    static constexpr auto inline_overrun_after = std::chrono::microseconds(200);
 
 private:
+    using Clock = std::chrono::steady_clock;
+    /// Where the next drain runs: inline (a handler on the daemon's thread) or on the strand.
+    void schedule_drain();
     /// On the strand: runs the monitors over what waits, a slice at a time.
     void drain();
+    /// On the daemon's thread: the same, inline, a short slice at a time.
+    void drain_inline();
+    struct Drained {
+        std::size_t messages = 0;
+        bool more = false;  ///< messages still wait: draining_ stays set, another drain is due
+    };
+    /// Under monitors_mutex_: processes waiting messages until none waits or `until` has passed.
+    Drained process_waiting(std::vector<Filtered>& results, Clock::time_point until,
+                            std::size_t most = std::numeric_limits<std::size_t>::max());
     Filtered process(const Message& message);
     /// The records of a batch one by one; runs of records passed unchanged stay batches.
     void process_batch(const Message& batch, std::vector<Filtered>& results);
-    /// On the daemon's thread: hands verdicts to the client.
-    void complete(std::vector<Filtered>& results);
+    /// On the daemon's thread: hands verdicts to the client; `took` the monitors' time for them.
+    void complete(std::vector<Filtered>& results, Clock::duration took, std::size_t messages);
+    /// On the daemon's thread: the moving average of the cost per message, and inline or not.
+    void note_cost(Clock::duration took, std::size_t messages);
 
     std::shared_ptr<Workers> workers_;  ///< before strand_: outlives it
     WorkerStrand strand_;
+    LoopStandIn* stand_in_;  ///< the workers' (null: never inline)
     asio::any_io_executor io_;
     std::shared_ptr<MonitorChain> chain_;
     std::shared_ptr<arbitration::Member> member_;
@@ -90,13 +129,19 @@ private:
     // The daemon's thread only.
     std::size_t in_flight_ = 0;
     std::uint64_t dropped_backlog_ = 0;
+    bool inline_now_ = false;
+    std::uint64_t inline_overruns_ = 0;
+    double cost_ns_ = -1;  ///< moving average of the monitors' time per message; negative: none yet
+
+    /// Held while the monitors run (see the ownership note above).
+    std::mutex monitors_mutex_;
 
     // Shared with the strand, under mutex_.
     std::mutex mutex_;
     std::deque<Message> waiting_;
     bool draining_ = false;  ///< a drain is posted or running
 
-    // The strand only.
+    // Under monitors_mutex_.
     bool closed_ = false;
 };
 

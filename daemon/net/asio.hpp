@@ -1,5 +1,6 @@
 #pragma once
-// Threading: declarations only. Every daemon object lives on one io_context run by one thread.
+// Threading: declarations only. Every daemon object lives on one io_context run by one thread at a
+// time (monitor/loop_stand_in.hpp).
 
 #include <boost/asio.hpp>
 #include <boost/asio/experimental/awaitable_operators.hpp>

@@ -132,6 +132,11 @@ TEST_P(Isolation_test, AHostileMonitorDelaysNothingButItsOwnConnection) {
         EXPECT_LT(list_ms, 1000.0 * slowdown()) << script;
         EXPECT_GE(monitor["errors"].get<std::uint64_t>(), 2u);
         EXPECT_EQ(monitor["quarantined"], false);
+        // Its first call ran inline on the daemon's thread (a stage starts there) and overran: the
+        // stand-in took the event loop over, and the monitor went to a worker for good.
+        const auto inbound = stats["ports"][0]["inbound"][0];
+        EXPECT_GE(inbound["monitor_inline_overruns"].get<std::uint64_t>(), 1u) << script;
+        EXPECT_EQ(inbound["monitors_inline"], false) << script;
         hostile.stop();
     }
     // SIGTERM while the script may still be inside a call.
@@ -193,6 +198,57 @@ TEST(Isolation_test, AHostileSendMonitorOnAnMcastConnectionDelaysNothingElse) {
     EXPECT_LT(list_ms, 1000.0 * slowdown());
     hostile.stop();
     reader->signal(SIGTERM);
+}
+
+TEST(Isolation_test, AScriptThatOverrunsNowAndThenHandsTheLoopOverEachTimeAndDelaysNothingElse) {
+    // Cheap but for every 100th message (10 ms then, at 1 kHz: without the stand-in, the other
+    // connection's messages would wait for it one time in ten): a stage starts inline, overruns there (the stand-in takes
+    // the event loop), goes to a worker, comes back inline once its cost there is low again, and
+    // overruns again. Meanwhile another connection's latency stays low.
+    TempDir dir;
+    std::ofstream(dir.file("now_and_then.lua")) << R"(
+local n = 0
+PortMonitor.accept = function(msg)
+    n = n + 1
+    if n % 100 == 0 then
+        local start = PortMonitor.now()
+        while PortMonitor.now() - start < 0.010 do end
+    end
+    return true
+end
+)";
+    auto flags = hostile_daemon_flags(dir);
+    flags.insert(flags.end(), {"--scripts", dir.path()});
+    Daemon daemon(dir, "solo", "", flags);
+    Client::Options options;
+    options.socket = daemon.socket();
+    Client client(options);
+    auto odd_out = client.open("/odd/out");
+    auto odd_in = client.open("/odd/in", {QueuePolicy::latest, 16});
+    auto calm_out = client.open("/calm/out");
+    auto calm_in = client.open("/calm/in");
+    client.connect("/odd/out", "/odd/in", "local+recv.portmonitor+type.lua+file.now_and_then");
+    client.connect("/calm/out", "/calm/in", "local");
+    PacedWriter odd(odd_out, 1ms);
+    auto inbound_stats = [&] {
+        return json::parse(run_cli(dir, daemon, {"stats", "/odd/in", "--json"}).out)["ports"][0]["inbound"][0];
+    };
+    ASSERT_TRUE(eventually([&] { return inbound_stats()["monitor_inline_overruns"].get<std::uint64_t>() >= 3; },
+                           slower(std::chrono::milliseconds(30000))))
+        << "the stage did not overrun inline, come back and overrun again";
+
+    constexpr std::uint64_t count = 1000;
+    PacedWriter calm(calm_out, 2ms, count);
+    const auto latencies = calm_latencies(calm_in, count);
+    ASSERT_EQ(latencies.size(), count) << "the calm connection stopped delivering";
+    const double p50 = latencies[latencies.size() / 2];
+    const double p99 = latencies[latencies.size() * 99 / 100];
+    odd.stop();
+    const auto inbound = inbound_stats();
+    std::cout << "  now_and_then: calm p50 " << p50 << " ms, p99 " << p99 << " ms; inline overruns "
+              << inbound["monitor_inline_overruns"] << ", odd messages " << inbound["received"]
+              << ", errors " << inbound["monitors"][0]["errors"] << "\n";
+    EXPECT_LT(p99, 5.0 * slowdown());
 }
 
 TEST(Isolation_test, AHundredThousandMessagesThroughAMonitorArriveInOrderBesideOtherMonitors) {

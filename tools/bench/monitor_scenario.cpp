@@ -93,19 +93,30 @@ int run_monitor(const Options& options) {
 }
 
 int run_monitor_latency(const Options& options) {
+    // The same script inline on the daemon's thread (the default for a cheap monitor) and, in a
+    // second daemon started with --no-inline-monitors, on a worker: the hop's cost is the difference.
     TempDir dir;
     std::ofstream(dir.file("latency_accept.lua")) << latency_script;
     const auto topology = Topology::plexus(dir, options.plexusd, 1, {"--scripts", dir.path()});
-    const std::pair<std::string, std::string> variants[] = {
-        {"none", "local"},
-        {"accept_on_worker", "local+recv.portmonitor+type.lua+file.latency_accept"},
+    TempDir workers_dir;
+    const auto workers_only =
+        Topology::plexus(workers_dir, options.plexusd, 1, {"--scripts", dir.path(), "--no-inline-monitors"});
+    struct Variant {
+        std::string name;
+        std::string carrier;
+        const Topology* topology;
+    };
+    const Variant variants[] = {
+        {"none", "local", topology.get()},
+        {"accept_inline", "local+recv.portmonitor+type.lua+file.latency_accept", topology.get()},
+        {"accept_on_worker", "local+recv.portmonitor+type.lua+file.latency_accept", workers_only.get()},
     };
     std::vector<std::unique_ptr<Measurement>> measurements;
-    for (const auto& [name, carrier] : variants) {
+    for (const auto& variant_spec : variants) {
         Options variant = options;
-        variant.carrier = carrier;
-        variant.port_tag = name;
-        measurements.push_back(plexus_latency(*topology, variant));
+        variant.carrier = variant_spec.carrier;
+        variant.port_tag = variant_spec.name;
+        measurements.push_back(plexus_latency(*variant_spec.topology, variant));
     }
     std::vector<std::vector<RunResult>> runs(std::size(variants));
     {
@@ -120,11 +131,11 @@ int run_monitor_latency(const Options& options) {
     VariantsResult result;
     result.scenario = "monitor_latency_1hop";
     result.size = options.size;
-    result.title = "one-hop latency with and without a recv monitor (on a worker thread), " +
+    result.title = "one-hop latency with and without a recv monitor (inline, or on a worker), " +
                    std::to_string(options.size) + " B: " + std::to_string(latency_count(options)) +
                    " round trips per run, median of " + std::to_string(options.repeat) + " runs";
     for (std::size_t i = 0; i < std::size(variants); ++i)
-        result.systems.emplace_back(variants[i].first, median_of(runs[i]));
+        result.systems.emplace_back(variants[i].name, median_of(runs[i]));
     print(result, options.json);
     return 0;
 }
