@@ -114,6 +114,7 @@ void apply_config_text(const std::string& path, std::string_view text, DaemonCon
                                              "monitor_memory_bytes",
                                              "monitor_budget_ms",
                                              "monitor_quarantine_after",
+                                             "monitor_inline_cost_us",
                                              "udp_fragment_bytes",
                                              "udp_max_message",
                                              "udp_reassembly_bytes",
@@ -151,6 +152,10 @@ void apply_config_text(const std::string& path, std::string_view text, DaemonCon
         whole_number(json, "monitor_budget_ms", monitors.limits.budget.count(), path));
     monitors.quarantine_after =
         whole_number(json, "monitor_quarantine_after", monitors.quarantine_after, path);
+    monitors.inline_cost_limit = std::chrono::microseconds(
+        whole_number(json, "monitor_inline_cost_us", monitors.inline_cost_limit.count(), path));
+    if (monitors.inline_cost_limit.count() > 1'000'000)
+        throw std::runtime_error("config " + path + ": monitor_inline_cost_us must be at most 1000000 (0: never inline)");
     if (monitors.limits.memory_bytes < 256 * 1024 || monitors.limits.budget.count() < 1 ||
         monitors.quarantine_after < 1) {
         throw std::runtime_error("config " + path +

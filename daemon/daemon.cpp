@@ -30,8 +30,8 @@ Daemon::Daemon(asio::io_context& io, DaemonConfig config)
       udp_(io, config_.udp, config_.secret),
       signals_(io, SIGINT, SIGTERM),
       control_(io.get_executor(), *this) {
-    workers_ = std::make_shared<monitor::Workers>(config_.monitor_threads,
-                                                 config_.monitor_inline ? &io_ : nullptr);
+    const bool inline_monitors = config_.monitors.inline_cost_limit.count() > 0;
+    workers_ = std::make_shared<monitor::Workers>(config_.monitor_threads, inline_monitors ? &io_ : nullptr);
     scripts_ = std::make_unique<ScriptHost>(io_, *this, workers_);
 }
 

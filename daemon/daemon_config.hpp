@@ -39,8 +39,6 @@ struct DaemonConfig {
     std::chrono::milliseconds handshake_timeout{10000};
     monitor::MonitorPolicy monitors;  ///< memory cap, time budget, quarantine of every port monitor
     std::size_t monitor_threads = 0;  ///< worker threads for monitors; 0: one per core
-    /// Cheap monitors run inline on the daemon's thread (monitor/stage.hpp); false: always on workers.
-    bool monitor_inline = true;
     /// Least size of the shared-memory region a local client may get per port it writes large
     /// payloads through (a region holds at least four of the port's first large payload); 0 turns
     /// shared memory off. Small on purpose: the slots in use stay warm in the cache, and fewer

@@ -72,11 +72,11 @@ int main(int argc, char** argv) {
     bool no_inline_monitors = false;
     app.add_flag("--no-inline-monitors", no_inline_monitors,
                  "run every monitor on the worker threads; by default a monitor that costs under 10 us a "
-                 "message runs on the daemon's thread, which saves two thread wake-ups per message "
-                 "(docs/MONITORS.md)");
+                 "message (config monitor_inline_cost_us) runs on the daemon's thread, which saves two "
+                 "thread wake-ups per message (docs/MONITORS.md)");
     app.add_option("--config", config_file,
                    "JSON config file (max_frame, default_capacity, link_capacity, monitor_memory_bytes, "
-                   "monitor_budget_ms, monitor_quarantine_after, udp_fragment_bytes, udp_max_message, "
+                   "monitor_budget_ms, monitor_quarantine_after, monitor_inline_cost_us, udp_fragment_bytes, udp_max_message, "
                    "udp_reassembly_bytes, udp_timeout_ms, ...)");
     app.add_option("--ready-file", config.ready_file,
                    "write a JSON line (node, address, socket, names, pid) here once serving and registered");
@@ -106,7 +106,7 @@ int main(int argc, char** argv) {
         config.listen = endpoint_or_throw(listen, "--listen");
         config.embedded_names = embedded;
         if (no_inline_monitors)
-            config.monitor_inline = false;
+            config.monitors.inline_cost_limit = std::chrono::microseconds(0);
         if (!names_state.empty())
             config.names_state = names_state;
         config.socket_path = socket;

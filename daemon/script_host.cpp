@@ -92,6 +92,7 @@ std::shared_ptr<monitor::MonitorStage> ScriptHost::make_stage(std::shared_ptr<mo
                                                               std::shared_ptr<arbitration::Member> member,
                                                               monitor::MonitorStage::Options options,
                                                               std::weak_ptr<FilterClient> client) {
+    options.inline_cost_limit = daemon_.config().monitors.inline_cost_limit;
     std::vector<std::uint64_t> ids;
     for (const auto& m : chain->monitors)
         ids.push_back(m->id());

@@ -16,6 +16,9 @@ struct SandboxLimits {
 struct MonitorPolicy {
     SandboxLimits limits;
     std::uint32_t quarantine_after = 5;  ///< consecutive failed calls
+    /// Monitors costing less than this per message run inline on the daemon's thread
+    /// (monitor/stage.hpp); zero: always on workers.
+    std::chrono::microseconds inline_cost_limit{10};
 };
 
 }  // namespace plexus::daemon::monitor

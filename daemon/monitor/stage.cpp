@@ -36,7 +36,11 @@ MonitorStage::MonitorStage(std::shared_ptr<Workers> workers, asio::any_io_execut
       member_(std::move(member)),
       options_(options),
       on_space_(std::move(on_space)) {
-    inline_now_ = stand_in_ != nullptr && chain_->interruptible();
+    inline_now_ = may_run_inline();
+}
+
+bool MonitorStage::may_run_inline() const {
+    return stand_in_ != nullptr && options_.inline_cost_limit.count() > 0 && chain_->interruptible();
 }
 
 std::size_t MonitorStage::room() const {
@@ -162,10 +166,10 @@ void MonitorStage::note_cost(Clock::duration took, std::size_t messages) {
         return;
     const double per_message = std::chrono::duration<double, std::nano>(took).count() / static_cast<double>(messages);
     cost_ns_ = cost_ns_ < 0 ? per_message : cost_ns_ + (per_message - cost_ns_) / 8;
-    const double limit = std::chrono::duration<double, std::nano>(inline_cost_limit).count();
+    const double limit = std::chrono::duration<double, std::nano>(options_.inline_cost_limit).count();
     if (inline_now_ && cost_ns_ > limit)
         inline_now_ = false;
-    else if (!inline_now_ && stand_in_ && chain_->interruptible() && cost_ns_ < limit / 2)
+    else if (!inline_now_ && may_run_inline() && cost_ns_ < limit / 2)
         inline_now_ = true;
 }
 

@@ -7,7 +7,7 @@
 // Inline or on a worker: a worker costs each message two thread wake-ups (there and back), tens of
 // microseconds on an idle virtual machine, far more than a cheap script. So a stage starts inline
 // and moves its monitors to the strand when their cost per message (a moving average) grows past
-// `inline_cost_limit`, and back when it falls under half of it. An inline script that runs past
+// Options::inline_cost_limit, and back when it falls under half of it. An inline script that runs past
 // `inline_overrun_after` (counted from the drain's start) has the event loop taken over by the
 // LoopStandIn (loop_stand_in.hpp) for the rest of its call, and its stage goes to the strand until
 // its cost there is low again: whatever a script does, the daemon's other work waits at most that
@@ -48,6 +48,9 @@ public:
         /// For destinations that never hold a writer back (latest queues, datagrams): when full,
         /// the oldest message not yet started is dropped and counted instead.
         bool drop_oldest = false;
+        /// Past this cost per message (a moving average), the monitors go to a worker (see above);
+        /// zero: never inline.
+        std::chrono::microseconds inline_cost_limit{10};
     };
 
     /// `member`: the connection's place in its input port's arbitration (recv side); messages the
@@ -83,8 +86,6 @@ public:
     bool runs_inline() const { return inline_now_; }
     std::uint64_t inline_overruns() const { return inline_overruns_; }
 
-    /// Past this cost per message (a moving average), a stage's monitors go to a worker.
-    static constexpr auto inline_cost_limit = std::chrono::microseconds(10);
     /// An inline drain takes no more messages after this long...
     static constexpr auto inline_batch_time = std::chrono::microseconds(50);
     /// ...and a script still running this long after the drain began has the loop taken over.
@@ -92,6 +93,8 @@ public:
 
 private:
     using Clock = std::chrono::steady_clock;
+    /// A stand-in exists, inline is not off, and every monitor is a script.
+    bool may_run_inline() const;
     /// Where the next drain runs: inline (a handler on the daemon's thread) or on the strand.
     void schedule_drain();
     /// On the strand: runs the monitors over what waits, a slice at a time.

@@ -202,9 +202,10 @@ TEST(Isolation_test, AHostileSendMonitorOnAnMcastConnectionDelaysNothingElse) {
 
 TEST(Isolation_test, AScriptThatOverrunsNowAndThenHandsTheLoopOverEachTimeAndDelaysNothingElse) {
     // Cheap but for every 100th message (10 ms then, at 1 kHz: without the stand-in, the other
-    // connection's messages would wait for it one time in ten): a stage starts inline, overruns there (the stand-in takes
-    // the event loop), goes to a worker, comes back inline once its cost there is low again, and
-    // overruns again. Meanwhile another connection's latency stays low.
+    // connection's messages would wait for it one time in ten). Each time it overruns inline, the
+    // stand-in takes the event loop over; the stage goes to a worker for a drain or two and comes
+    // back (see the config below), and overruns again. Meanwhile another connection's latency
+    // stays low.
     TempDir dir;
     std::ofstream(dir.file("now_and_then.lua")) << R"(
 local n = 0
@@ -217,9 +218,11 @@ PortMonitor.accept = function(msg)
     return true
 end
 )";
-    auto flags = hostile_daemon_flags(dir);
-    flags.insert(flags.end(), {"--scripts", dir.path()});
-    Daemon daemon(dir, "solo", "", flags);
+    // Inline whatever the script costs between its overruns (100 ms a message): the default of
+    // 10 us would put it on a worker for good in a sanitized build, where every call costs more.
+    const std::string config = dir.file("inline-always.json");
+    std::ofstream(config) << R"({"monitor_inline_cost_us": 100000})";
+    Daemon daemon(dir, "solo", "", {"--scripts", dir.path(), "--config", config});
     Client::Options options;
     options.socket = daemon.socket();
     Client client(options);

@@ -32,6 +32,22 @@ TEST(ConfigFile_test, HandshakeTimeoutIsTakenWithinItsBoundsAndRefusedOutside) {
     }
 }
 
+TEST(ConfigFile_test, MonitorInlineCostIsTakenZeroTurnsInlineOffAndTooMuchIsRefused) {
+    DaemonConfig config;
+    EXPECT_EQ(config.monitors.inline_cost_limit, std::chrono::microseconds(10));  // the default
+    apply_config_text("test.json", R"({"monitor_inline_cost_us": 0})", config);
+    EXPECT_EQ(config.monitors.inline_cost_limit.count(), 0);
+    apply_config_text("test.json", R"({"monitor_inline_cost_us": 1000000})", config);
+    EXPECT_EQ(config.monitors.inline_cost_limit, std::chrono::seconds(1));
+    try {
+        apply_config_text("test.json", R"({"monitor_inline_cost_us": 1000001})", config);
+        ADD_FAILURE() << "accepted 1000001";
+    } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find("monitor_inline_cost_us must be at most 1000000"), std::string::npos)
+            << e.what();
+    }
+}
+
 TEST(ConfigFile_test, RefusesAnUnknownKey) {
     DaemonConfig config;
     EXPECT_THROW(apply_config_text("test.json", R"({"max_frames": 1})", config), std::runtime_error);
