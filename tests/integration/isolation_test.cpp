@@ -84,6 +84,51 @@ std::vector<double> calm_latencies(Port& in, std::uint64_t count) {
     return latencies;
 }
 
+/// A connection /NAME/out -> /NAME/in (a latest queue of 16) whose recv monitor is `script`, and a
+/// calm one /calm/out -> /calm/in beside it, on one client of `daemon`.
+struct MonitoredBesideCalm {
+    MonitoredBesideCalm(const Daemon& daemon, const std::string& name, const std::string& script)
+        : client(options_for(daemon)),
+          monitored_out(client.open("/" + name + "/out")),
+          monitored_in(client.open("/" + name + "/in", {QueuePolicy::latest, 16})),
+          calm_out(client.open("/calm/out")),
+          calm_in(client.open("/calm/in")) {
+        client.connect("/" + name + "/out", "/" + name + "/in", "local+recv.portmonitor+type.lua+file." + script);
+        client.connect("/calm/out", "/calm/in", "local");
+    }
+    static Client::Options options_for(const Daemon& daemon) {
+        Client::Options options;
+        options.socket = daemon.socket();
+        return options;
+    }
+
+    Client client;
+    Port monitored_out;
+    Port monitored_in;
+    Port calm_out;
+    Port calm_in;
+};
+
+struct CalmFigures {
+    std::size_t delivered = 0;
+    double p50 = 0;
+    double p99 = 0;
+};
+
+/// A 500 Hz stream of 1,000 messages on the calm connection: how many arrived, and their latency.
+CalmFigures measure_calm(Port& out, Port& in) {
+    constexpr std::uint64_t count = 1000;
+    PacedWriter calm(out, 2ms, count);
+    const auto latencies = calm_latencies(in, count);
+    CalmFigures figures;
+    figures.delivered = latencies.size();
+    if (latencies.size() == count) {
+        figures.p50 = latencies[latencies.size() / 2];
+        figures.p99 = latencies[latencies.size() * 99 / 100];
+    }
+    return figures;
+}
+
 class Isolation_test : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(Isolation_test, AHostileMonitorDelaysNothingButItsOwnConnection) {
@@ -91,18 +136,10 @@ TEST_P(Isolation_test, AHostileMonitorDelaysNothingButItsOwnConnection) {
     TempDir dir;
     Daemon daemon(dir, "solo", "", hostile_daemon_flags(dir));
     {
-        Client::Options options;
-        options.socket = daemon.socket();
-        Client client(options);
-        auto hostile_out = client.open("/hostile/out");
-        auto hostile_in = client.open("/hostile/in", {QueuePolicy::latest, 16});
-        auto calm_out = client.open("/calm/out");
-        auto calm_in = client.open("/calm/in");
-        client.connect("/hostile/out", "/hostile/in", "local+recv.portmonitor+type.lua+file." + script);
-        client.connect("/calm/out", "/calm/in", "local");
+        MonitoredBesideCalm connections(daemon, "hostile", script);
 
         // The hostile connection gets a message every 5 ms: its script is busy all the time.
-        PacedWriter hostile(hostile_out, 5ms);
+        PacedWriter hostile(connections.monitored_out, 5ms);
         ASSERT_TRUE(eventually([&] {
             auto stats = json::parse(run_cli(dir, daemon, {"stats", "/hostile/in", "--json"}).out);
             return stats["ports"][0]["inbound"][0]["monitors"][0]["errors"].get<std::uint64_t>() >= 2;
@@ -110,12 +147,8 @@ TEST_P(Isolation_test, AHostileMonitorDelaysNothingButItsOwnConnection) {
             << ": the hostile calls were not stopped and counted";
 
         // Meanwhile, a 500 Hz stream on the other connection.
-        constexpr std::uint64_t count = 1000;
-        PacedWriter calm(calm_out, 2ms, count);
-        const auto latencies = calm_latencies(calm_in, count);
-        ASSERT_EQ(latencies.size(), count) << script << ": the calm connection stopped delivering";
-        const double p50 = latencies[latencies.size() / 2];
-        const double p99 = latencies[latencies.size() * 99 / 100];
+        const auto calm = measure_calm(connections.calm_out, connections.calm_in);
+        ASSERT_EQ(calm.delivered, 1000u) << script << ": the calm connection stopped delivering";
 
         const auto asked = Clock::now();
         auto listed = run_cli(dir, daemon, {"list"});
@@ -124,11 +157,11 @@ TEST_P(Isolation_test, AHostileMonitorDelaysNothingButItsOwnConnection) {
 
         auto stats = json::parse(run_cli(dir, daemon, {"stats", "/hostile/in", "--json"}).out);
         const auto monitor = stats["ports"][0]["inbound"][0]["monitors"][0];
-        std::cout << "  " << script << ": calm p50 " << p50 << " ms, p99 " << p99 << " ms; plexus list "
+        std::cout << "  " << script << ": calm p50 " << calm.p50 << " ms, p99 " << calm.p99 << " ms; plexus list "
                   << list_ms << " ms; hostile calls " << monitor["messages"] << ", errors "
                   << monitor["errors"] << " (timeouts " << monitor["timeouts"] << ", out of memory "
                   << monitor["out_of_memory"] << ")\n";
-        EXPECT_LT(p99, 5.0 * slowdown()) << script;
+        EXPECT_LT(calm.p99, 5.0 * slowdown()) << script;
         EXPECT_LT(list_ms, 1000.0 * slowdown()) << script;
         EXPECT_GE(monitor["errors"].get<std::uint64_t>(), 2u);
         EXPECT_EQ(monitor["quarantined"], false);
@@ -223,16 +256,8 @@ end
     const std::string config = dir.file("inline-always.json");
     std::ofstream(config) << R"({"monitor_inline_cost_us": 100000})";
     Daemon daemon(dir, "solo", "", {"--scripts", dir.path(), "--config", config});
-    Client::Options options;
-    options.socket = daemon.socket();
-    Client client(options);
-    auto odd_out = client.open("/odd/out");
-    auto odd_in = client.open("/odd/in", {QueuePolicy::latest, 16});
-    auto calm_out = client.open("/calm/out");
-    auto calm_in = client.open("/calm/in");
-    client.connect("/odd/out", "/odd/in", "local+recv.portmonitor+type.lua+file.now_and_then");
-    client.connect("/calm/out", "/calm/in", "local");
-    PacedWriter odd(odd_out, 1ms);
+    MonitoredBesideCalm connections(daemon, "odd", "now_and_then");
+    PacedWriter odd(connections.monitored_out, 1ms);
     auto inbound_stats = [&] {
         return json::parse(run_cli(dir, daemon, {"stats", "/odd/in", "--json"}).out)["ports"][0]["inbound"][0];
     };
@@ -240,18 +265,14 @@ end
                            slower(std::chrono::milliseconds(30000))))
         << "the stage did not overrun inline, come back and overrun again";
 
-    constexpr std::uint64_t count = 1000;
-    PacedWriter calm(calm_out, 2ms, count);
-    const auto latencies = calm_latencies(calm_in, count);
-    ASSERT_EQ(latencies.size(), count) << "the calm connection stopped delivering";
-    const double p50 = latencies[latencies.size() / 2];
-    const double p99 = latencies[latencies.size() * 99 / 100];
+    const auto calm = measure_calm(connections.calm_out, connections.calm_in);
+    ASSERT_EQ(calm.delivered, 1000u) << "the calm connection stopped delivering";
     odd.stop();
     const auto inbound = inbound_stats();
-    std::cout << "  now_and_then: calm p50 " << p50 << " ms, p99 " << p99 << " ms; inline overruns "
+    std::cout << "  now_and_then: calm p50 " << calm.p50 << " ms, p99 " << calm.p99 << " ms; inline overruns "
               << inbound["monitor_inline_overruns"] << ", odd messages " << inbound["received"]
               << ", errors " << inbound["monitors"][0]["errors"] << "\n";
-    EXPECT_LT(p99, 5.0 * slowdown());
+    EXPECT_LT(calm.p99, 5.0 * slowdown());
 }
 
 TEST(Isolation_test, AHundredThousandMessagesThroughAMonitorArriveInOrderBesideOtherMonitors) {
