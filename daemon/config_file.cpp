@@ -155,7 +155,8 @@ void apply_config_text(const std::string& path, std::string_view text, DaemonCon
     monitors.inline_cost_limit = std::chrono::microseconds(
         whole_number(json, "monitor_inline_cost_us", monitors.inline_cost_limit.count(), path));
     if (monitors.inline_cost_limit.count() > 1'000'000)
-        throw std::runtime_error("config " + path + ": monitor_inline_cost_us must be at most 1000000 (0: never inline)");
+        throw std::runtime_error("config " + path +
+                                 ": monitor_inline_cost_us must be at most 1000000 (0: never inline)");
     if (monitors.limits.memory_bytes < 256 * 1024 || monitors.limits.budget.count() < 1 ||
         monitors.quarantine_after < 1) {
         throw std::runtime_error("config " + path +

@@ -76,7 +76,8 @@ int main(int argc, char** argv) {
                  "thread wake-ups per message (docs/MONITORS.md)");
     app.add_option("--config", config_file,
                    "JSON config file (max_frame, default_capacity, link_capacity, monitor_memory_bytes, "
-                   "monitor_budget_ms, monitor_quarantine_after, monitor_inline_cost_us, udp_fragment_bytes, udp_max_message, "
+                   "monitor_budget_ms, monitor_quarantine_after, monitor_inline_cost_us, udp_fragment_bytes, "
+                   "udp_max_message, "
                    "udp_reassembly_bytes, udp_timeout_ms, ...)");
     app.add_option("--ready-file", config.ready_file,
                    "write a JSON line (node, address, socket, names, pid) here once serving and registered");

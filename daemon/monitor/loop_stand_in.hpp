@@ -46,9 +46,9 @@ private:
     boost::asio::io_context& loop_;
     std::mutex mutex_;
     std::condition_variable changed_;
-    bool running_ = false;       ///< under mutex_: the stand-in runs the loop
-    bool back_wanted_ = false;   ///< under mutex_: give_back() waits
-    bool ending_ = false;        ///< under mutex_
+    bool running_ = false;                 ///< under mutex_: the stand-in runs the loop
+    bool back_wanted_ = false;             ///< under mutex_: give_back() waits
+    bool ending_ = false;                  ///< under mutex_
     std::atomic<bool> wants_back_{false};  ///< back_wanted_, for the stand-in's check between handlers
     std::atomic<bool> stepped_in_{false};
     std::atomic<std::uint64_t> takeovers_{0};

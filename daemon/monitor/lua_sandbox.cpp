@@ -206,8 +206,9 @@ int LuaSandbox::no_finalizer_setmetatable(lua_State* L) {
         const bool finalizer = lua_rawget(L, 2) != LUA_TNIL;
         lua_pop(L, 1);
         if (finalizer)
-            return luaL_error(L, "setmetatable: a metatable with __gc is refused in monitors (finalizers "
-                                 "would run outside the time budget)");
+            return luaL_error(L,
+                              "setmetatable: a metatable with __gc is refused in monitors (finalizers "
+                              "would run outside the time budget)");
     }
     lua_pushvalue(L, lua_upvalueindex(1));
     lua_insert(L, 1);

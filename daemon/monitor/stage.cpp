@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <limits>
 
-#include <boost/asio/post.hpp>
 #include <spdlog/spdlog.h>
+#include <boost/asio/post.hpp>
 
 #include "../core/batch.hpp"
 
@@ -150,11 +150,11 @@ void MonitorStage::drain_inline() {
         // from here: a script that keeps overrunning never comes back).
         cost_ns_ = std::max(cost_ns_, std::chrono::duration<double, std::nano>(inline_overrun_after).count());
         inline_now_ = false;
-        spdlog::warn("monitors of {} ran past {} us on the daemon's thread; the event loop went on "
-                     "without them, and they run on a worker until they are cheap again",
-                     chain_->monitors.empty() ? std::string("a connection")
-                                              : chain_->monitors.front()->description(),
-                     std::chrono::duration_cast<std::chrono::microseconds>(inline_overrun_after).count());
+        spdlog::warn(
+            "monitors of {} ran past {} us on the daemon's thread; the event loop went on "
+            "without them, and they run on a worker until they are cheap again",
+            chain_->monitors.empty() ? std::string("a connection") : chain_->monitors.front()->description(),
+            std::chrono::duration_cast<std::chrono::microseconds>(inline_overrun_after).count());
     }
     complete(results, Clock::now() - started, drained.messages);
     if (drained.more)
@@ -164,7 +164,8 @@ void MonitorStage::drain_inline() {
 void MonitorStage::note_cost(Clock::duration took, std::size_t messages) {
     if (messages == 0)
         return;
-    const double per_message = std::chrono::duration<double, std::nano>(took).count() / static_cast<double>(messages);
+    const double per_message =
+        std::chrono::duration<double, std::nano>(took).count() / static_cast<double>(messages);
     cost_ns_ = cost_ns_ < 0 ? per_message : cost_ns_ + (per_message - cost_ns_) / 8;
     const double limit = std::chrono::duration<double, std::nano>(options_.inline_cost_limit).count();
     if (inline_now_ && cost_ns_ > limit)

@@ -25,8 +25,8 @@
 #include <chrono>
 #include <cstdint>
 #include <deque>
-#include <limits>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <mutex>
 

@@ -93,7 +93,8 @@ struct MonitoredBesideCalm {
           monitored_in(client.open("/" + name + "/in", {QueuePolicy::latest, 16})),
           calm_out(client.open("/calm/out")),
           calm_in(client.open("/calm/in")) {
-        client.connect("/" + name + "/out", "/" + name + "/in", "local+recv.portmonitor+type.lua+file." + script);
+        client.connect("/" + name + "/out", "/" + name + "/in",
+                       "local+recv.portmonitor+type.lua+file." + script);
         client.connect("/calm/out", "/calm/in", "local");
     }
     static Client::Options options_for(const Daemon& daemon) {
@@ -157,10 +158,10 @@ TEST_P(Isolation_test, AHostileMonitorDelaysNothingButItsOwnConnection) {
 
         auto stats = json::parse(run_cli(dir, daemon, {"stats", "/hostile/in", "--json"}).out);
         const auto monitor = stats["ports"][0]["inbound"][0]["monitors"][0];
-        std::cout << "  " << script << ": calm p50 " << calm.p50 << " ms, p99 " << calm.p99 << " ms; plexus list "
-                  << list_ms << " ms; hostile calls " << monitor["messages"] << ", errors "
-                  << monitor["errors"] << " (timeouts " << monitor["timeouts"] << ", out of memory "
-                  << monitor["out_of_memory"] << ")\n";
+        std::cout << "  " << script << ": calm p50 " << calm.p50 << " ms, p99 " << calm.p99
+                  << " ms; plexus list " << list_ms << " ms; hostile calls " << monitor["messages"]
+                  << ", errors " << monitor["errors"] << " (timeouts " << monitor["timeouts"]
+                  << ", out of memory " << monitor["out_of_memory"] << ")\n";
         EXPECT_LT(calm.p99, 5.0 * slowdown()) << script;
         EXPECT_LT(list_ms, 1000.0 * slowdown()) << script;
         EXPECT_GE(monitor["errors"].get<std::uint64_t>(), 2u);
@@ -259,10 +260,12 @@ end
     MonitoredBesideCalm connections(daemon, "odd", "now_and_then");
     PacedWriter odd(connections.monitored_out, 1ms);
     auto inbound_stats = [&] {
-        return json::parse(run_cli(dir, daemon, {"stats", "/odd/in", "--json"}).out)["ports"][0]["inbound"][0];
+        return json::parse(
+            run_cli(dir, daemon, {"stats", "/odd/in", "--json"}).out)["ports"][0]["inbound"][0];
     };
-    ASSERT_TRUE(eventually([&] { return inbound_stats()["monitor_inline_overruns"].get<std::uint64_t>() >= 3; },
-                           slower(std::chrono::milliseconds(30000))))
+    ASSERT_TRUE(
+        eventually([&] { return inbound_stats()["monitor_inline_overruns"].get<std::uint64_t>() >= 3; },
+                   slower(std::chrono::milliseconds(30000))))
         << "the stage did not overrun inline, come back and overrun again";
 
     const auto calm = measure_calm(connections.calm_out, connections.calm_in);
@@ -270,8 +273,8 @@ end
     odd.stop();
     const auto inbound = inbound_stats();
     std::cout << "  now_and_then: calm p50 " << calm.p50 << " ms, p99 " << calm.p99 << " ms; inline overruns "
-              << inbound["monitor_inline_overruns"] << ", odd messages " << inbound["received"]
-              << ", errors " << inbound["monitors"][0]["errors"] << "\n";
+              << inbound["monitor_inline_overruns"] << ", odd messages " << inbound["received"] << ", errors "
+              << inbound["monitors"][0]["errors"] << "\n";
     EXPECT_LT(calm.p99, 5.0 * slowdown());
 }
 

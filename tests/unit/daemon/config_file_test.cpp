@@ -43,7 +43,8 @@ TEST(ConfigFile_test, MonitorInlineCostIsTakenZeroTurnsInlineOffAndTooMuchIsRefu
         apply_config_text("test.json", R"({"monitor_inline_cost_us": 1000001})", config);
         ADD_FAILURE() << "accepted 1000001";
     } catch (const std::runtime_error& e) {
-        EXPECT_NE(std::string(e.what()).find("monitor_inline_cost_us must be at most 1000000"), std::string::npos)
+        EXPECT_NE(std::string(e.what()).find("monitor_inline_cost_us must be at most 1000000"),
+                  std::string::npos)
             << e.what();
     }
 }
