@@ -10,17 +10,24 @@
 namespace plexus::test {
 namespace {
 
-TEST(BenchMonitor_test, EveryVariantRunsAndPrintsItsRow) {
+/// Runs plexus-bench with `arguments` (--json among them) to its end; its rows, none if it failed.
+std::vector<nlohmann::json> bench_rows(const std::vector<std::string>& arguments) {
     TempDir dir;
-    Process bench(
-        {PLEXUS_BENCH_PATH, "monitor", "--json", "--count", "2000", "--repeat", "1", "--empty-accept"}, {},
-        dir.file("bench"));
+    std::vector<std::string> command{PLEXUS_BENCH_PATH};
+    command.insert(command.end(), arguments.begin(), arguments.end());
+    Process bench(command, {}, dir.file("bench"));
     const auto status = bench.wait(std::chrono::seconds(120));
-    ASSERT_TRUE(status.has_value()) << "the bench did not finish";
-    ASSERT_EQ(*status, 0) << bench.err();
+    EXPECT_TRUE(status.has_value()) << "the bench did not finish";
+    EXPECT_EQ(status.value_or(-1), 0) << bench.err();
+    if (status != 0)
+        return {};
+    return json_lines(bench.out());
+}
 
+TEST(BenchMonitor_test, EveryVariantRunsAndPrintsItsRow) {
     std::set<std::string> systems;
-    for (const auto& row : json_lines(bench.out())) {
+    for (const auto& row :
+         bench_rows({"monitor", "--json", "--count", "2000", "--repeat", "1", "--empty-accept"})) {
         for (const char* key : {"system", "scenario", "size", "msgs_per_s", "cpu_us_per_msg"})
             EXPECT_TRUE(row.contains(key)) << key << " missing in " << row.dump();
         EXPECT_EQ(row.at("scenario"), "monitor_1hop");
@@ -33,14 +40,8 @@ TEST(BenchMonitor_test, EveryVariantRunsAndPrintsItsRow) {
 TEST(BenchMonitor_test, MonitorLatencyMeasuresInlineAndOnAWorkerBesideNone) {
     // Two daemons, one with --no-inline-monitors: the worker row must come from a daemon that runs
     // (an unknown flag would end the bench here, not in a user's hands).
-    TempDir dir;
-    Process bench({PLEXUS_BENCH_PATH, "monitor-latency", "--json", "--count", "500", "--repeat", "1"}, {},
-                  dir.file("bench"));
-    const auto status = bench.wait(std::chrono::seconds(120));
-    ASSERT_TRUE(status.has_value()) << "the bench did not finish";
-    ASSERT_EQ(*status, 0) << bench.err();
     std::set<std::string> systems;
-    for (const auto& row : json_lines(bench.out())) {
+    for (const auto& row : bench_rows({"monitor-latency", "--json", "--count", "500", "--repeat", "1"})) {
         EXPECT_EQ(row.at("scenario"), "monitor_latency_1hop");
         EXPECT_GT(row.at("msgs_per_s").get<double>(), 0) << row.dump();
         systems.insert(row.at("system").get<std::string>());
