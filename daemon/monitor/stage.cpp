@@ -142,6 +142,10 @@ void MonitorStage::drain_inline() {
     LuaSandbox::watch_inline_slice(&slice);
     const auto drained = process_waiting(results, started + inline_batch_time, slice_messages);
     LuaSandbox::watch_inline_slice(nullptr);
+    // Named under the lock: once it is let go, the strand may close the stage and free the chain.
+    const std::string overran_monitors = !slice.overran || chain_->monitors.empty()
+                                             ? std::string("a connection")
+                                             : chain_->monitors.front()->description();
     monitors.unlock();
     if (slice.overran) {
         stand_in_->give_back();  // from here on this thread has the loop again
@@ -153,7 +157,7 @@ void MonitorStage::drain_inline() {
         spdlog::warn(
             "monitors of {} ran past {} us on the daemon's thread; the event loop went on "
             "without them, and they run on a worker until they are cheap again",
-            chain_->monitors.empty() ? std::string("a connection") : chain_->monitors.front()->description(),
+            overran_monitors,
             std::chrono::duration_cast<std::chrono::microseconds>(inline_overrun_after).count());
     }
     complete(results, Clock::now() - started, drained.messages);
