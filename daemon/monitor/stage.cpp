@@ -118,11 +118,17 @@ void MonitorStage::drain() {
     {
         std::lock_guard monitors(monitors_mutex_);
         drained = process_waiting(results, started + slice_time, slice_messages);
-    }
-    const auto took = Clock::now() - started;
-    if (!results.empty() || drained.messages > 0) {
-        asio::post(io_, [self = shared_from_this(), results = std::move(results), took,
-                         messages = drained.messages]() mutable { self->complete(results, took, messages); });
+        // Posted before the monitors are let go: an inline drain, which can only start after
+        // that, sees the report pending and waits for it (see drain_inline).
+        if (!results.empty() || drained.messages > 0) {
+            const auto took = Clock::now() - started;
+            ++strand_reports_pending_;
+            asio::post(io_, [self = shared_from_this(), results = std::move(results), took,
+                             messages = drained.messages]() mutable {
+                --self->strand_reports_pending_;
+                self->complete(results, took, messages);
+            });
+        }
     }
     if (drained.more)  // the rest after whatever else waits for a worker
         asio::post(strand_, [self = shared_from_this()] { self->drain(); });
@@ -134,6 +140,13 @@ void MonitorStage::drain_inline() {
         // A trig or a param call has the monitors on the strand now, or the stand-in has the loop
         // (it must not hand over in turn): these messages go to the strand.
         asio::post(strand_, [self = shared_from_this()] { self->drain(); });
+        return;
+    }
+    if (strand_reports_pending_ > 0) {
+        // The strand's verdicts for earlier messages are still on their way to this loop: these
+        // messages' verdicts, handed over at once, would pass them. After them, then.
+        monitors.unlock();
+        asio::post(io_, [self = shared_from_this()] { self->drain_inline(); });
         return;
     }
     std::vector<Filtered> results;

@@ -49,7 +49,8 @@ struct Inlet_test : ::testing::Test {
         workers->finish();
     }
 
-    std::shared_ptr<Inlet> inlet_with(const std::string& script) {
+    std::shared_ptr<Inlet> inlet_with(const std::string& script,
+                                      monitor::MonitorStage::Options options = {}) {
         auto member = std::make_shared<arbitration::Member>(arbiter, "/a");
         auto inlet = std::make_shared<Inlet>(port, "/a", "local+recv.portmonitor+file.t", member);
         monitor::MonitorSpec spec;
@@ -65,7 +66,7 @@ struct Inlet_test : ::testing::Test {
         auto chain = std::make_shared<monitor::MonitorChain>();
         chain->monitors.push_back(std::move(*created));
         auto stage = std::make_shared<monitor::MonitorStage>(workers, io.get_executor(), chain, member,
-                                                             monitor::MonitorStage::Options{}, nullptr);
+                                                             options, nullptr);
         stage->attach(inlet);
         inlet->monitors = stage;
         stages.push_back(stage);
@@ -125,6 +126,56 @@ TEST_F(Inlet_test, ARewrittenRecordLeavesOnItsOwnAndEndsTheRun) {
     EXPECT_EQ(rewritten->seq, 2u);
     EXPECT_EQ(nlohmann::json::from_cbor(rewritten->payload.begin(), rewritten->payload.end()), 200);
     EXPECT_EQ(seqs_of(entries[2]), (std::vector<std::uint64_t>{3, 4}));
+}
+
+TEST_F(Inlet_test, MessagesKeepTheirOrderWhileTheMonitorsMoveBetweenTheLoopAndAWorker) {
+    // A script whose cost swings across the inline limit every few hundred messages: the stage
+    // moves its monitors from the daemon's thread to a worker and back many times over, and
+    // every message must still reach the port in the order it came (a worker's verdicts, posted
+    // back to the loop, once trailed the first inline drain after the move back).
+    workers = std::make_shared<monitor::Workers>(1, &io);
+    port = std::make_shared<Port>("/b", 1, QueuePolicy::strict, 1'000'000);
+    monitor::MonitorStage::Options options;
+    options.inline_cost_limit = 4us;
+    auto inlet = inlet_with(R"(
+        local n = 0
+        PortMonitor.accept = function(msg)
+            n = n + 1
+            if (n // 1000) % 2 == 1 then
+                local x = 0
+                for i = 1, 500 do x = x + i end
+            end
+            return true
+        end)",
+                            options);
+    constexpr std::uint64_t count = 30'000;
+    const auto* stage = monitor::stage_of(inlet->monitors);
+    bool was_inline = stage->runs_inline();
+    int moves = 0;
+    std::uint64_t next = 1;
+    const auto deadline = std::chrono::steady_clock::now() + 60s;
+    while (next <= count && std::chrono::steady_clock::now() < deadline) {
+        // A few at a time, as a session's reads bring them, with the loop's handlers in between.
+        for (int i = 0; i < 3 && next <= count && inlet->room() > 0; ++i, ++next)
+            inlet->deliver(test::json_message(next, next));
+        io.restart();
+        io.poll();
+        moves += stage->runs_inline() != was_inline;
+        was_inline = stage->runs_inline();
+    }
+    wait_for_verdicts(*inlet);
+    ASSERT_EQ(inlet->delivered, count);
+    std::uint64_t expected = 1;
+    std::uint64_t out_of_order = 0;
+    for (const auto& entry : queued()) {
+        for (const auto seq : entry) {
+            if (seq != expected)
+                ++out_of_order;
+            expected = seq + 1;
+        }
+    }
+    EXPECT_EQ(out_of_order, 0u);
+    EXPECT_GE(moves, 2) << "the monitors did not move to a worker and back: the test proves nothing";
 }
 
 }  // namespace
