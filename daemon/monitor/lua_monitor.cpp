@@ -207,8 +207,6 @@ private:
     bool has_callback(lua_State* L, const char* name);
     /// Pushes PortMonitor[name] if it is a function; false (nothing pushed) otherwise.
     bool push_callback(lua_State* L, const char* name);
-    /// The same for a name anchored in the registry: cannot raise, so usable outside a protected call.
-    bool push_callback(lua_State* L, int name_ref);
     /// accept on the fast path: no protected trampoline, no std::function.
     std::optional<ScriptError> call_accept(lua_State* L, bool& accepted);
 
@@ -222,6 +220,14 @@ private:
     int api_name_ref_ = LUA_NOREF;       ///< "PortMonitor", kept alive so pushing it never allocates
     int accept_name_ref_ = LUA_NOREF;    ///< "accept", likewise
     bool has_accept_ = false;
+    /// Stack indexes of what every accept call needs (LuaSandbox::pin): the globals table, the
+    /// names "PortMonitor" and "accept", the msg userdata.
+    struct Pins {
+        int globals = 0;
+        int api_name = 0;
+        int accept_name = 0;
+        int message = 0;
+    } pins_;
     bool has_update_ = false;
 };
 
@@ -272,40 +278,31 @@ bool LuaMonitor::push_callback(lua_State* L, const char* name) {
     return true;
 }
 
-bool LuaMonitor::push_callback(lua_State* L, int name_ref) {
-    if (!lua_checkstack(L, 4))
-        return false;
-    lua_rawgeti(L, LUA_REGISTRYINDEX, LUA_RIDX_GLOBALS);
-    lua_rawgeti(L, LUA_REGISTRYINDEX, api_name_ref_);
-    if (lua_rawget(L, -2) != LUA_TTABLE) {
-        lua_pop(L, 2);
-        return false;
-    }
-    lua_rawgeti(L, LUA_REGISTRYINDEX, name_ref);
-    if (lua_rawget(L, -2) != LUA_TFUNCTION) {
-        lua_pop(L, 3);
-        return false;
-    }
-    lua_replace(L, -3);
-    lua_pop(L, 1);
-    return true;
-}
-
 std::optional<ScriptError> LuaMonitor::call_accept(lua_State* L, bool& accepted) {
+    // PortMonitor.accept looked up afresh (a script may replace or remove it at any time), from
+    // values pinned at the bottom of the stack: no registry lookups, no stack shuffling. The
+    // PortMonitor table stays below the call until the stack is reset.
     const int base = lua_gettop(L);
-    if (!push_callback(L, accept_name_ref_))
+    lua_pushvalue(L, pins_.api_name);
+    if (lua_rawget(L, pins_.globals) != LUA_TTABLE) {
+        lua_settop(L, base);
+        return std::nullopt;  // no PortMonitor table any more: everything passes
+    }
+    lua_pushvalue(L, pins_.accept_name);
+    if (lua_rawget(L, -2) != LUA_TFUNCTION) {
+        lua_settop(L, base);
         return std::nullopt;  // the script removed its accept: everything passes
-    lua_rawgeti(L, LUA_REGISTRYINDEX, message_ref_);
+    }
+    lua_pushvalue(L, pins_.message);
     auto error = sandbox_->call(1, 1);
-    if (error)
-        return error;
     std::optional<ScriptError> wrong_type;
-    if (!lua_isboolean(L, -1))
+    if (!error && !lua_isboolean(L, -1))
         wrong_type =
             ScriptError{std::string("accept must return true or false, not ") + luaL_typename(L, -1)};
-    accepted = lua_toboolean(L, -1) != 0;
+    else if (!error)
+        accepted = lua_toboolean(L, -1) != 0;
     lua_settop(L, base);
-    return wrong_type;
+    return error ? error : wrong_type;
 }
 
 bool LuaMonitor::has_callback(lua_State* L, const char* name) {
@@ -350,6 +347,15 @@ proto::Status LuaMonitor::create() {
     });
     if (setup)
         return proto::Error{"script '" + name + "': cannot set up its state: " + setup->message};
+    lua_State* L = sandbox_->state();
+    lua_rawgeti(L, LUA_REGISTRYINDEX, LUA_RIDX_GLOBALS);
+    pins_.globals = sandbox_->pin();
+    lua_rawgeti(L, LUA_REGISTRYINDEX, api_name_ref_);
+    pins_.api_name = sandbox_->pin();
+    lua_rawgeti(L, LUA_REGISTRYINDEX, accept_name_ref_);
+    pins_.accept_name = sandbox_->pin();
+    lua_rawgeti(L, LUA_REGISTRYINDEX, message_ref_);
+    pins_.message = sandbox_->pin();
     if (auto loaded = sandbox_->load(spec.script.code, spec.script.path); !loaded)
         return proto::Error{"script '" + name + "' failed to load: " + loaded.error().message};
 
@@ -407,10 +413,8 @@ MonitorBackend::Outcome LuaMonitor::process(Message& message) {
     lua_State* L = sandbox_->state();
     message_box_->view = &view;
     if (data_kept_) {
-        lua_rawgeti(L, LUA_REGISTRYINDEX, message_ref_);
         lua_pushnil(L);
-        lua_setiuservalue(L, -2, 1);  // forget the previous message's data
-        lua_pop(L, 1);
+        lua_setiuservalue(L, pins_.message, 1);  // forget the previous message's data
         data_kept_ = false;
     }
 

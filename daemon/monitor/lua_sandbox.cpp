@@ -58,6 +58,16 @@ LuaSandbox::LuaSandbox(SandboxLimits limits, std::function<void(std::string_view
     }
 }
 
+int LuaSandbox::pin() {
+    const int index = lua_gettop(L_);
+    // The traceback handler, the ones pinned before, this one; and room left in the base frame's
+    // LUA_MINSTACK slots for what a call pushes above them.
+    if (index != pinned_ + 2 || index > 8)
+        throw std::logic_error("LuaSandbox::pin: the stack holds more than a few pinned values");
+    ++pinned_;
+    return index;
+}
+
 LuaSandbox::~LuaSandbox() {
     if (L_) {
         arm_budget();  // finalizers that lua_close runs get the same budget as any call

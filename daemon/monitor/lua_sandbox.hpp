@@ -39,6 +39,11 @@ public:
     LuaSandbox& operator=(const LuaSandbox&) = delete;
 
     lua_State* state() { return L_; }
+    /// Keeps the value on top of the stack at the bottom of the stack for the state's life, above
+    /// the ones pinned before, and gives its index: a value a call per message needs is then one
+    /// lua_pushvalue away, not a registry lookup. Only outside run() and call(), with nothing but
+    /// pinned values below (so at most a few: the base frame has LUA_MINSTACK slots).
+    int pin();
     std::size_t memory_in_use() const { return used_; }
 
     /// Compiles and runs a script's text (never bytecode) under the budget.
@@ -103,6 +108,7 @@ private:
     std::optional<ScriptError> error_from_stack(int status);
 
     SandboxLimits limits_;
+    int pinned_ = 0;  ///< values pin() keeps above the traceback handler
     std::function<void(std::string_view)> log_;
     std::size_t used_ = 0;
     SmallBlocks blocks_;  ///< outlives the state: lua_close (in the destructor's body) gives blocks back

@@ -126,6 +126,56 @@ TEST_F(Monitor_test, StaleMsgAndBadAssignmentsAreErrors) {
     EXPECT_NE(assigns_seq->last_error().find("only msg.data"), std::string::npos);
 }
 
+TEST_F(Monitor_test, AcceptIsLookedUpAtEveryMessageSoAScriptMayReplaceOrRemoveIt) {
+    // accept is found through the PortMonitor global at every message, as in YARP: a script that
+    // swaps it, removes it, or replaces the whole table is taken at its word from the next message.
+    auto monitor = make(R"(
+        local n = 0
+        local function odd_only(msg) return msg.data % 2 == 1 end
+        PortMonitor.accept = function(msg)
+            n = n + 1
+            if n == 2 then PortMonitor.accept = odd_only end
+            return false
+        end
+        PortMonitor.trig = function()
+            if PortMonitor.accept == odd_only then PortMonitor.accept = nil
+            else PortMonitor = nil end
+        end)");
+    auto verdict = [&](int value) {
+        auto message = make_message(value);
+        return monitor->process(message);
+    };
+    EXPECT_EQ(verdict(1), Monitor::Verdict::drop);  // the first accept
+    EXPECT_EQ(verdict(1), Monitor::Verdict::drop);  // ... which swaps itself out after this one
+    EXPECT_EQ(verdict(2), Monitor::Verdict::drop);  // odd_only
+    EXPECT_EQ(verdict(3), Monitor::Verdict::pass);
+    monitor->trig();  // accept removed: everything passes
+    EXPECT_EQ(verdict(2), Monitor::Verdict::pass);
+    monitor->trig();  // the PortMonitor table gone: everything passes, nothing fails
+    for (int i = 0; i < 100; ++i)
+        EXPECT_EQ(verdict(2), Monitor::Verdict::pass);
+    EXPECT_EQ(monitor->counters().errors, 0u) << monitor->last_error();
+}
+
+TEST_F(Monitor_test, ThousandsOfFailingAcceptsLeaveTheStackAsItWas) {
+    // Every way out of accept (an error, a wrong type, no accept at all) resets the stack: a slot
+    // left behind per message would overrun the state's stack within a few dozen messages.
+    auto monitor = make(R"(
+        local n = 0
+        PortMonitor.accept = function(msg)
+            n = n + 1
+            if n % 3 == 0 then error("boom") elseif n % 3 == 1 then return "yes" end
+            return true
+        end)");
+    for (int i = 0; i < 3000; ++i) {
+        auto message = make_message(i);
+        monitor->process(message);
+    }
+    EXPECT_EQ(monitor->counters().errors, 2000u);
+    auto message = make_message(1);
+    EXPECT_EQ(monitor->process(message), Monitor::Verdict::drop);  // n = 3001: "yes"
+}
+
 TEST_F(Monitor_test, WrongReturnTypesAreCountedErrors) {
     auto accept_string = make("PortMonitor.accept = function(msg) return 'yes' end");
     auto message = make_message(1);
