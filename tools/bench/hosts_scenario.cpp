@@ -137,27 +137,39 @@ private:
 /// everything Plexus does beyond forwarding frames. One per measurement (a relay pairs one client).
 class RelayPair {
 public:
-    RelayPair(const HostsNetwork& network, const TempDir& dir, const std::string& tag, int a, int b) {
+    /// `udp`: the relays exchange frames as datagrams (the udp carrier's floor; latency only).
+    RelayPair(const HostsNetwork& network, const TempDir& dir, const std::string& tag, int a, int b,
+              bool udp = false) {
+        std::vector<std::string> link_mode;
+        if (udp)
+            link_mode.push_back("--udp-link");
         const std::string self = std::filesystem::read_symlink("/proc/self/exe").string();
         const std::string near_socket = dir.file(tag + "-relay-a.sock");
         const std::string far_socket = dir.file(tag + "-relay-b.sock");
         const std::string near_ready = dir.file(tag + "-relay-a.ready");
         const std::string far_ready = dir.file(tag + "-relay-b.ready");
-        const auto near = nlohmann::json::parse(
-            start_ready(processes_,
-                        network.wrap(a, {self, "relay", "--socket", near_socket, "--ready-file", near_ready,
-                                         "--link-listen", "--link-address", network.address(a)}),
-                        near_ready, dir.file(tag + "-relay-a.log")));
-        start_ready(processes_,
-                    network.wrap(b, {self, "relay", "--socket", far_socket, "--ready-file", far_ready,
-                                     "--link-connect", near.at("link").get<std::string>()}),
-                    far_ready, dir.file(tag + "-relay-b.log"));
+        const auto near = nlohmann::json::parse(start_ready(
+            processes_,
+            network.wrap(a,
+                         with(link_mode, {self, "relay", "--socket", near_socket, "--ready-file", near_ready,
+                                          "--link-listen", "--link-address", network.address(a)})),
+            near_ready, dir.file(tag + "-relay-a.log")));
+        start_ready(
+            processes_,
+            network.wrap(b, with(link_mode, {self, "relay", "--socket", far_socket, "--ready-file", far_ready,
+                                             "--link-connect", near.at("link").get<std::string>()})),
+            far_ready, dir.file(tag + "-relay-b.log"));
         topology_ =
             Topology::existing({near_socket, far_socket}, {processes_[0]->pid(), processes_[1]->pid()});
     }
     const Topology& topology() const { return *topology_; }
 
 private:
+    static std::vector<std::string> with(const std::vector<std::string>& extra,
+                                         std::vector<std::string> command) {
+        command.insert(command.end(), extra.begin(), extra.end());
+        return command;
+    }
     std::vector<std::unique_ptr<ChildProcess>> processes_;
     std::unique_ptr<Topology> topology_;
 };
@@ -446,12 +458,14 @@ void print_tables(const HostsOptions& options, const std::vector<Row>& rows,
                     floor_text(carrier, "latency").c_str(),
                     carrier == "mcast" ? (x <= 1.5 ? "(met)" : "(missed)") : (x <= 1.5 ? "met" : "missed"));
     }
-    {
-        const Row& row = find_row(rows, "latency", "tcp", small);
+    for (const std::string carrier : {"tcp", "udp"}) {
+        const Row& row = find_row(rows, "latency", carrier, small);
         const auto& p = *row.find("plexus");
         const auto& r = *row.find("relay_floor");
-        std::printf("  %-6s %10s %10s %10.1f %10.1f %9.2f %9.2f  %s\n", "tcp", "", "", r.p50_us, r.p99_us,
-                    ratio(p.p50_us, r.p50_us), ratio(p.p99_us, r.p99_us), "relay floor: Plexus's hops");
+        const double x = ratio(p.p50_us, r.p50_us);
+        std::printf("  %-6s %10s %10s %10.1f %10.1f %9.2f %9.2f  %-26s %s\n", carrier.c_str(), "", "",
+                    r.p50_us, r.p99_us, x, ratio(p.p99_us, r.p99_us), "relay floor: Plexus's hops",
+                    x <= 1.5 ? "met" : "missed");
     }
 
     std::printf("\n2. throughput, 1 MiB messages, host 1 -> host 2 (%zu messages per run, %s)\n",
@@ -592,8 +606,9 @@ int run_hosts(const HostsOptions& given) {
         }
         std::unique_ptr<RelayPair> relays;
         std::unique_ptr<Measurement> relayed;
-        if (carrier == "tcp") {
-            relays = std::make_unique<RelayPair>(*network, dir, "latency", writer_host, reader_host);
+        if (carrier != "mcast") {
+            relays = std::make_unique<RelayPair>(*network, dir, "latency-" + carrier, writer_host,
+                                                 reader_host, carrier == "udp");
             relayed = floor_latency(relays->topology(), o);
             systems.emplace_back("relay_floor", relayed.get());
         }

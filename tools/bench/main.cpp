@@ -152,6 +152,7 @@ int main(int argc, char** argv) {
     relay->add_option("--ready-file", relay_options.ready_file)->required();
     relay->add_flag("--link-listen", relay_options.link_listen);
     relay->add_option("--link-connect", relay_options.link_connect);
+    relay->add_flag("--udp-link", relay_options.udp_link);
     relay->add_option("--link-address", relay_options.link_address);
     relay->callback([&] { status = run_relay(relay_options); });
 

@@ -88,6 +88,54 @@ int connect_tcp(const std::string& address_text) {
     return fd;
 }
 
+/// UDP on `host`:0 (near side); its port in `port`.
+int bind_udp(const std::string& host, int& port) {
+    const int fd = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+    if (fd < 0)
+        die("socket udp");
+    sockaddr_in address{};
+    address.sin_family = AF_INET;
+    if (::inet_pton(AF_INET, host.c_str(), &address.sin_addr) != 1)
+        throw std::runtime_error("relay: bad address " + host);
+    if (::bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0)
+        die("bind udp");
+    socklen_t length = sizeof address;
+    ::getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length);
+    port = ntohs(address.sin_port);
+    return fd;
+}
+
+/// The far side's UDP socket, connected to the near side's, which learns its address from a
+/// one-byte hello (frames are at least a length prefix long, so it is never taken for one).
+int connect_udp(const std::string& address_text) {
+    const auto colon = address_text.rfind(':');
+    sockaddr_in address{};
+    address.sin_family = AF_INET;
+    address.sin_port = htons(static_cast<std::uint16_t>(std::stoi(address_text.substr(colon + 1))));
+    if (::inet_pton(AF_INET, address_text.substr(0, colon).c_str(), &address.sin_addr) != 1)
+        throw std::runtime_error("relay: bad address " + address_text);
+    const int fd = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+    if (fd < 0)
+        die("socket udp");
+    if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0)
+        die("connect udp " + address_text);
+    const std::uint8_t hello = 0;
+    if (::send(fd, &hello, 1, 0) != 1)
+        die("send hello");
+    return fd;
+}
+
+/// Near side: waits for the far side's hello and connects the socket back to it.
+void take_udp_hello(int fd) {
+    sockaddr_in from{};
+    socklen_t length = sizeof from;
+    std::uint8_t byte = 0;
+    if (::recvfrom(fd, &byte, 1, 0, reinterpret_cast<sockaddr*>(&from), &length) < 0)
+        die("recv hello");
+    if (::connect(fd, reinterpret_cast<sockaddr*>(&from), length) != 0)
+        die("connect udp back");
+}
+
 void write_ready(const std::string& path, const std::string& link_host, int link_port) {
     const std::string temporary = path + ".tmp";
     {
@@ -226,9 +274,110 @@ void forward(int first, int second) {
     }
 }
 
+void send_all(int fd, const std::uint8_t* data, std::size_t size) {
+    while (size > 0) {
+        const ssize_t n = ::send(fd, data, size, MSG_NOSIGNAL);
+        if (n < 0) {
+            if (errno == EINTR)
+                continue;
+            die("send");
+        }
+        data += n;
+        size -= static_cast<std::size_t>(n);
+    }
+}
+
+/// Forwards between a client's stream socket and the UDP link until the client closes: every
+/// whole frame from the client leaves as one datagram; every datagram goes to the client as it
+/// came (it is a whole frame, prefix included). A datagram the socket cannot take is dropped.
+void forward_datagrams(int stream, int link) {
+    const int epoll = ::epoll_create1(EPOLL_CLOEXEC);
+    if (epoll < 0)
+        die("epoll_create1");
+    for (const int fd : {stream, link}) {
+        epoll_event event{};
+        event.events = EPOLLIN;
+        event.data.fd = fd;
+        if (::epoll_ctl(epoll, EPOLL_CTL_ADD, fd, &event) != 0)
+            die("epoll_ctl");
+    }
+    std::vector<std::uint8_t> from_stream(initial_buffer);
+    std::size_t begin = 0;
+    std::size_t end = 0;
+    std::vector<std::uint8_t> datagram(65536);
+    epoll_event events[2];
+    for (;;) {
+        const int ready = ::epoll_wait(epoll, events, 2, -1);
+        if (ready < 0) {
+            if (errno == EINTR)
+                continue;
+            die("epoll_wait");
+        }
+        for (int i = 0; i < ready; ++i) {
+            if (events[i].data.fd == stream) {
+                const ssize_t n =
+                    ::recv(stream, from_stream.data() + end, from_stream.size() - end, MSG_DONTWAIT);
+                if (n == 0)
+                    return;
+                if (n < 0)
+                    continue;
+                end += static_cast<std::size_t>(n);
+                while (end - begin >= floor_frame::length_size) {
+                    const std::size_t whole =
+                        floor_frame::length_size + floor_frame::get_u32(from_stream.data() + begin);
+                    if (whole > datagram.size())
+                        throw std::runtime_error("relay: a frame larger than a datagram on a udp link");
+                    if (begin + whole > end)
+                        break;
+                    ::send(link, from_stream.data() + begin, whole, MSG_DONTWAIT);
+                    begin += whole;
+                }
+                std::memmove(from_stream.data(), from_stream.data() + begin, end - begin);
+                end -= begin;
+                begin = 0;
+            } else {
+                for (;;) {
+                    const ssize_t n = ::recv(link, datagram.data(), datagram.size(), MSG_DONTWAIT);
+                    if (n < 0)
+                        break;
+                    if (static_cast<std::size_t>(n) >= floor_frame::length_size)  // not a hello
+                        send_all(stream, datagram.data(), static_cast<std::size_t>(n));
+                }
+            }
+        }
+    }
+}
+
+int run_udp_relay(const RelayOptions& options) {
+    const int clients = listen_unix(options.socket);
+    int link_port = 0;
+    const int link =
+        options.link_listen ? bind_udp(options.link_address, link_port) : connect_udp(options.link_connect);
+    write_ready(options.ready_file, options.link_address, link_port);
+    if (options.link_listen)
+        take_udp_hello(link);
+    const int client = ::accept4(clients, nullptr, nullptr, SOCK_CLOEXEC);
+    if (client < 0)
+        die("accept");
+    forward_datagrams(client, link);
+    return 0;
+}
+
 }  // namespace
 
 int run_relay(const RelayOptions& options) {
+    if (options.udp_link) {
+        if (!options.link_listen && options.link_connect.empty()) {
+            std::fprintf(stderr, "relay: --udp-link needs --link-listen or --link-connect\n");
+            return 1;
+        }
+        try {
+            return run_udp_relay(options);
+        } catch (const std::exception& e) {
+            std::fprintf(stderr, "%s\n", e.what());
+            return 1;
+        }
+    }
     try {
         const int clients = listen_unix(options.socket);
         int link_port = 0;

@@ -7,6 +7,8 @@
 // Topologies (the same processes and socket hops as Plexus):
 //   one hop:  client A --unix-- relay --unix-- client B            (the relay pairs its first two clients)
 //   two hops: client A --unix-- relay a --tcp-- relay b --unix-- client B
+//   two hops over udp: the same with a connected UDP socket between the relays, one datagram per
+//                      frame (latency only: frames up to 64 KiB, no loss recovery, as a udp floor)
 
 #include <string>
 
@@ -19,6 +21,7 @@ struct RelayOptions {
     std::string link_connect;  ///< two hops, far side: connect to the other relay at 127.0.0.1:PORT
     /// The address the near side's link listens on (`plexus-bench hosts`: its host's eth0).
     std::string link_address = "127.0.0.1";
+    bool udp_link = false;  ///< two hops: the relays exchange frames as datagrams, not over TCP
 };
 
 /// Runs a relay until one side closes; the exit status for main.
