@@ -47,21 +47,46 @@ int listen_unix(const std::string& path) {
     return fd;
 }
 
-int listen_tcp(const std::string& host, int& port) {
-    const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    if (fd < 0)
-        die("socket");
+sockaddr_in ipv4(const std::string& host, int port) {
     sockaddr_in address{};
     address.sin_family = AF_INET;
+    address.sin_port = htons(static_cast<std::uint16_t>(port));
     if (::inet_pton(AF_INET, host.c_str(), &address.sin_addr) != 1)
         throw std::runtime_error("relay: bad address " + host);
+    return address;
+}
+
+/// A socket of `type` bound to `host`:0; the port it got in `port`.
+int bound(int type, const std::string& host, int& port) {
+    const int fd = ::socket(AF_INET, type | SOCK_CLOEXEC, 0);
+    if (fd < 0)
+        die("socket");
+    sockaddr_in address = ipv4(host, 0);
     if (::bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0)
-        die("bind tcp");
-    if (::listen(fd, 8) != 0)
-        die("listen tcp");
+        die("bind " + host);
     socklen_t length = sizeof address;
     ::getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length);
     port = ntohs(address.sin_port);
+    return fd;
+}
+
+/// A socket of `type` connected to `address_text` (HOST:PORT).
+int connected(int type, const std::string& address_text) {
+    const auto colon = address_text.rfind(':');
+    const sockaddr_in address =
+        ipv4(address_text.substr(0, colon), std::stoi(address_text.substr(colon + 1)));
+    const int fd = ::socket(AF_INET, type | SOCK_CLOEXEC, 0);
+    if (fd < 0)
+        die("socket");
+    if (::connect(fd, reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0)
+        die("connect " + address_text);
+    return fd;
+}
+
+int listen_tcp(const std::string& host, int& port) {
+    const int fd = bound(SOCK_STREAM, host, port);
+    if (::listen(fd, 8) != 0)
+        die("listen tcp");
     return fd;
 }
 
@@ -72,53 +97,15 @@ void no_delay(int fd) {
 }
 
 int connect_tcp(const std::string& address_text) {
-    const auto colon = address_text.rfind(':');
-    sockaddr_in address{};
-    address.sin_family = AF_INET;
-    address.sin_port = htons(static_cast<std::uint16_t>(std::stoi(address_text.substr(colon + 1))));
-    if (::inet_pton(AF_INET, address_text.substr(0, colon).c_str(), &address.sin_addr) != 1) {
-        throw std::runtime_error("relay: bad address " + address_text);
-    }
-    const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    if (fd < 0)
-        die("socket");
-    if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0)
-        die("connect " + address_text);
+    const int fd = connected(SOCK_STREAM, address_text);
     no_delay(fd);
-    return fd;
-}
-
-/// UDP on `host`:0 (near side); its port in `port`.
-int bind_udp(const std::string& host, int& port) {
-    const int fd = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-    if (fd < 0)
-        die("socket udp");
-    sockaddr_in address{};
-    address.sin_family = AF_INET;
-    if (::inet_pton(AF_INET, host.c_str(), &address.sin_addr) != 1)
-        throw std::runtime_error("relay: bad address " + host);
-    if (::bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0)
-        die("bind udp");
-    socklen_t length = sizeof address;
-    ::getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length);
-    port = ntohs(address.sin_port);
     return fd;
 }
 
 /// The far side's UDP socket, connected to the near side's, which learns its address from a
 /// one-byte hello (frames are at least a length prefix long, so it is never taken for one).
 int connect_udp(const std::string& address_text) {
-    const auto colon = address_text.rfind(':');
-    sockaddr_in address{};
-    address.sin_family = AF_INET;
-    address.sin_port = htons(static_cast<std::uint16_t>(std::stoi(address_text.substr(colon + 1))));
-    if (::inet_pton(AF_INET, address_text.substr(0, colon).c_str(), &address.sin_addr) != 1)
-        throw std::runtime_error("relay: bad address " + address_text);
-    const int fd = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-    if (fd < 0)
-        die("socket udp");
-    if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0)
-        die("connect udp " + address_text);
+    const int fd = connected(SOCK_DGRAM, address_text);
     const std::uint8_t hello = 0;
     if (::send(fd, &hello, 1, 0) != 1)
         die("send hello");
@@ -234,10 +221,8 @@ void update_interest(int epoll, int fd, const Direction& leaving, const Directio
     ::epoll_ctl(epoll, EPOLL_CTL_MOD, fd, &event);
 }
 
-/// Forwards between two connected sockets until either closes.
-void forward(int first, int second) {
-    Direction forth{first, second};
-    Direction back{second, first};
+/// An epoll set waiting for either socket to be readable.
+int epoll_reading(int first, int second) {
     const int epoll = ::epoll_create1(EPOLL_CLOEXEC);
     if (epoll < 0)
         die("epoll_create1");
@@ -248,6 +233,14 @@ void forward(int first, int second) {
         if (::epoll_ctl(epoll, EPOLL_CTL_ADD, fd, &event) != 0)
             die("epoll_ctl");
     }
+    return epoll;
+}
+
+/// Forwards between two connected sockets until either closes.
+void forward(int first, int second) {
+    Direction forth{first, second};
+    Direction back{second, first};
+    const int epoll = epoll_reading(first, second);
     epoll_event events[4];
     for (;;) {
         const int ready = ::epoll_wait(epoll, events, 4, -1);
@@ -291,16 +284,7 @@ void send_all(int fd, const std::uint8_t* data, std::size_t size) {
 /// whole frame from the client leaves as one datagram; every datagram goes to the client as it
 /// came (it is a whole frame, prefix included). A datagram the socket cannot take is dropped.
 void forward_datagrams(int stream, int link) {
-    const int epoll = ::epoll_create1(EPOLL_CLOEXEC);
-    if (epoll < 0)
-        die("epoll_create1");
-    for (const int fd : {stream, link}) {
-        epoll_event event{};
-        event.events = EPOLLIN;
-        event.data.fd = fd;
-        if (::epoll_ctl(epoll, EPOLL_CTL_ADD, fd, &event) != 0)
-            die("epoll_ctl");
-    }
+    const int epoll = epoll_reading(stream, link);
     std::vector<std::uint8_t> from_stream(initial_buffer);
     std::size_t begin = 0;
     std::size_t end = 0;
@@ -351,8 +335,8 @@ void forward_datagrams(int stream, int link) {
 int run_udp_relay(const RelayOptions& options) {
     const int clients = listen_unix(options.socket);
     int link_port = 0;
-    const int link =
-        options.link_listen ? bind_udp(options.link_address, link_port) : connect_udp(options.link_connect);
+    const int link = options.link_listen ? bound(SOCK_DGRAM, options.link_address, link_port)
+                                         : connect_udp(options.link_connect);
     write_ready(options.ready_file, options.link_address, link_port);
     if (options.link_listen)
         take_udp_hello(link);
