@@ -17,11 +17,11 @@
 // Ownership: the chain's monitors (their Lua states) are touched only under monitors_mutex_, which
 // an inline drain takes with try_lock (and gives way to the strand if it cannot) and strand work
 // takes outright; at most one drain of either kind exists at a time (draining_), and an inline
-// drain waits for the verdicts a strand drain posted before it (strand_reports_pending_). The daemon's thread
-// reads their counters for `plexus stats` (atomics; see monitor.hpp) and reaches them for `plexus
-// param` through run(). Lock order: monitors_mutex_, then the stage's queue lock or the arbiter's
-// lock (taken by the scripts' event functions and by the arbitration after the monitors), then
-// nothing. No lock but monitors_mutex_ is held while a script runs.
+// drain waits for the verdicts a strand drain posted before it (strand_reports_pending_). The
+// daemon's thread reads their counters for `plexus stats` (atomics; see monitor.hpp) and reaches
+// them for `plexus param` through run(). Lock order: monitors_mutex_, then the stage's queue lock
+// or the arbiter's lock (taken by the scripts' event functions and by the arbitration after the
+// monitors), then nothing. No lock but monitors_mutex_ is held while a script runs.
 
 #include <atomic>
 #include <chrono>
