@@ -252,8 +252,14 @@ TEST_P(Priority_test, AMarkedControlStreamKeepsItsLatencyOnASaturatedLinkAndAnUn
               << qdisc;
     EXPECT_FALSE(marked.out_of_order());
     EXPECT_FALSE(plain.out_of_order());
-    // The marked stream loses nothing (band 0 never fills); over tcp neither does the unmarked.
-    EXPECT_EQ(marked.count(), control_count) << "marked stream: messages lost or late";
+    // Over tcp nothing is lost. Over udp the marked stream may lose a datagram now and then:
+    // pfifo_fast's limit (the device's txqueuelen) counts the packets of all its bands together,
+    // so a band-0 packet that comes while the bulk has filled the queue to it is dropped too (seen
+    // once in CI: 2,999 of 3,000, the qdisc at 996 of 1,000). What arrives must still be on time.
+    if (base == "tcp")
+        EXPECT_EQ(marked.count(), control_count) << "marked stream: messages lost or late";
+    else
+        EXPECT_GE(marked.count(), control_count * 99 / 100) << "marked stream: more than 1% lost or late";
     if (base == "tcp") {
         EXPECT_EQ(plain.count(), control_count);
         EXPECT_EQ(marked_seen, 1) << sockets;
