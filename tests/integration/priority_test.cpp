@@ -164,6 +164,15 @@ TEST_P(Priority_test, AMarkedControlStreamKeepsItsLatencyOnASaturatedLinkAndAnUn
     const std::string base = GetParam();  // of the two control streams
     Network net(3);
     TempDir dir;
+    // pfifo_fast's limit (the device's txqueuelen when the qdisc is made) counts all its bands
+    // together: at the default 1,000 the udp bulk fills it within a second, and a band-0 packet
+    // that comes then is dropped too. A marked tcp segment so dropped is sent again ~100 ms later
+    // (seen in CI under ASan: 56 messages over 10 ms at once). With tcp control streams the queue
+    // is made long enough to outlast the test's bulk, whose excess the daemon's UDP socket then
+    // refuses instead; with udp ones that would drop marked datagrams at the same socket, so
+    // there the short queue stays and the marked stream may lose a datagram (see below).
+    if (base == "tcp")
+        net.host(1).run_checked("ip link set dev eth0 txqueuelen 20000");
     net.host(1).run_checked(link_qdisc);
     NameServerProcess names(dir, net.host(0));
     Daemon one(dir, net.host(1), "one", names.address());
