@@ -42,7 +42,9 @@ public:
     /// Keeps the value on top of the stack at the bottom of the stack for the state's life, above
     /// the ones pinned before, and gives its index: a value a call per message needs is then one
     /// lua_pushvalue away, not a registry lookup. Only outside run() and call(), with nothing but
-    /// pinned values below (so at most a few: the base frame has LUA_MINSTACK slots).
+    /// pinned values below (so at most a few: the base frame has LUA_MINSTACK slots). The index
+    /// holds in the state's base frame only (call()'s callers), not inside run()'s body, which
+    /// runs in a C function's frame of its own: there use the registry.
     int pin();
     std::size_t memory_in_use() const { return used_; }
 
