@@ -33,7 +33,9 @@ protected:
             fail(request.error().message);
             co_return false;
         }
-        send(proto::encode_reply(server_.answer(*request, id_)));
+        if (!where_)
+            where_ = SessionAddresses{remote_ip(), local_ip()};
+        send(proto::encode_reply(server_.answer(*request, id_, *where_)));
         co_return true;
     }
     void on_auth_failure(const std::string&) override { server_.count_auth_failure(); }
@@ -46,6 +48,7 @@ protected:
 private:
     NameServer& server_;
     std::uint64_t id_;
+    std::optional<SessionAddresses> where_;  ///< both ends' addresses, read at the first request
 };
 
 std::string text_field(const nlohmann::json& body, const char* key) {
@@ -227,9 +230,10 @@ Task<void> NameServer::udp_loop() {
     }
 }
 
-proto::Reply NameServer::answer(const proto::Request& request, std::uint64_t session) {
+proto::Reply NameServer::answer(const proto::Request& request, std::uint64_t session,
+                               const SessionAddresses& where) {
     try {
-        return handle(request, session);
+        return handle(request, session, where);
     } catch (const std::exception& e) {
         // A field of the wrong JSON type: refuse the request, keep the session and the server.
         return proto::make_refusal(request.id, ReplyCode::usage,
@@ -237,7 +241,8 @@ proto::Reply NameServer::answer(const proto::Request& request, std::uint64_t ses
     }
 }
 
-proto::Reply NameServer::handle(const proto::Request& request, std::uint64_t session) {
+proto::Reply NameServer::handle(const proto::Request& request, std::uint64_t session,
+                               const SessionAddresses& where) {
     const auto& body = request.body;
     const std::string asked = body["op"];
     auto ok = [&](nlohmann::json out = nlohmann::json::object()) {
@@ -258,10 +263,14 @@ proto::Reply NameServer::handle(const proto::Request& request, std::uint64_t ses
         auto entry = registry_.lookup(text_field(body, "port"));
         if (!entry)
             return refuse("port " + text_field(body, "port") + " is not registered", ReplyCode::no);
-        return ok({{"port", entry->name}, {"node", entry->node}, {"address", entry->address}});
+        return ok({{"port", entry->name}, {"node", entry->node}, {"address", address_for(entry->address, where)}});
     }
-    if (asked == op::list)
-        return ok(registry_.list());
+    if (asked == op::list) {
+        auto listed = registry_.list();
+        for (auto& port : listed["ports"])
+            port["address"] = address_for(port["address"].get<std::string>(), where);
+        return ok(listed);
+    }
     if (session == 0)
         return refuse("'" + asked + "' is not available over UDP; use TCP", ReplyCode::usage);
     if (asked == op::mcast_group) {
@@ -272,9 +281,14 @@ proto::Reply NameServer::handle(const proto::Request& request, std::uint64_t ses
     }
 
     if (asked == op::register_node) {
-        auto status = registry_.register_node(text_field(body, "node"), text_field(body, "address"), session);
-        if (status)
-            spdlog::info("names: node '{}' at {}", text_field(body, "node"), text_field(body, "address"));
+        const std::string announced = text_field(body, "address");
+        const std::string address = recorded_address(announced, where);
+        auto status = registry_.register_node(text_field(body, "node"), address, session);
+        if (status && address != announced)
+            spdlog::info("names: node '{}' at {} (it announced {}: the address its session came from)",
+                         text_field(body, "node"), address, announced);
+        else if (status)
+            spdlog::info("names: node '{}' at {}", text_field(body, "node"), address);
         return status_reply(status);
     }
     if (asked == op::register_port) {

@@ -9,6 +9,7 @@
 #include "plexus/proto/auth.hpp"
 #include "plexus/proto/control.hpp"
 #include "plexus/proto/endpoint.hpp"
+#include "reachable_address.hpp"
 #include "registry.hpp"
 
 namespace plexus::daemon::names {
@@ -47,8 +48,10 @@ public:
     /// The bound address (with the real port when 0 was asked for).
     proto::Endpoint endpoint() const;
 
-    /// Answers one request for `session` (0 = a UDP datagram, read-only); never throws.
-    proto::Reply answer(const proto::Request& request, std::uint64_t session);
+    /// Answers one request for `session` (0 = a UDP datagram, read-only), whose ends are at `where`;
+    /// never throws.
+    proto::Reply answer(const proto::Request& request, std::uint64_t session,
+                        const SessionAddresses& where = {});
     void session_closed(std::uint64_t session);
     std::size_t max_frame() const { return config_.max_frame; }
     /// Peers that failed to prove they hold the secret.
@@ -63,7 +66,7 @@ private:
     proto::Status start_discovery();
     Task<void> discovery_loop();
     void save_state();
-    proto::Reply handle(const proto::Request& request, std::uint64_t session);
+    proto::Reply handle(const proto::Request& request, std::uint64_t session, const SessionAddresses& where);
 
     asio::io_context& io_;
     NameServerConfig config_;

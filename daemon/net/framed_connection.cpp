@@ -119,22 +119,36 @@ proto::Status FramedConnection::mark_packets(int dscp) {
     return mark_socket(socket_.native_handle(), family, dscp);
 }
 
-std::optional<asio::ip::address> FramedConnection::remote_ip() {
-    sockaddr_storage peer{};
-    socklen_t size = sizeof peer;
-    if (::getpeername(socket_.native_handle(), reinterpret_cast<sockaddr*>(&peer), &size) != 0)
-        return std::nullopt;
-    if (peer.ss_family == AF_INET) {
-        const auto* v4 = reinterpret_cast<const sockaddr_in*>(&peer);
+namespace {
+std::optional<asio::ip::address> ip_of(const sockaddr_storage& address) {
+    if (address.ss_family == AF_INET) {
+        const auto* v4 = reinterpret_cast<const sockaddr_in*>(&address);
         return asio::ip::address_v4(ntohl(v4->sin_addr.s_addr));
     }
-    if (peer.ss_family == AF_INET6) {
-        const auto* v6 = reinterpret_cast<const sockaddr_in6*>(&peer);
+    if (address.ss_family == AF_INET6) {
+        const auto* v6 = reinterpret_cast<const sockaddr_in6*>(&address);
         asio::ip::address_v6::bytes_type bytes;
         std::memcpy(bytes.data(), v6->sin6_addr.s6_addr, bytes.size());
         return asio::ip::address_v6(bytes, v6->sin6_scope_id);
     }
     return std::nullopt;
+}
+}  // namespace
+
+std::optional<asio::ip::address> FramedConnection::remote_ip() {
+    sockaddr_storage peer{};
+    socklen_t size = sizeof peer;
+    if (::getpeername(socket_.native_handle(), reinterpret_cast<sockaddr*>(&peer), &size) != 0)
+        return std::nullopt;
+    return ip_of(peer);
+}
+
+std::optional<asio::ip::address> FramedConnection::local_ip() {
+    sockaddr_storage local{};
+    socklen_t size = sizeof local;
+    if (::getsockname(socket_.native_handle(), reinterpret_cast<sockaddr*>(&local), &size) != 0)
+        return std::nullopt;
+    return ip_of(local);
 }
 
 bool FramedConnection::peer_hung_up() {

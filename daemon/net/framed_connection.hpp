@@ -66,6 +66,8 @@ public:
     bool is_local();
     /// The peer's IP address for a TCP peer; nullopt for a Unix-socket one.
     std::optional<asio::ip::address> remote_ip();
+    /// This end's IP address for a TCP connection (the address the peer reached); nullopt otherwise.
+    std::optional<asio::ip::address> local_ip();
     /// True when the peer has closed or reset the connection, even with unread data left: lets a
     /// session that stopped reading (back-pressure) notice that its client died.
     bool peer_hung_up();
