@@ -99,6 +99,7 @@ void apply_config_text(const std::string& path, std::string_view text, DaemonCon
     // Comments are allowed: a config file is written by hand.
     auto json = nlohmann::json::parse(text, nullptr, true, true);
     static const std::set<std::string> known{"names",
+                                             "advertise",
                                              "max_frame",
                                              "default_capacity",
                                              "link_capacity",
@@ -141,6 +142,7 @@ void apply_config_text(const std::string& path, std::string_view text, DaemonCon
     if (config.handshake_timeout.count() < 100 || config.handshake_timeout.count() > 3'600'000)
         throw std::runtime_error("config " + path + ": handshake_timeout_ms must be between 100 and 3600000");
     config.names_state = json.value("names_state", config.names_state);
+    config.advertise = json.value("advertise", config.advertise);
     for (const auto& dir : json.value("scripts", std::vector<std::string>{}))
         config.script_dirs.push_back(dir);
     for (const auto& dir : json.value("monitor_libs", std::vector<std::string>{}))

@@ -19,6 +19,9 @@ constexpr auto shutdown_grace = std::chrono::seconds(3);
 /// Of which monitors may use this much to finish what they hold (SIGTERM must end a daemon within
 /// 2 s whatever a script is doing).
 constexpr auto monitors_grace = std::chrono::seconds(1);
+/// Of which telling the name server that the ports go may use this much (a name server that does
+/// not answer must not keep the daemon alive).
+constexpr auto unregister_grace = std::chrono::seconds(1);
 }  // namespace
 
 Daemon::Daemon(asio::io_context& io, DaemonConfig config)
@@ -29,7 +32,8 @@ Daemon::Daemon(asio::io_context& io, DaemonConfig config)
       unix_acceptor_(io),
       udp_(io, config_.udp, config_.secret),
       signals_(io, SIGINT, SIGTERM),
-      control_(io.get_executor(), *this) {
+      control_(io.get_executor(), *this),
+      heap_trimmer_(io, HeapTrimmer::Settings{}) {
     const bool inline_monitors = config_.monitors.inline_cost_limit.count() > 0;
     workers_ = std::make_shared<monitor::Workers>(config_.monitor_threads, inline_monitors ? &io_ : nullptr);
     scripts_ = std::make_unique<ScriptHost>(io_, *this, workers_);
@@ -49,7 +53,7 @@ Daemon::~Daemon() {
         }
     }
     workers_->finish();
-    if (!config_.socket_path.empty() && unix_acceptor_.is_open()) {
+    if (!config_.socket_path.empty() && socket_bound_) {
         std::error_code ignored;
         std::filesystem::remove(config_.socket_path, ignored);
     }
@@ -59,6 +63,14 @@ std::string Daemon::address() const {
     boost::system::error_code ec;
     auto local = tcp_acceptor_.local_endpoint(ec);
     return config_.listen.host + ":" + std::to_string(ec ? 0 : local.port());
+}
+
+std::string Daemon::advertised_address() const {
+    if (config_.advertise.empty())
+        return address();
+    boost::system::error_code ec;
+    auto local = tcp_acceptor_.local_endpoint(ec);
+    return proto::Endpoint{config_.advertise, static_cast<std::uint16_t>(ec ? 0 : local.port())}.text();
 }
 
 proto::Status Daemon::bind() {
@@ -117,6 +129,7 @@ proto::Status Daemon::bind() {
         unix_acceptor_.listen(asio::socket_base::max_listen_connections, ec);
     if (ec)
         return proto::Error{"cannot listen on Unix socket " + config_.socket_path + ": " + ec.message()};
+    socket_bound_ = true;
     return proto::Ok{};
 }
 
@@ -125,13 +138,29 @@ int Daemon::run() {
         spdlog::error("{}", bound.error().message);
         return 4;
     }
-    names_ = std::make_unique<names::NameClient>(io_, config_.names, config_.node, address(),
+    names_ = std::make_unique<names::NameClient>(io_, config_.names, config_.node, advertised_address(),
                                                  config_.max_frame, config_.secret);
     names_->ports_to_register = [this] {
         std::vector<std::string> names;
         for (const auto& [name, port] : router_.ports())
             names.push_back(name);
         return names;
+    };
+    names_->connections_to_register = [this] {
+        std::vector<names::ConnectionEntry> connections;
+        for (const auto& [name, port] : router_.ports()) {
+            for (const auto& c : port->outgoing)
+                connections.push_back({c->source, c->destination, c->carrier, c->persistent});
+        }
+        return connections;
+    };
+    names_->on_refused = [this](const std::string& why, bool ever_registered) {
+        if (ever_registered)
+            return;  // it has components running: keep them, and keep asking (requests fail with `why`)
+        // Refused at start: no component can use a daemon the name server will not have.
+        spdlog::error("the name server at {} refuses this daemon ({}); exiting", config_.names.text(), why);
+        exit_status_ = 4;
+        asio::co_spawn(io_, shutdown(), asio::detached);
     };
     names_->on_persistent = [this](std::vector<names::ConnectionEntry> persistent) {
         asio::co_spawn(io_, control_.restore_persistent(std::move(persistent)), asio::detached);
@@ -141,19 +170,32 @@ int Daemon::run() {
     asio::co_spawn(io_, accept_tcp(), asio::detached);
     asio::co_spawn(io_, accept_unix(), asio::detached);
     udp_.start();
-    signals_.async_wait([this](boost::system::error_code ec, int signal) {
-        if (ec)
-            return;
-        spdlog::info("signal {}: shutting down", signal);
-        asio::co_spawn(io_, shutdown(), asio::detached);
-    });
+    heap_trimmer_.start();
+    wait_for_signal();
     spdlog::info("plexusd node '{}' listening on {} and {}; name server {}", config_.node, address(),
                  config_.socket_path, config_.names.text());
     io_.run();
     // Coroutines still parked on a Signal (loops of connections that never closed) are destroyed
     // now, while the daemon they refer to still exists; otherwise their frames leak at exit.
     asio::use_service<SignalService>(io_).destroy_parked();
-    return 0;
+    return exit_status_;
+}
+
+void Daemon::wait_for_signal() {
+    signals_.async_wait([this](boost::system::error_code ec, int signal) {
+        if (ec)
+            return;
+        if (stopping_) {
+            // A second signal: the caller will not wait for the grace period; stop at once.
+            spdlog::warn("signal {} again: stopping now, without waiting for what is still in flight",
+                         signal);
+            io_.stop();
+            return;
+        }
+        spdlog::info("signal {}: shutting down (a second signal stops at once)", signal);
+        asio::co_spawn(io_, shutdown(), asio::detached);
+        wait_for_signal();
+    });
 }
 
 Task<void> Daemon::announce_ready() {
@@ -288,16 +330,26 @@ void Daemon::forget_port(std::shared_ptr<Port> port) {
 Task<void> Daemon::shutdown() {
     if (stopping_)
         co_return;
+    spdlog::info("shutting down: {} ports, {} sessions", router_.ports().size(), sessions_.size());
     boost::system::error_code ignored;
     tcp_acceptor_.close(ignored);
     unix_acceptor_.close(ignored);
     udp_.stop();
-    // Unregister first, then close: readers elsewhere see the ports go away cleanly.
-    for (const auto& [name, port] : router_.ports()) {
-        if (names_ && names_->connected())
-            co_await names_->unregister_port(name);
-    }
+    heap_trimmer_.stop();
     stopping_ = true;
+    // Unregister first, then close: readers elsewhere see the ports go away cleanly. The names are
+    // copied: clients that leave while this waits for the name server close their ports, which
+    // erases them from the router's map (looping over the map itself here once spun for good).
+    std::vector<std::string> registered;
+    for (const auto& [name, port] : router_.ports())
+        registered.push_back(name);
+    const auto unregister_deadline = std::chrono::steady_clock::now() + unregister_grace;
+    for (const auto& name : registered) {
+        const auto left = unregister_deadline - std::chrono::steady_clock::now();
+        if (!names_ || !names_->connected() || left <= decltype(left)::zero())
+            break;
+        co_await names_->unregister_port(name, left);
+    }
     std::vector<std::shared_ptr<Port>> ports;
     for (const auto& [name, port] : router_.ports())
         ports.push_back(port);

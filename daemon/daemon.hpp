@@ -14,6 +14,7 @@
 #include "control/control_plane.hpp"
 #include "core/router.hpp"
 #include "daemon_config.hpp"
+#include "heap_trimmer.hpp"
 #include "monitor/monitor.hpp"
 #include "monitor/workers.hpp"
 #include "names/name_client.hpp"
@@ -74,11 +75,15 @@ public:
 
 private:
     proto::Status bind();
+    /// What the name server is told: --advertise's host if given, else address().
+    std::string advertised_address() const;
     Task<void> accept_tcp();
     Task<void> accept_unix();
     /// Pauses the accept loop after a failed accept.
     Task<void> back_off_after_accept_error();
     Task<void> shutdown();
+    /// Arms the SIGINT/SIGTERM handler: the first starts shutdown(), a second stops at once.
+    void wait_for_signal();
     Task<void> announce_ready();
     void start_session(Socket socket, const std::string& description);
 
@@ -101,7 +106,11 @@ private:
     std::vector<std::weak_ptr<Peer>> links_;  ///< sending ends of tcp connections, flushed at shutdown
     std::uint64_t next_session_ = 1;
     ControlPlane control_;
+    HeapTrimmer heap_trimmer_;
     bool stopping_ = false;
+    int exit_status_ = 0;  ///< what run() returns: 4 when the name server refused this node at start
+    /// The Unix socket file is ours to remove at exit (shutdown closes the acceptor before that).
+    bool socket_bound_ = false;
 };
 
 }  // namespace plexus::daemon

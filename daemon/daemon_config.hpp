@@ -23,6 +23,9 @@ struct DaemonConfig {
     bool embedded_names = false;
     std::string names_state;  ///< state file of the embedded name server
     proto::Endpoint listen{"127.0.0.1", 0};
+    /// The host other daemons reach this one at (--advertise); empty: the --listen host, or, when
+    /// that is 0.0.0.0 or ::, the address the name server sees this daemon's session come from.
+    std::string advertise;
     std::string socket_path;
     std::string node;
     std::vector<std::string> script_dirs;

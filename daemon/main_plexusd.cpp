@@ -58,6 +58,10 @@ int main(int argc, char** argv) {
                    "with --embedded-names: file keeping persistent connections");
     app.add_option("--listen", listen, "TCP HOST:PORT for other daemons and remote clients (port 0: any)")
         ->capture_default_str();
+    app.add_option("--advertise", config.advertise,
+                   "the HOST other machines reach this daemon at (config \"advertise\"); by default the "
+                   "--listen host, or, when that is 0.0.0.0 or ::, the address the name server sees "
+                   "this daemon come from");
     app.add_option("--socket", socket, "Unix socket for local clients (env PLEXUS_SOCKET)")
         ->capture_default_str();
     app.add_option("--node", node, "this daemon's node name, unique among daemons")->capture_default_str();
@@ -105,6 +109,14 @@ int main(int argc, char** argv) {
         config.names = endpoint_or_throw(found->address, "--names");
         spdlog::info("name server {} ({})", found->address, found->how());
         config.listen = endpoint_or_throw(listen, "--listen");
+        if (!config.advertise.empty()) {
+            endpoint_or_throw(plexus::proto::Endpoint{config.advertise, 1}.text(), "--advertise");
+            boost::system::error_code unspecified;
+            if (auto host = boost::asio::ip::make_address(config.advertise, unspecified);
+                !unspecified && host.is_unspecified())
+                throw std::runtime_error("--advertise " + config.advertise +
+                                         ": an address other machines can connect to, not a wildcard");
+        }
         config.embedded_names = embedded;
         if (no_inline_monitors)
             config.monitors.inline_cost_limit = std::chrono::microseconds(0);

@@ -143,8 +143,8 @@ Task<proto::Reply> ControlPlane::connect(std::shared_ptr<Session>, const proto::
         auto wired = wire_inlet(host_.scripts(), host_.clock(), spec, hand_over);
         if (!wired)
             co_return refuse(wired.error().message);
-        names::ConnectionEntry entry{source, destination, connection->carrier,
-                                     request.body.value("persist", false)};
+        connection->persistent = request.body.value("persist", false);
+        names::ConnectionEntry entry{source, destination, connection->carrier, connection->persistent};
         co_await host_.names().add_connection(std::move(entry));
         spdlog::info("connected {} -> {} ({})", source, destination, connection->carrier);
         co_return ok({{"carrier", connection->carrier}, {"warnings", wired->warnings}});
@@ -191,6 +191,7 @@ Task<proto::Reply> ControlPlane::connect_remote(const proto::Request& request, s
     connection->carrier = carrier;
     connection->remote = true;
     connection->priority = qos_of(carrier).prio.value_or(0);
+    connection->persistent = request.body.value("persist", false);
     connection->sink = end.sink;
     if (auto* mcast = dynamic_cast<McastLink*>(end.sink.get())) {
         // The send-side monitors of mcast run once per message, for the port's one sender, not
@@ -216,7 +217,7 @@ Task<proto::Reply> ControlPlane::connect_remote(const proto::Request& request, s
     }
     host_.keep_link(end.peer);
     watch_link(end, connection);
-    names::ConnectionEntry entry{source, destination, carrier, request.body.value("persist", false)};
+    names::ConnectionEntry entry{source, destination, carrier, connection->persistent};
     co_await host_.names().add_connection(std::move(entry));
     spdlog::info("connected {} -> {} ({} to {})", source, destination, carrier, address);
     co_return ok(

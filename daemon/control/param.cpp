@@ -116,10 +116,14 @@ Task<proto::Reply> ControlPlane::param_recv(std::shared_ptr<Session>, const prot
                                       "port " + destination + " is not on this daemon");
     nlohmann::json results = nlohmann::json::array();
     bool any_setparam = false;
+    // The inlets are gathered first: a connection made or removed while a worker applies the
+    // parameters changes port->inbound, which a loop over it across the co_await would not survive.
+    std::vector<std::shared_ptr<Inlet>> inlets;
     for (const auto& weak : port->inbound) {
-        auto inlet = weak.lock();
-        if (!inlet || inlet->source() != source)
-            continue;
+        if (auto inlet = weak.lock(); inlet && inlet->source() == source)
+            inlets.push_back(std::move(inlet));
+    }
+    for (const auto& inlet : inlets) {
         auto applied = co_await apply_on_worker(inlet->monitors, request.body, results, any_setparam);
         if (!applied)
             co_return proto::make_refusal(0, ReplyCode::refused, applied.error().message);

@@ -23,6 +23,14 @@ std::vector<ConnectionEntry> persistent_from_json(const nlohmann::json& list) {
 nlohmann::json register_port_body(const std::string& port) {
     return {{"op", op::register_port}, {"port", port}};
 }
+
+nlohmann::json add_connection_body(const ConnectionEntry& connection) {
+    return {{"op", op::add_connection},
+            {"source", connection.source},
+            {"destination", connection.destination},
+            {"carrier", connection.carrier},
+            {"persistent", connection.persistent}};
+}
 }  // namespace
 
 nlohmann::json NameClient::register_node_body() const {
@@ -52,7 +60,7 @@ void NameClient::stop() {
 
 Task<bool> NameClient::wait_connected(std::chrono::steady_clock::duration timeout) {
     const auto deadline = std::chrono::steady_clock::now() + timeout;
-    while (!connected() && !stopped_) {
+    while (!connected() && !stopped_ && !refusal_) {
         const auto now = std::chrono::steady_clock::now();
         if (now >= deadline)
             break;
@@ -62,17 +70,26 @@ Task<bool> NameClient::wait_connected(std::chrono::steady_clock::duration timeou
 }
 
 Task<proto::Result<proto::Reply>> NameClient::request(nlohmann::json body) {
+    co_return co_await request(std::move(body), request_timeout);
+}
+
+Task<proto::Result<proto::Reply>> NameClient::request(nlohmann::json body,
+                                                      std::chrono::steady_clock::duration timeout) {
     using Outcome = proto::Result<proto::Reply>;
     // Just started, or the name server just restarted: give the reconnect loop a moment.
-    if (!connected())
-        co_await wait_connected(reconnect_patience);
+    if (!connected() && !refusal_)
+        co_await wait_connected(std::min<std::chrono::steady_clock::duration>(reconnect_patience, timeout));
+    if (refusal_) {
+        co_return Outcome(proto::Error{"the name server at " + names_.text() + " refuses this daemon: " +
+                                       *refusal_});
+    }
     if (!connected()) {
         co_return Outcome(
             proto::Error{"the name server at " + names_.text() +
                          " is not reachable (start plexus-names, or plexusd --embedded-names)"});
     }
     auto peer = peer_;
-    co_return co_await peer->request(std::move(body), request_timeout);
+    co_return co_await peer->request(std::move(body), timeout);
 }
 
 Task<proto::Result<proto::Reply>> NameClient::ask(nlohmann::json body) {
@@ -96,9 +113,17 @@ Task<proto::Result<std::vector<ConnectionEntry>>> NameClient::register_port(std:
 }
 
 Task<proto::Status> NameClient::unregister_port(std::string port) {
+    co_return co_await unregister_port(std::move(port), request_timeout);
+}
+
+Task<proto::Status> NameClient::unregister_port(std::string port, std::chrono::steady_clock::duration timeout) {
     nlohmann::json body = {{"op", op::unregister_port}, {"port", port}};
-    auto reply = co_await ask(std::move(body));
-    co_return reply ? proto::Status(proto::Ok{}) : proto::Status(reply.error());
+    auto reply = co_await request(std::move(body), timeout);
+    if (!reply)
+        co_return proto::Status(reply.error());
+    if (reply->code != proto::ReplyCode::ok)
+        co_return proto::Status(proto::Error{reply->body.value("error", "the name server refused unregister")});
+    co_return proto::Status(proto::Ok{});
 }
 
 Task<proto::Result<PortEntry>> NameClient::lookup(std::string port) {
@@ -123,11 +148,7 @@ Task<proto::Result<std::string>> NameClient::mcast_group(std::string port) {
 }
 
 Task<proto::Status> NameClient::add_connection(ConnectionEntry connection) {
-    nlohmann::json body = {{"op", op::add_connection},
-                           {"source", connection.source},
-                           {"destination", connection.destination},
-                           {"carrier", connection.carrier},
-                           {"persistent", connection.persistent}};
+    nlohmann::json body = add_connection_body(connection);
     auto reply = co_await ask(std::move(body));
     co_return reply ? proto::Status(proto::Ok{}) : proto::Status(reply.error());
 }
@@ -185,8 +206,15 @@ Task<void> NameClient::run() {
             std::string why = hello.ok() ? std::string("refused") : hello.error().message;
             if (hello.ok() && hello->body.contains("error"))
                 why = hello->body["error"].get<std::string>();
-            spdlog::error("name server refused this daemon: {}", why);
+            if (!refusal_ || *refusal_ != why)
+                spdlog::error("name server refused this daemon: {}", why);
+            refusal_ = why;
+            state_changed_.notify();
             peer->close("refused");
+            if (on_refused)
+                on_refused(why, ever_registered_);
+            if (stopped_)
+                co_return;
             asio::steady_timer timer(io_, longest_retry);
             co_await timer.async_wait(use_nothrow);
             continue;
@@ -203,8 +231,23 @@ Task<void> NameClient::run() {
                 on_persistent(persistent_from_json(reply->body.value("persistent", nlohmann::json::array())));
             }
         }
+        std::vector<ConnectionEntry> connections;
+        if (connections_to_register)
+            connections = connections_to_register();
+        for (const auto& connection : connections) {
+            auto reply = co_await peer->request(add_connection_body(connection), request_timeout);
+            if (!reply || reply->code != proto::ReplyCode::ok) {
+                spdlog::error("name server: cannot register {} -> {} again: {}", connection.source,
+                              connection.destination, reply ? reply->body.dump() : reply.error().message);
+            }
+        }
         peer_ = peer;
         registered_ = true;
+        ever_registered_ = true;
+        if (refusal_) {
+            spdlog::info("the name server accepts this daemon again");
+            refusal_.reset();
+        }
         warned = false;
         delay = first_retry;
         spdlog::info("registered node '{}' ({}) with the name server at {}", node_, address_, names_.text());

@@ -13,7 +13,8 @@
 namespace plexus::daemon::names {
 
 /// The daemon's link to the name server. Keeps reconnecting with back-off; on every (re)connect it
-/// registers the node and all its ports again, so a restarted name server recovers by itself.
+/// registers the node, all its ports and the connections out of them again, so a restarted name
+/// server recovers by itself.
 class NameClient {
 public:
     NameClient(asio::io_context& io, proto::Endpoint names, std::string node, std::string address,
@@ -26,11 +27,14 @@ public:
     Task<bool> wait_connected(std::chrono::steady_clock::duration timeout);
     /// Sends a request; an Error when the name server cannot be reached.
     Task<proto::Result<proto::Reply>> request(nlohmann::json body);
+    /// The same with a reply time limit of its own (shutdown has less than the usual 5 s).
+    Task<proto::Result<proto::Reply>> request(nlohmann::json body, std::chrono::steady_clock::duration timeout);
 
     // Typed calls. Each answers an Error with the name server's reason when it refuses.
     /// Registers a port of this node; answers the persistent connections that name it.
     Task<proto::Result<std::vector<ConnectionEntry>>> register_port(std::string port);
     Task<proto::Status> unregister_port(std::string port);
+    Task<proto::Status> unregister_port(std::string port, std::chrono::steady_clock::duration timeout);
     /// Where a port lives; an Error "port X does not exist" when it is not registered.
     Task<proto::Result<PortEntry>> lookup(std::string port);
     Task<proto::Status> add_connection(ConnectionEntry connection);
@@ -47,6 +51,12 @@ public:
 
     /// Lists the ports to register again after a reconnect.
     std::function<std::vector<std::string>()> ports_to_register;
+    /// Lists the connections out of this node's ports, to register again after a reconnect (a name
+    /// server restarted without its state file knows none of them).
+    std::function<std::vector<ConnectionEntry>()> connections_to_register;
+    /// Told when the name server refuses this node (its name is taken by a running daemon):
+    /// `ever_registered` is false when it was refused before it ever registered (at start).
+    std::function<void(const std::string& why, bool ever_registered)> on_refused;
     /// Receives the persistent connections the name server knows for a port just registered.
     std::function<void(std::vector<ConnectionEntry> persistent)> on_persistent;
 
@@ -67,7 +77,10 @@ private:
     std::shared_ptr<Peer> peer_;
     Signal state_changed_;
     bool registered_ = false;
+    bool ever_registered_ = false;
     bool stopped_ = false;
+    /// Why the name server refused this node, while it does: requests fail at once with it.
+    std::optional<std::string> refusal_;
 };
 
 }  // namespace plexus::daemon::names
