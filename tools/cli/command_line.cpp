@@ -3,6 +3,7 @@
 #include <cstdlib>
 #include <iostream>
 
+#include "number_checks.hpp"
 #include "plexus/client.hpp"
 #include "plexus/proto/defaults.hpp"
 
@@ -65,15 +66,23 @@ void CommandLine::add_port_commands() {
     read_cmd->add_option("PORT", read_options.port, "port to open and read")->required();
     read_cmd->add_option("SRC", read_options.source, "connect SRC -> PORT first");
     read_cmd->add_option("CARRIER", read_options.carrier, "carrier for that connection");
-    read_cmd->add_option("--count", read_options.count, "exit 0 after N messages")
-        ->check(CLI::PositiveNumber);
-    read_cmd->add_option("--timeout", read_options.timeout, "exit 3 if not done after SEC seconds")
-        ->check(CLI::NonNegativeNumber);
+    read_cmd->add_option("--count", read_options.count, "exit 0 after N messages (default: no limit)")
+        ->transform(whole_number(1, most_count));
+    read_cmd
+        ->add_option("--timeout", read_options.timeout,
+                     "exit 3 if not done after SEC seconds (default: no limit)")
+        ->transform(seconds(0.001, most_seconds));
     read_cmd->add_flag("--envelope", read_options.envelope, R"(print {"from","seq","time","data"})");
     read_cmd->add_option("--policy", read_options.policy, "reader queue: strict (no loss) or latest")
         ->check(CLI::IsMember({"strict", "latest"}))
         ->capture_default_str();
-    read_cmd->add_option("--queue", read_options.capacity, "reader queue length (default: the daemon's)");
+    // No 0 for "the daemon's default": leaving --queue out says that, and a 0 that silently meant
+    // 1024 surprised (issue 26).
+    read_cmd
+        ->add_option("--queue", read_options.capacity,
+                     "reader queue length in messages (default: the daemon's default_capacity, 1024 unless "
+                     "its config says otherwise)")
+        ->transform(whole_number(1, most_count));
     read_cmd->callback([this] { status_ = read(common_, read_options_); });
 
     auto* exists_cmd =
@@ -85,7 +94,7 @@ void CommandLine::add_port_commands() {
     auto* wait_cmd = app_.add_subcommand("wait", "wait until PORT is registered");
     wait_cmd->add_option("PORT", port_, "port")->required();
     wait_cmd->add_option("--timeout", wait_timeout_, "give up (exit 3) after SEC seconds; 0 waits forever")
-        ->check(CLI::NonNegativeNumber);
+        ->transform(seconds(0, most_seconds));
     wait_cmd->callback([this] { status_ = wait(common_, port_, wait_timeout_); });
 }
 
@@ -93,8 +102,9 @@ void CommandLine::add_port_commands() {
 void CommandLine::add_inspect_commands() {
     auto* ping_cmd = app_.add_subcommand("ping", "where PORT lives and how fast its daemon answers");
     ping_cmd->add_option("PORT", port_, "port")->required();
+    // Each round trip's time is kept to find the median: a million of them is 8 MB.
     ping_cmd->add_option("--count", ping_count_, "round trips to time")
-        ->check(CLI::PositiveNumber)
+        ->transform(whole_number(1, 1'000'000))
         ->capture_default_str();
     ping_cmd->callback([this] { status_ = ping(common_, port_, ping_count_); });
 
@@ -112,10 +122,10 @@ void CommandLine::add_inspect_commands() {
     events_cmd->add_flag("--watch", events_options.watch, "redraw live until Ctrl-C, like top");
     events_cmd->add_flag("--json", events_options.json, "print JSON (one object per line with --watch)");
     events_cmd->add_option("--interval", events_options.interval, "seconds between redraws with --watch")
-        ->check(CLI::Range(0.05, 3600.0))
+        ->transform(seconds(0.05, 3600))
         ->capture_default_str();
     events_cmd->add_option("--count", events_options.count, "with --watch: stop after N redraws")
-        ->check(CLI::PositiveNumber);
+        ->transform(whole_number(1, most_count));
     events_cmd->callback([this] { status_ = events(common_, events_options_); });
 
     auto* param_cmd = app_.add_subcommand("param", "get or set the parameters of the monitors on SRC -> DST");
@@ -168,7 +178,7 @@ void CommandLine::add_app_commands() {
         "start only the components of node NODE (on a machine of a several-machine application) "
         "and make the connections whose ports are all registered");
     up_cmd->add_option("--timeout", up_options_.timeout, "seconds to wait for the components' ports")
-        ->check(CLI::PositiveNumber)
+        ->transform(seconds(0.001, most_seconds))
         ->capture_default_str();
     up_cmd->callback([this] {
         for (const auto& pair : node_sockets_) {
