@@ -3,6 +3,7 @@
 #include <cstdlib>
 #include <iostream>
 
+#include "carrier_help.hpp"
 #include "number_checks.hpp"
 #include "plexus/client.hpp"
 #include "plexus/proto/defaults.hpp"
@@ -43,7 +44,8 @@ void CommandLine::add_port_commands() {
         app_.add_subcommand("connect", "connect SRC to DST with a carrier (default: local or tcp)");
     connect_cmd->add_option("SRC", source_, "source port")->required();
     connect_cmd->add_option("DST", destination_, "destination port")->required();
-    connect_cmd->add_option("CARRIER", carrier_, "carrier string, e.g. tcp or local");
+    connect_cmd->add_option("CARRIER", carrier_, "carrier string, e.g. tcp or local (grammar below)");
+    connect_cmd->footer(carrier_help);
     connect_cmd->add_flag("--persist", persist_,
                           "the name server remembers it and restores it when the ports return");
     connect_cmd->add_flag("--strict", strict_, "fail instead of warning when arbitration rules overlap");
@@ -198,10 +200,43 @@ void CommandLine::add_app_commands() {
     down_cmd->callback([this] { status_ = down(common_, app_file_); });
 }
 
+namespace {
+
+/// "plexus param" for the `param` subcommand: the words a user typed to reach `app`.
+std::string command_path(const CLI::App& app) {
+    return app.get_parent() ? command_path(*app.get_parent()) + " " + app.get_name() : "plexus";
+}
+
+/// When the command word is missing or unknown, what to say instead of CLI11's "A subcommand is
+/// required": which word was not a command, and the commands there are. Empty otherwise.
+std::string missing_command(const CLI::App& root) {
+    const CLI::App* chosen = &root;
+    while (!chosen->get_subcommands().empty())
+        chosen = chosen->get_subcommands().front();
+    if (chosen->get_require_subcommand_min() == 0 || chosen->get_subcommands().size() > 0)
+        return {};
+    std::string names;
+    for (const CLI::App* sub : chosen->get_subcommands([](const CLI::App*) { return true; }))
+        names += (names.empty() ? "" : ", ") + sub->get_name();
+    const auto unknown = root.remaining(true);
+    const std::string what =
+        unknown.empty() ? "a command is required" : "unknown command '" + unknown.front() + "'";
+    return command_path(*chosen) + ": " + what + "; the commands are: " + names + " (see " +
+           command_path(*chosen) + " --help)";
+}
+
+}  // namespace
+
 int CommandLine::run(int argc, char** argv) {
     try {
         app_.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
+        // Only in place of CLI11's RequiredError: --help is a ParseError too.
+        const bool required = dynamic_cast<const CLI::RequiredError*>(&e) != nullptr;
+        if (const std::string message = required ? missing_command(app_) : ""; !message.empty()) {
+            std::cerr << message << '\n';
+            return 2;
+        }
         const int code = app_.exit(e);
         return code == 0 ? 0 : 2;
     } catch (const plexus::Error& e) {
