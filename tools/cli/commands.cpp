@@ -125,6 +125,14 @@ int write(const Common& common, const std::string& port_name, const std::vector<
     auto port = client.open(port_name);
     for (const auto& destination : destinations)
         client.connect(port_name, destination);
+    // Someone typing at a terminal otherwise sees nothing happen; a pipe's reader wants nothing
+    // extra on stderr.
+    if (::isatty(STDIN_FILENO) != 0) {
+        std::cerr << "plexus: opened " << port_name;
+        for (const auto& destination : destinations)
+            std::cerr << ", connected " << port_name << " -> " << destination;
+        std::cerr << "; type one message per line (JSON if it parses, else a string), Ctrl-D to end\n";
+    }
     std::ios::sync_with_stdio(false);
     std::string line;
     while (std::getline(std::cin, line)) {
