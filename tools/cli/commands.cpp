@@ -8,6 +8,7 @@
 #include <iostream>
 #include <thread>
 
+#include "counter.hpp"
 #include "plexus/client.hpp"
 #include "plexus/proto/port_name.hpp"
 
@@ -41,10 +42,10 @@ std::string pad(const std::string& text, std::size_t width) {
 void print_monitors(const Value& connection) {
     for (const auto& m : connection.value("monitors", Value::array())) {
         std::cout << "         monitor " << m.value("script", "") << " (" << m.value("side", "")
-                  << "): " << m.value("messages", 0) << " messages, " << m.value("dropped", 0) << " dropped, "
-                  << m.value("rewritten", 0) << " rewritten, " << m.value("errors", 0) << " errors ("
-                  << m.value("timeouts", 0) << " timeouts, " << m.value("out_of_memory", 0)
-                  << " out of memory), " << m.value("memory_bytes", 0) << " bytes";
+                  << "): " << counter(m, "messages") << " messages, " << counter(m, "dropped") << " dropped, "
+                  << counter(m, "rewritten") << " rewritten, " << counter(m, "errors") << " errors ("
+                  << counter(m, "timeouts") << " timeouts, " << counter(m, "out_of_memory")
+                  << " out of memory), " << counter(m, "memory_bytes") << " bytes";
         if (m.value("quarantined", false))
             std::cout << "  QUARANTINED: " << m.value("last_error", "");
         std::cout << '\n';
@@ -124,6 +125,14 @@ int write(const Common& common, const std::string& port_name, const std::vector<
     auto port = client.open(port_name);
     for (const auto& destination : destinations)
         client.connect(port_name, destination);
+    // Someone typing at a terminal otherwise sees nothing happen; a pipe's reader wants nothing
+    // extra on stderr.
+    if (::isatty(STDIN_FILENO) != 0) {
+        std::cerr << "plexus: opened " << port_name;
+        for (const auto& destination : destinations)
+            std::cerr << ", connected " << port_name << " -> " << destination;
+        std::cerr << "; type one message per line (JSON if it parses, else a string), Ctrl-D to end\n";
+    }
     std::ios::sync_with_stdio(false);
     std::string line;
     while (std::getline(std::cin, line)) {
@@ -253,53 +262,53 @@ int stats(const Common& common, const std::string& port, bool json) {
               << pad("RECEIVED", 10) << pad("DELIVERED", 10) << "DROPPED\n";
     for (const auto& p : answer.value("ports", Value::array())) {
         std::cout << pad(p.value("name", ""), 28)
-                  << pad(p.value("policy", "") + "/" + std::to_string(p.value("capacity", 0)), 14)
-                  << pad(std::to_string(p.value("depth", 0)), 8)
-                  << pad(std::to_string(p.value("written", 0)), 10)
-                  << pad(std::to_string(p.value("received", 0)), 10)
-                  << pad(std::to_string(p.value("delivered", 0)), 10) << p.value("dropped_queue", 0) << '\n';
-        if (p.value("unconnected", 0) > 0)
-            std::cout << "    written with no connection out (went nowhere): " << p.value("unconnected", 0)
+                  << pad(p.value("policy", "") + "/" + std::to_string(counter(p, "capacity")), 14)
+                  << pad(std::to_string(counter(p, "depth")), 8)
+                  << pad(std::to_string(counter(p, "written")), 10)
+                  << pad(std::to_string(counter(p, "received")), 10)
+                  << pad(std::to_string(counter(p, "delivered")), 10) << counter(p, "dropped_queue") << '\n';
+        if (counter(p, "unconnected") > 0)
+            std::cout << "    written with no connection out (went nowhere): " << counter(p, "unconnected")
                       << '\n';
         for (const auto& c : p.value("outgoing", Value::array())) {
             std::cout << "    -> " << pad(c.value("destination", ""), 24) << pad(c.value("carrier", ""), 10)
-                      << "sent " << c.value("sent", 0) << ", dropped by monitors "
-                      << c.value("dropped_by_monitor", 0) << '\n';
+                      << "sent " << counter(c, "sent") << ", dropped by monitors "
+                      << counter(c, "dropped_by_monitor") << '\n';
             if (c.contains("udp")) {
                 // What the udp carrier did with what the connection sent.
                 const auto& udp = c["udp"];
-                std::cout << "         udp: " << udp.value("messages", 0) << " messages in "
-                          << udp.value("datagrams", 0) << " datagrams, dropped too large "
-                          << udp.value("dropped_too_large", 0) << " / not sent (socket full) "
-                          << udp.value("dropped_send", 0) << '\n';
+                std::cout << "         udp: " << counter(udp, "messages") << " messages in "
+                          << counter(udp, "datagrams") << " datagrams, dropped too large "
+                          << counter(udp, "dropped_too_large") << " / not sent (socket full) "
+                          << counter(udp, "dropped_send") << '\n';
             }
             print_monitors(c);
         }
         for (const auto& c : p.value("inbound", Value::array())) {
             std::cout << "    <- " << pad(c.value("source", ""), 24) << pad(c.value("carrier", ""), 10)
-                      << "received " << c.value("received", 0) << ", delivered " << c.value("delivered", 0)
-                      << ", dropped by accept " << c.value("dropped_by_accept", 0) << " / constraint "
-                      << c.value("dropped_by_constraint", 0) << " / priority "
-                      << c.value("dropped_by_priority", 0) << " / queue " << c.value("dropped_by_queue", 0)
-                      << ", script errors " << c.value("script_errors", 0) << '\n';
+                      << "received " << counter(c, "received") << ", delivered " << counter(c, "delivered")
+                      << ", dropped by accept " << counter(c, "dropped_by_accept") << " / constraint "
+                      << counter(c, "dropped_by_constraint") << " / priority "
+                      << counter(c, "dropped_by_priority") << " / queue " << counter(c, "dropped_by_queue")
+                      << ", script errors " << counter(c, "script_errors") << '\n';
             if (c.contains("lost")) {
                 // A datagram carrier (udp): what never arrived whole, or arrived too late or to a
                 // full queue.
-                std::cout << "         lost " << c.value("lost", 0) << " (of which incomplete "
-                          << c.value("incomplete", 0) << "), late " << c.value("late", 0) << ", dropped full "
-                          << c.value("dropped_full", 0) << '\n';
+                std::cout << "         lost " << counter(c, "lost") << " (of which incomplete "
+                          << counter(c, "incomplete") << "), late " << counter(c, "late") << ", dropped full "
+                          << counter(c, "dropped_full") << '\n';
             }
             print_monitors(c);
         }
     }
     const auto d = answer.value("daemon", Value::object());
-    std::cout << "daemon: " << d.value("sessions", 0) << " sessions, " << d.value("protocol_errors", 0)
-              << " protocol errors, " << d.value("dropped_unknown_port", 0) << " dropped (port closed), "
-              << d.value("dropped_link_down", 0) << " dropped (link down)\n";
-    std::cout << "shared memory: " << d.value("shm_regions", 0) << " regions ("
-              << d.value("shm_bytes", std::uint64_t{0}) / (1024 * 1024) << " MiB), "
-              << d.value("shm_slots", 0) << " payloads held, " << d.value("shm_passed", 0)
-              << " passed in place, " << d.value("shm_copied", 0) << " copied out\n";
+    std::cout << "daemon: " << counter(d, "sessions") << " sessions, " << counter(d, "protocol_errors")
+              << " protocol errors, " << counter(d, "dropped_unknown_port") << " dropped (port closed), "
+              << counter(d, "dropped_link_down") << " dropped (link down)\n";
+    std::cout << "shared memory: " << counter(d, "shm_regions") << " regions ("
+              << counter(d, "shm_bytes") / (1024 * 1024) << " MiB), " << counter(d, "shm_slots")
+              << " payloads held, " << counter(d, "shm_passed") << " passed in place, "
+              << counter(d, "shm_copied") << " copied out\n";
     return 0;
 }
 

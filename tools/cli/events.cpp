@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "commands.hpp"
+#include "counter.hpp"
 #include "plexus/client.hpp"
 #include "plexus/proto/port_name.hpp"
 
@@ -24,11 +25,11 @@ std::string fixed(double value, int digits) {
 
 std::string counters_line(const Value& c) {
     std::ostringstream out;
-    out << "received " << c.value("received", 0) << "  accepted " << c.value("accepted", 0) << "  delivered "
-        << c.value("delivered", 0) << "  dropped: accept " << c.value("dropped_by_accept", 0)
-        << ", constraint " << c.value("dropped_by_constraint", 0) << ", priority "
-        << c.value("dropped_by_priority", 0) << ", queue " << c.value("dropped_by_queue", 0)
-        << "  script errors " << c.value("script_errors", 0);
+    out << "received " << counter(c, "received") << "  accepted " << counter(c, "accepted") << "  delivered "
+        << counter(c, "delivered") << "  dropped: accept " << counter(c, "dropped_by_accept")
+        << ", constraint " << counter(c, "dropped_by_constraint") << ", priority "
+        << counter(c, "dropped_by_priority") << ", queue " << counter(c, "dropped_by_queue")
+        << "  script errors " << counter(c, "script_errors");
     return out.str();
 }
 
@@ -77,7 +78,7 @@ void print_text(const Value& answer, bool check) {
                   << (c.value("constraint_value", true) ? "true" : "false") << '\n';
         if (priority.is_object()) {
             std::cout << "      stimulation  S " << fixed(priority.value("S", 0.0), 3) << "  x "
-                      << priority.value("x", 0) << "  y " << fixed(priority.value("y", 0.0), 3) << '\n';
+                      << counter(priority, "x") << "  y " << fixed(priority.value("y", 0.0), 3) << '\n';
         }
         std::cout << "      counters     " << counters_line(c.value("counters", Value::object())) << '\n';
     }
