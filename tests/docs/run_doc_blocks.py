@@ -271,6 +271,8 @@ def main():
                         help="a path in the build tree; if missing, skip (exit 77)")
     parser.add_argument("sequences", nargs="+", metavar="DOC:SEQUENCE")
     args = parser.parse_args()
+    # ctest (or Ctrl-C) stopping the runner still runs the clean-up in run_sequence's finally.
+    signal.signal(signal.SIGTERM, lambda number, frame: sys.exit(f"FAILED: stopped by signal {number}"))
     for required in args.requires:
         if not os.path.exists(os.path.join(args.build, required)):
             print(f"SKIPPED: {required} is not in the build tree {args.build}", flush=True)
