@@ -36,6 +36,8 @@ TEST(Mcast_test, EveryMessageIsSentOnceToReadersOnThreeHostsWithAMonitorOnEachSi
                                     "cli-reader" + std::to_string(k)));
     }
     CliWriter writer(dir, writer_side, "/a/out", "writer");
+    // The writer opens its port as it starts: connecting before that finds no /a/out.
+    ASSERT_TRUE(wait_port(dir, writer_side, "/a/out"));
     for (int k = 2; k <= 4; ++k) {
         const std::string port = "/r" + std::to_string(k) + "/in";
         ASSERT_TRUE(wait_port(dir, writer_side, port));
