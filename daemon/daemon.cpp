@@ -276,7 +276,9 @@ void Daemon::start_session(Socket socket, const std::string& description) {
     sessions_[id] = session;
     session->require_secret(config_.secret);  // only TCP peers are asked for it
     session->set_handshake_timeout(config_.handshake_timeout);
-    session->start({proto::protocol_version, "daemon", config_.node});
+    proto::Hello hello{proto::protocol_version, "daemon", config_.node};
+    hello.max_frame = config_.max_frame;  // a client refuses what would not fit before sending it
+    session->start(hello);
 }
 
 std::shared_ptr<Session> Daemon::session(std::uint64_t id) const {

@@ -2,6 +2,7 @@
 
 #include "connection.hpp"
 #include "daemon_link.hpp"
+#include "large_payload.hpp"
 #include "plexus/client.hpp"
 #include "plexus/proto/cbor.hpp"
 #include "plexus/proto/defaults.hpp"
@@ -15,6 +16,14 @@ using detail::checked;
 namespace {
 
 constexpr std::chrono::milliseconds control_timeout{10000};
+
+[[noreturn]] void refuse_too_large(const std::string& port, std::size_t size, std::uint64_t limit) {
+    throw Error(ErrorCode::refused,
+                fmt::format("a message of {} bytes on {} is larger than the daemon's frame limit of {} bytes "
+                            "(its max_frame): nothing was sent; send it in parts, or raise max_frame in the "
+                            "daemon's config",
+                            size, port, limit));
+}
 
 }  // namespace
 
@@ -77,6 +86,11 @@ Port::~Port() {
 void Port::write(const Value& value, bool flush) {
     if (!link_)
         throw Error(ErrorCode::usage, "port " + name_ + " is closed");
+    // Deeper values are encoded, and then no reader can decode them (proto::max_cbor_depth).
+    if (proto::nesting_depth(value) > proto::max_cbor_depth) [[unlikely]] {
+        throw Error(ErrorCode::usage,
+                    proto::check_value_depth(value, "the message written on " + name_).error().message);
+    }
     thread_local proto::Bytes payload;
     payload.clear();
     if (value.is_binary() && !value.get_binary().has_subtype() &&
@@ -111,6 +125,11 @@ void Port::write_blob(std::span<const std::uint8_t> head, std::span<const std::u
 
 void Port::send(std::uint64_t seq, std::span<const std::uint8_t> payload, std::span<const std::uint8_t> tail,
                 bool flush) {
+    // Refused here, before it is sent or held: the daemon would cut the whole session off for it
+    // (and every port of this client with it), and held it would fail again at every reconnection.
+    const std::size_t size = payload.size() + tail.size();
+    if (detail::frame_body_size(name_, seq, size) > link_->max_frame()) [[unlikely]]
+        refuse_too_large(name_, size, link_->max_frame());
     for (;;) {
         // The hot path: one acquire load compared with the cached generation, no lock.
         if (connection_ && record_->generation.load(std::memory_order_acquire) == generation_) [[likely]] {

@@ -124,13 +124,17 @@ std::shared_ptr<Connection> Connection::to_tcp(const std::string& address) {
         throw Error(ErrorCode::refused, "cannot reach " + address + ": " + std::strerror(error));
     const int one = 1;
     ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    std::uint64_t max_frame = 0;
     try {
-        tcp_handshake(fd, address, std::chrono::milliseconds(10000));
+        max_frame = tcp_handshake(fd, address, std::chrono::milliseconds(10000));
     } catch (...) {
         ::close(fd);
         throw;
     }
-    return std::make_shared<Connection>(fd, address, true);
+    auto connection = std::make_shared<Connection>(fd, address, true);
+    if (max_frame > 0)
+        connection->peer_max_frame_.store(max_frame, std::memory_order_relaxed);
+    return connection;
 }
 
 Connection::~Connection() {
@@ -461,6 +465,11 @@ void Connection::flush() {
 }
 
 proto::Reply Connection::request(nlohmann::json body, std::chrono::milliseconds timeout) {
+    // The daemon would take a deeper body for a broken peer and cut the session off.
+    if (proto::nesting_depth(body, proto::max_body_depth) > proto::max_body_depth) {
+        throw Error(ErrorCode::usage, "the request nests arrays and maps deeper than " +
+                                          std::to_string(proto::max_cbor_depth) + " levels");
+    }
     std::uint64_t id = 0;
     {
         std::lock_guard state(state_mutex_);

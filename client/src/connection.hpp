@@ -72,6 +72,9 @@ public:
     bool enable_shm();
     /// True once the connection failed (the daemon went away, or broke the protocol). One load.
     bool broken() const { return is_broken_.load(std::memory_order_acquire); }
+    /// The largest frame body the daemon takes, from its hello (the default until that arrived;
+    /// to_daemon has it once it returns: the hello comes before the reply it waits for).
+    std::uint64_t peer_max_frame() const { return peer_max_frame_.load(std::memory_order_relaxed); }
     /// The socket, for a watcher that polls it for the peer's hang-up (never read from it).
     int native_handle() const { return fd_; }
 
@@ -177,6 +180,7 @@ private:
     bool reading_ = false;
     std::string broken_;
     std::atomic<bool> is_broken_{false};  ///< broken_ is set; read without the lock
+    std::atomic<std::uint64_t> peer_max_frame_{proto::default_max_frame};  ///< set from the daemon's hello
     std::uint64_t next_id_ = 1;
     std::map<std::uint64_t, std::optional<proto::Reply>> replies_;
     std::map<std::uint64_t, std::deque<InboxSegment>> inbox_;

@@ -11,6 +11,7 @@
 
 #include "blob_pool.hpp"
 #include "connection.hpp"
+#include "plexus/proto/hello.hpp"
 #include "plexus/proto/frame.hpp"
 #include "plexus/proto/message.hpp"
 #include "plexus/proto/shm.hpp"
@@ -216,8 +217,12 @@ void Connection::deliver_received() {
 
 void Connection::dispatch(proto::FrameType type, proto::ByteView fields) {
     switch (type) {
-        case proto::FrameType::hello:
+        case proto::FrameType::hello: {
+            // Its max_frame bounds what this client may send (Port::send refuses larger messages).
+            if (auto hello = proto::decode_hello(fields); hello && hello->max_frame > 0)
+                peer_max_frame_.store(hello->max_frame, std::memory_order_relaxed);
             return;
+        }
         case proto::FrameType::reply: {
             auto reply = proto::decode_reply(fields);
             if (!reply)

@@ -66,6 +66,7 @@ void PortRecord::hold_locked(std::uint64_t seq, proto::ByteView payload, proto::
 
 DaemonLink::DaemonLink(std::string socket_path)
     : path_(std::move(socket_path)), current_(Connection::to_daemon(path_)) {
+    max_frame_.store(current_->peer_max_frame(), std::memory_order_relaxed);
     if (::pipe2(wake_pipe_, O_CLOEXEC | O_NONBLOCK) != 0)
         throw Error(ErrorCode::refused, "cannot create a pipe for the reconnection watcher");
     watcher_ = std::thread([this] { watch(); });
@@ -363,6 +364,7 @@ std::size_t DaemonLink::retry_connections(const std::shared_ptr<Connection>& con
 }
 
 void DaemonLink::restore(const std::shared_ptr<Connection>& connection) {
+    max_frame_.store(connection->peer_max_frame(), std::memory_order_relaxed);
     std::vector<std::shared_ptr<PortRecord>> ports;
     std::vector<ConnectionSpec> left;
     {

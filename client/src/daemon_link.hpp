@@ -76,6 +76,8 @@ public:
     /// Connects now (throws Error (refused) when no daemon runs there) and starts the watcher.
     explicit DaemonLink(std::string socket_path);
     ~DaemonLink();
+    /// The largest frame body the daemon takes (the last daemon's, while it is away).
+    std::uint64_t max_frame() const { return max_frame_.load(std::memory_order_relaxed); }
     DaemonLink(const DaemonLink&) = delete;
     DaemonLink& operator=(const DaemonLink&) = delete;
 
@@ -127,6 +129,9 @@ private:
     void wake();
 
     const std::string path_;
+    /// The daemon's largest frame body (its hello), updated at every reconnection: Port::send
+    /// refuses a message that would not fit, before holding or sending it.
+    std::atomic<std::uint64_t> max_frame_{0};
     int wake_pipe_[2] = {-1, -1};  ///< written by lost() and stop() to wake the watcher from poll
 
     mutable std::mutex mutex_;

@@ -8,15 +8,26 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <optional>
+#include <string_view>
 
 #include "plexus/client.hpp"
 #include "plexus/proto/bytes.hpp"
+#include "plexus/proto/message.hpp"
+#include "plexus/proto/varint.hpp"
 
 namespace plexus::detail {
 
 /// Frames at least this large are worth receiving straight into their message.
 inline constexpr std::size_t large_payload_frame = 64 * 1024;
+
+/// The body of the data frame that carries one message of `payload_size` bytes from `source`, with
+/// the time and the handle at their widest: what the daemon compares with its max_frame.
+inline std::size_t frame_body_size(std::string_view source, std::uint64_t seq, std::size_t payload_size) {
+    constexpr auto widest = std::numeric_limits<std::uint64_t>::max();
+    return proto::record_size(source, seq, widest, payload_size) + proto::max_varint_size;
+}
 
 struct LargePayloadFrame {
     std::uint64_t handle = 0;

@@ -103,7 +103,7 @@ std::optional<proto::Secret> secret_from_environment() {
 
 }  // namespace
 
-void tcp_handshake(int fd, const std::string& address, std::chrono::milliseconds timeout) {
+std::uint64_t tcp_handshake(int fd, const std::string& address, std::chrono::milliseconds timeout) {
     const auto secret = secret_from_environment();
     proto::Hello mine{proto::protocol_version, "client", ""};
     if (secret) {
@@ -124,7 +124,7 @@ void tcp_handshake(int fd, const std::string& address, std::chrono::milliseconds
             auto [refusal, reason] = feed.next();
             refused_by(address, refusal, reason, "nothing");
         }
-        return;
+        return hello->max_frame;
     }
     if (!hello->has_secret) {
         throw Error(ErrorCode::refused, address +
@@ -144,6 +144,7 @@ void tcp_handshake(int fd, const std::string& address, std::chrono::milliseconds
         throw Error(ErrorCode::refused, address + " does not hold the deployment secret: not trusted");
     if (!feed.empty())
         throw Error(ErrorCode::refused, address + " sent frames before it was asked anything");
+    return hello->max_frame;
 }
 
 }  // namespace plexus::detail

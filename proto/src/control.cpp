@@ -1,5 +1,7 @@
 #include "plexus/proto/control.hpp"
 
+#include <algorithm>
+
 #include "plexus/proto/cbor.hpp"
 #include "plexus/proto/fields.hpp"
 #include "plexus/proto/frame.hpp"
@@ -25,7 +27,7 @@ Result<json> decode_map(ByteView bytes, std::string_view what) {
     if (bytes.empty()) {
         return Error{"bad " + std::string(what) + ": missing CBOR body"};
     }
-    auto body = decode_cbor(bytes);
+    auto body = decode_cbor(bytes, max_body_depth);
     if (!body) {
         return Error{"bad " + std::string(what) + ": " + body.error().message};
     }
@@ -37,6 +39,36 @@ Result<json> decode_map(ByteView bytes, std::string_view what) {
 }
 
 }  // namespace
+
+namespace {
+// Recursion bounded by `stop_after`: it never goes more than stop_after + 1 calls deep, whatever the
+// value, and allocates nothing (it runs on every message a client writes).
+std::size_t depth_below(const json& node, std::size_t depth, std::size_t stop_after) {
+    if (!node.is_array() && !node.is_object())
+        return depth;
+    const std::size_t inside = depth + 1;
+    if (inside > stop_after)
+        return inside;
+    std::size_t deepest = inside;
+    for (const auto& child : node) {
+        deepest = std::max(deepest, depth_below(child, inside, stop_after));
+        if (deepest > stop_after)
+            break;
+    }
+    return deepest;
+}
+}  // namespace
+
+std::size_t nesting_depth(const json& value, std::size_t stop_after) {
+    return depth_below(value, 0, stop_after);
+}
+
+Status check_value_depth(const json& value, const std::string& what) {
+    if (nesting_depth(value) <= max_cbor_depth)
+        return Ok{};
+    return Error{what + " nests arrays and maps deeper than " + std::to_string(max_cbor_depth) +
+                 " levels: no reader could decode it (flatten it, or send it as a string or blob)"};
+}
 
 Result<json> decode_cbor(ByteView bytes, std::size_t max_depth) {
     auto value = decode_cbor_fast(bytes, max_depth);

@@ -22,6 +22,7 @@ Bytes encode_hello(const Hello& hello) {
     append_string(fields, hello.node);
     fields.insert(fields.end(), hello.nonce.begin(), hello.nonce.end());
     fields.push_back(hello.has_secret ? hello_flag_secret : 0);
+    append_varint(fields, hello.max_frame);
     Bytes out;
     append_frame(out, FrameType::hello, fields);
     return out;
@@ -64,6 +65,12 @@ Result<Hello> decode_hello(ByteView fields) {
             return Error{reader.error()};
         std::copy(nonce->begin(), nonce->end(), hello.nonce.begin());
         hello.has_secret = (*flags & hello_flag_secret) != 0;
+        if (!reader.rest().empty()) {
+            const auto max_frame = reader.varint("hello max_frame");
+            if (!max_frame)
+                return Error{reader.error()};
+            hello.max_frame = *max_frame;
+        }
     }
     // Trailing bytes are ignored: a later version may append fields to its hello.
     return hello;

@@ -3,6 +3,7 @@
 #include <string>
 
 #include "ndarray.hpp"
+#include "plexus/proto/control.hpp"
 
 namespace py = pybind11;
 
@@ -10,9 +11,9 @@ namespace plexus::python {
 
 namespace {
 
-// Deeper than any message a person means to send; a list that contains itself would otherwise
-// recurse until the stack runs out.
-constexpr int max_depth = 512;
+// The limit every writer and reader shares (deeper values could be sent but not decoded); it also
+// stops a list that contains itself, which would otherwise recurse until the stack runs out.
+constexpr int max_depth = static_cast<int>(plexus::proto::max_cbor_depth);
 
 Value blob_from_buffer(py::handle object) {
     Py_buffer view;
@@ -43,8 +44,10 @@ Value integer(py::handle object) {
 }
 
 Value convert(py::handle object, int depth) {
+    // `depth` containers hold this object; values inside more than max_depth could not be decoded.
     if (depth > max_depth)
-        throw py::value_error("message nested more than " + std::to_string(max_depth) + " levels deep");
+        throw py::value_error("the message nests lists and dicts deeper than " + std::to_string(max_depth) +
+                              " levels: no reader could decode it");
     PyObject* o = object.ptr();
     if (o == Py_None)
         return nullptr;

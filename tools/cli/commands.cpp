@@ -135,12 +135,20 @@ int write(const Common& common, const std::string& port_name, const std::vector<
     }
     std::ios::sync_with_stdio(false);
     std::string line;
+    long line_number = 0;
     while (std::getline(std::cin, line)) {
+        ++line_number;
         Value value = Value::parse(line, nullptr, false);
         if (value.is_discarded())
             value = line;
-        // Batch while stdin has more ready; send as soon as it goes quiet (interactive use).
-        port.write(value, stdin_idle());
+        try {
+            // Batch while stdin has more ready; send as soon as it goes quiet (interactive use).
+            port.write(value, stdin_idle());
+        } catch (const Error& e) {
+            // A line that can never be sent (too large, too deep) ends the run with its reason;
+            // the lines before it were written and are flushed as the port closes.
+            throw Error(e.code(), "line " + std::to_string(line_number) + ": " + e.what());
+        }
     }
     port.close();  // flushes, and the daemon has routed everything before it answers
     return 0;

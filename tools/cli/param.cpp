@@ -3,6 +3,7 @@
 
 #include "commands.hpp"
 #include "plexus/client.hpp"
+#include "plexus/proto/control.hpp"
 #include "plexus/proto/port_name.hpp"
 
 namespace plexus::cli {
@@ -18,7 +19,10 @@ Value parse_assignments(const std::vector<std::string>& assignments) {
             throw Error(ErrorCode::usage, "'" + assignment + "' is not KEY=VALUE");
         const std::string text = assignment.substr(equals + 1);
         Value value = Value::parse(text, nullptr, false);
-        values[assignment.substr(0, equals)] = value.is_discarded() ? Value(text) : value;
+        const std::string key = assignment.substr(0, equals);
+        if (auto shallow = proto::check_value_depth(value, "the value of " + key); !shallow)
+            throw Error(ErrorCode::usage, shallow.error().message);
+        values[key] = value.is_discarded() ? Value(text) : value;
     }
     return values;
 }

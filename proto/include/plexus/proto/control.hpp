@@ -43,7 +43,19 @@ Reply make_refusal(std::uint64_t id, ReplyCode code, std::string reason);
 
 /// Deepest nesting of arrays and maps accepted from a peer. The decoder does not recurse, but what
 /// later walks the json (dump, to_cbor, ==) does, and a 64 MiB frame can nest 64 million levels.
+/// It is also the limit of every value a writer may send (check_value_depth): what is accepted
+/// where a value enters can be decoded by every reader.
 inline constexpr std::size_t max_cbor_depth = 128;
+/// A request or reply body wraps a value (a payload, a parameter) in a few maps of its own: bodies
+/// are decoded with this much room so that any value within max_cbor_depth fits in one.
+inline constexpr std::size_t max_body_depth = max_cbor_depth + 4;
+
+/// How deeply `value` nests arrays and maps (a scalar is 0, `[]` is 1, `[[1]]` is 2), counted only
+/// up to `stop_after` + 1 (recursing no deeper), so a hostile value costs no more than that.
+std::size_t nesting_depth(const nlohmann::json& value, std::size_t stop_after = max_cbor_depth);
+/// An Error ("VALUE nests arrays and maps deeper than 128 levels ...") when `value` could not be
+/// decoded by a reader; `what` names it for the person ("the message", "parameter x").
+Status check_value_depth(const nlohmann::json& value, const std::string& what);
 
 /// Decodes one CBOR value that fills `bytes` exactly. Never throws; refuses malformed CBOR,
 /// trailing bytes and nesting deeper than max_depth. Use it for every CBOR that came off the wire.

@@ -24,6 +24,9 @@ struct Hello {
     std::string node;                      ///< sender's node name, may be empty; at most 255 bytes
     std::array<std::uint8_t, 32> nonce{};  ///< the challenge the other side must answer
     bool has_secret = false;               ///< the sender will prove it holds the secret
+    /// The largest frame body the sender accepts (a daemon tells its clients, so that a writer can
+    /// refuse a message that would not fit before sending anything); 0: not said (older peers).
+    std::uint64_t max_frame = 0;
 };
 
 /// A whole auth frame: the proof (32 bytes) that its sender holds the deployment secret.
