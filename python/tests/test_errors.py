@@ -76,3 +76,25 @@ def test_control_queries(daemon, client):
     events = client.events("/err/b")
     assert isinstance(events, dict)
     del out, b, there
+
+
+def test_a_message_over_the_frame_limit_is_refused_before_it_is_sent_and_the_port_goes_on(client):
+    # The daemon's limit is 64 MiB; such a write used to return normally while the daemon cut the
+    # session off, and libplexus sent it again after every reconnection.
+    out = client.open("/err/large/out")
+    into = client.open("/err/large/in")
+    client.connect("/err/large/out", "/err/large/in")
+    with pytest.raises(plexus.RefusedError, match="frame limit"):
+        out.write(bytes(64 * 1024 * 1024 + 1))
+    out.write("after")
+    assert into.read(timeout=10).data == "after"
+
+
+def test_a_message_nested_deeper_than_readers_decode_is_refused(client):
+    out = client.open("/err/deep")
+    deep = 1
+    for _ in range(129):
+        deep = [deep]
+    with pytest.raises(ValueError, match="deeper than 128 levels"):
+        out.write(deep)
+    out.write(deep[0])  # 128 levels: accepted
