@@ -11,8 +11,8 @@
 
 #include "blob_pool.hpp"
 #include "connection.hpp"
-#include "plexus/proto/hello.hpp"
 #include "plexus/proto/frame.hpp"
+#include "plexus/proto/hello.hpp"
 #include "plexus/proto/message.hpp"
 #include "plexus/proto/shm.hpp"
 

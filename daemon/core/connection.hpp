@@ -35,7 +35,7 @@ struct Connection final : FilterClient {
     std::string carrier;  ///< canonical carrier text
     bool remote = false;  ///< true when the destination lives on another daemon (or the carrier forces tcp)
     bool persistent = false;  ///< made with --persist: the name server keeps it across restarts
-    int priority = 0;     ///< qos.prio: its port hands each message to higher ones first (Router::add)
+    int priority = 0;         ///< qos.prio: its port hands each message to higher ones first (Router::add)
     std::shared_ptr<MessageSink> sink;
     /// The send-side monitors, before the sink; null when there are none (or when an mcast sender
     /// runs them for all the port's mcast connections at once).

@@ -80,8 +80,8 @@ Task<proto::Result<proto::Reply>> NameClient::request(nlohmann::json body,
     if (!connected() && !refusal_)
         co_await wait_connected(std::min<std::chrono::steady_clock::duration>(reconnect_patience, timeout));
     if (refusal_) {
-        co_return Outcome(proto::Error{"the name server at " + names_.text() + " refuses this daemon: " +
-                                       *refusal_});
+        co_return Outcome(
+            proto::Error{"the name server at " + names_.text() + " refuses this daemon: " + *refusal_});
     }
     if (!connected()) {
         co_return Outcome(
@@ -116,13 +116,15 @@ Task<proto::Status> NameClient::unregister_port(std::string port) {
     co_return co_await unregister_port(std::move(port), request_timeout);
 }
 
-Task<proto::Status> NameClient::unregister_port(std::string port, std::chrono::steady_clock::duration timeout) {
+Task<proto::Status> NameClient::unregister_port(std::string port,
+                                                std::chrono::steady_clock::duration timeout) {
     nlohmann::json body = {{"op", op::unregister_port}, {"port", port}};
     auto reply = co_await request(std::move(body), timeout);
     if (!reply)
         co_return proto::Status(reply.error());
     if (reply->code != proto::ReplyCode::ok)
-        co_return proto::Status(proto::Error{reply->body.value("error", "the name server refused unregister")});
+        co_return proto::Status(
+            proto::Error{reply->body.value("error", "the name server refused unregister")});
     co_return proto::Status(proto::Ok{});
 }
 

@@ -28,7 +28,8 @@ public:
     /// Sends a request; an Error when the name server cannot be reached.
     Task<proto::Result<proto::Reply>> request(nlohmann::json body);
     /// The same with a reply time limit of its own (shutdown has less than the usual 5 s).
-    Task<proto::Result<proto::Reply>> request(nlohmann::json body, std::chrono::steady_clock::duration timeout);
+    Task<proto::Result<proto::Reply>> request(nlohmann::json body,
+                                              std::chrono::steady_clock::duration timeout);
 
     // Typed calls. Each answers an Error with the name server's reason when it refuses.
     /// Registers a port of this node; answers the persistent connections that name it.

@@ -231,7 +231,7 @@ Task<void> NameServer::udp_loop() {
 }
 
 proto::Reply NameServer::answer(const proto::Request& request, std::uint64_t session,
-                               const SessionAddresses& where) {
+                                const SessionAddresses& where) {
     try {
         return handle(request, session, where);
     } catch (const std::exception& e) {
@@ -242,7 +242,7 @@ proto::Reply NameServer::answer(const proto::Request& request, std::uint64_t ses
 }
 
 proto::Reply NameServer::handle(const proto::Request& request, std::uint64_t session,
-                               const SessionAddresses& where) {
+                                const SessionAddresses& where) {
     const auto& body = request.body;
     const std::string asked = body["op"];
     auto ok = [&](nlohmann::json out = nlohmann::json::object()) {
@@ -263,7 +263,8 @@ proto::Reply NameServer::handle(const proto::Request& request, std::uint64_t ses
         auto entry = registry_.lookup(text_field(body, "port"));
         if (!entry)
             return refuse("port " + text_field(body, "port") + " is not registered", ReplyCode::no);
-        return ok({{"port", entry->name}, {"node", entry->node}, {"address", address_for(entry->address, where)}});
+        return ok(
+            {{"port", entry->name}, {"node", entry->node}, {"address", address_for(entry->address, where)}});
     }
     if (asked == op::list) {
         auto listed = registry_.list();

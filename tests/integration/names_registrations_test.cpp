@@ -90,8 +90,8 @@ TEST(NamesRegistrations_test, ADaemonListeningOnEveryInterfaceIsReachedFromAnoth
     // The reader's daemon, on host 1, listening on every interface.
     const std::string ready = dir.file("wildcard.ready");
     const std::string socket = dir.file("wildcard.sock");
-    std::vector<std::string> argv{plexusd_path(), "--node",     "wildcard",      "--socket",
-                                  socket,         "--listen",   "0.0.0.0:0",     "--names",
+    std::vector<std::string> argv{plexusd_path(),  "--node",       "wildcard",  "--socket",
+                                  socket,          "--listen",     "0.0.0.0:0", "--names",
                                   names.address(), "--ready-file", ready};
     const auto& flags = beyond_loopback_flags();
     argv.insert(argv.end(), flags.begin(), flags.end());

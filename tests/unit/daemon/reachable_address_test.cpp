@@ -12,7 +12,8 @@ asio::ip::address ip(const char* text) {
 TEST(ReachableAddress_test, AWildcardHostIsRecordedAtTheAddressTheSessionCameFrom) {
     const SessionAddresses daemon{ip("10.1.0.7"), ip("10.1.0.1")};
     EXPECT_EQ(recorded_address("0.0.0.0:4000", daemon), "10.1.0.7:4000");
-    EXPECT_EQ(recorded_address("[::]:4000", SessionAddresses{ip("fd00::7"), ip("fd00::1")}), "[fd00::7]:4000");
+    EXPECT_EQ(recorded_address("[::]:4000", SessionAddresses{ip("fd00::7"), ip("fd00::1")}),
+              "[fd00::7]:4000");
 }
 
 TEST(ReachableAddress_test, ASpecificHostIsRecordedAsAnnounced) {
