@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <csignal>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <memory>
@@ -59,6 +60,7 @@ TEST(Leaving_test, ADaemonWhoseClientsAreKilledDuringShutdownStillExits) {
         const auto status = daemon.process().wait(exit_bound());
         ASSERT_TRUE(status.has_value()) << "plexusd did not exit within its grace after SIGTERM";
         EXPECT_EQ(*status, 0) << daemon.process().err();
+        EXPECT_FALSE(std::filesystem::exists(daemon.socket())) << "the socket file stays after SIGTERM";
     }
 }
 
@@ -171,6 +173,35 @@ TEST(Leaving_test, ANameServerKilledInTheMiddleOfConnectsLeavesTheDaemonStoppabl
         const auto status = daemon.process().wait(exit_bound());
         ASSERT_TRUE(status.has_value()) << "plexusd did not exit within its grace after SIGTERM";
     }
+}
+
+// `plexus up` killed (-9) part-way, round after round: the next `up` still applies the application
+// (idempotent, whatever the last one left), `down` removes it, and the daemon stops on SIGTERM.
+TEST(Leaving_test, UpKilledPartWayLeavesNothingTheNextUpAndDownCannotMend) {
+    TempDir dir;
+    Daemon daemon(dir, "apps");
+    const std::string app = dir.file("app.json");
+    // Readers that end by themselves: whatever a killed `up` started is gone when the test is.
+    std::ofstream(app) << R"({"name": "leaving", "components": [
+    {"name": "a", "command": "plexus", "args": ["read", "/up/a", "--timeout", "60"], "ports": ["/up/a"]},
+    {"name": "b", "command": "plexus", "args": ["read", "/up/b", "--timeout", "60"], "ports": ["/up/b"]}],
+  "connections": [{"source": "/up/a", "destination": "/up/b", "carrier": "tcp"}]})";
+    for (int round = 0; round < 4; ++round) {
+        auto up = start_cli(dir, daemon, {"up", app}, "up" + std::to_string(round));
+        up->signal(SIGKILL);
+        up->wait(slower(10s));
+    }
+    auto up = run_cli(dir, daemon, {"up", app}, "", slower(60s));
+    EXPECT_EQ(up.status, 0) << up.err;
+    EXPECT_EQ(run_cli(dir, daemon, {"exists", "/up/a", "/up/b"}).status, 0);
+    auto down = run_cli(dir, daemon, {"down", app}, "", slower(60s));
+    EXPECT_EQ(down.status, 0) << down.err;
+    EXPECT_TRUE(settles(daemon.process().pid()));
+    daemon.process().signal(SIGTERM);
+    const auto status = daemon.process().wait(exit_bound());
+    ASSERT_TRUE(status.has_value()) << "plexusd did not exit within its grace after SIGTERM";
+    EXPECT_EQ(*status, 0);
+    EXPECT_FALSE(std::filesystem::exists(daemon.socket())) << "the socket file stays after SIGTERM";
 }
 
 }  // namespace
