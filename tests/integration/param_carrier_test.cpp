@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <memory>
 
 #include "harness.hpp"
 
@@ -43,16 +44,26 @@ std::string listed_carrier(const TempDir& dir, const Daemon& daemon, const std::
     return "";
 }
 
-class ParamCarrier_test : public ::testing::TestWithParam<std::string> {};
+struct Setup {
+    std::string base;  ///< the base carrier
+    bool two_daemons;  ///< the sink on a second daemon: its end of the carrier is rewritten there
+};
+
+class ParamCarrier_test : public ::testing::TestWithParam<Setup> {};
 
 TEST_P(ParamCarrier_test, ParamSetShowsTheNewValuesInTheCarrier) {
-    const std::string base = GetParam();
+    const std::string base = GetParam().base;
     TempDir dir;
     std::filesystem::create_directories(dir.file("scripts"));
     write_script(dir, "tunable", tunable);
     write_script(dir, "fixed", fixed);
-    Daemon daemon(dir, "solo", "", {"--scripts", dir.file("scripts")});
-    auto reader = start_cli(dir, daemon, {"read", "/sink", "--timeout", "60"}, "sink");
+    Daemon daemon(dir, "first", "", {"--scripts", dir.file("scripts")});
+    std::unique_ptr<Daemon> second;
+    if (GetParam().two_daemons)
+        second = std::make_unique<Daemon>(dir, "second", daemon.names(),
+                                          std::vector<std::string>{"--scripts", dir.file("scripts")});
+    const Daemon& sink_side = second ? *second : daemon;
+    auto reader = start_cli(dir, sink_side, {"read", "/sink", "--timeout", "60"}, "sink");
     ASSERT_TRUE(wait_port(dir, daemon, "/sink"));
     CliWriter writer(dir, daemon, "/source", "writer");
     ASSERT_TRUE(wait_port(dir, daemon, "/source"));
@@ -71,7 +82,7 @@ TEST_P(ParamCarrier_test, ParamSetShowsTheNewValuesInTheCarrier) {
                                  "+send.portmonitor+type.lua+file.fixed+gain.1"
                                  "+recv.portmonitor+type.lua+file.tunable+threshold.0.95+mode.fast";
     EXPECT_EQ(outgoing_stats(dir, daemon, "/source", "/sink")["carrier"], expected);
-    EXPECT_EQ(inbound_stats(dir, daemon, "/sink", "/source")["carrier"], expected);
+    EXPECT_EQ(inbound_stats(dir, sink_side, "/sink", "/source")["carrier"], expected);
     EXPECT_TRUE(eventually([&] { return listed_carrier(dir, daemon, "/source", "/sink") == expected; }))
         << listed_carrier(dir, daemon, "/source", "/sink");
 
@@ -83,7 +94,12 @@ TEST_P(ParamCarrier_test, ParamSetShowsTheNewValuesInTheCarrier) {
     EXPECT_EQ(outgoing_stats(dir, daemon, "/source", "/sink")["carrier"], expected);
 }
 
-INSTANTIATE_TEST_SUITE_P(LocalAndThroughALink, ParamCarrier_test, ::testing::Values("local", "tcp"));
+INSTANTIATE_TEST_SUITE_P(LocalThroughALinkAndAcrossDaemons, ParamCarrier_test,
+                         ::testing::Values(Setup{"local", false}, Setup{"tcp", false}, Setup{"tcp", true}),
+                         [](const ::testing::TestParamInfo<Setup>& info) {
+                             return info.param.base +
+                                    (info.param.two_daemons ? "_two_daemons" : "_one_daemon");
+                         });
 
 }  // namespace
 }  // namespace plexus::test
