@@ -9,6 +9,7 @@
 #include <CLI/CLI.hpp>
 
 #include "names/name_server.hpp"
+#include "number_options.hpp"
 #include "plexus/proto/defaults.hpp"
 #include "plexus/proto/discovery.hpp"
 #include "trust.hpp"
@@ -27,12 +28,14 @@ int main(int argc, char** argv) {
     app.add_option("--listen", listen, "HOST:PORT to serve on, TCP and UDP (env PLEXUS_NAMES)")
         ->capture_default_str();
     app.add_option("--state", state, "file that keeps persistent connections across restarts");
+    // A day at most: a longer grace keeps a dead daemon's ports (and their names) for good.
     app.add_option("--grace-ms", grace_ms, "how long a vanished daemon's ports stay registered")
+        ->transform(plexus::daemon::whole_number(0, 86'400'000))
         ->capture_default_str();
     app.add_option(
            "--handshake-timeout-ms", handshake_timeout_ms,
            "cut off a TCP peer that has not said hello (and proved the secret) this long after connecting")
-        ->check(CLI::Range(100, 3'600'000))
+        ->transform(plexus::daemon::whole_number(100, 3'600'000))
         ->capture_default_str();
     app.add_option("--ready-file", ready_file, "write {\"names\": HOST:PORT, \"pid\"} here once serving");
     app.add_option("--discovery", discovery,
@@ -47,7 +50,7 @@ int main(int argc, char** argv) {
            "multicast groups given to source ports for the mcast carrier, as A.B.C.D/PREFIX (16 to 32)")
         ->capture_default_str();
     app.add_option("--mcast-port", mcast_port, "the UDP port of every mcast group")
-        ->check(CLI::Range(1, 65535))
+        ->transform(plexus::daemon::whole_number(1, 65535))
         ->capture_default_str();
     std::string secret_file;
     bool insecure = false;

@@ -14,12 +14,16 @@
 
 #include "config_file.hpp"
 #include "daemon.hpp"
+#include "number_options.hpp"
 #include "plexus/proto/datagram.hpp"
 #include "plexus/proto/defaults.hpp"
 #include "plexus/proto/discovery.hpp"
 #include "trust.hpp"
 
 namespace {
+
+/// More monitor threads than this is a typo, not a machine: each is a thread with its own stack.
+constexpr std::uint64_t most_monitor_threads = 1024;
 
 std::string host_name() {
     char buffer[256] = {};
@@ -72,6 +76,7 @@ int main(int argc, char** argv) {
     app.add_option("--monitor-threads", config.monitor_threads,
                    "threads that run port monitors, so that a slow script delays only its own "
                    "connection (0: one per core)")
+        ->transform(plexus::daemon::whole_number(0, most_monitor_threads))
         ->capture_default_str();
     bool no_inline_monitors = false;
     app.add_flag("--no-inline-monitors", no_inline_monitors,

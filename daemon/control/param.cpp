@@ -1,12 +1,20 @@
 // `plexus param get|set SRC DST`: the daemon of SRC answers for the send-side monitors and asks
 // the daemon of DST for the recv-side ones (itself, when the connection is local).
+#include <algorithm>
+#include <cstddef>
+#include <string>
+#include <vector>
+
 #include <spdlog/spdlog.h>
 
+#include "arbitration/carrier_rules.hpp"
 #include "control_plane.hpp"
 #include "core/inlet.hpp"
 #include "core/router.hpp"
 #include "monitor/stage.hpp"
+#include "names/name_client.hpp"
 #include "net/udp_carrier.hpp"
+#include "plexus/proto/carrier.hpp"
 #include "request_fields.hpp"
 
 namespace plexus::daemon {
@@ -15,17 +23,23 @@ namespace {
 
 using proto::ReplyCode;
 
-/// Runs get or set on every monitor of a chain and appends {script, side, param} per monitor.
-/// On the monitors' worker (see apply_on_worker).
+/// Places in a side's monitor chain (0 the first) of the monitors that took a `param set`.
+using Takers = std::vector<std::size_t>;
+
+/// Runs get or set on every monitor of a chain and appends {script, side, param} per monitor, and
+/// the places of those that have a setparam to `took`. On the monitors' worker (see apply_on_worker).
 proto::Status apply(const monitor::MonitorChain& chain, const nlohmann::json& body, nlohmann::json& results,
-                    bool& any_setparam) {
+                    bool& any_setparam, Takers& took) {
     const bool set = text(body, "action") == "set";
-    for (const auto& monitor : chain.monitors) {
+    for (std::size_t place = 0; place < chain.monitors.size(); ++place) {
+        const auto& monitor = chain.monitors[place];
         if (set) {
             auto called = monitor->setparam(body.value("values", nlohmann::json::object()));
             if (!called)
                 return called.error();
             any_setparam = any_setparam || *called;
+            if (*called)
+                took.push_back(place);
         }
         auto param = monitor->getparam();
         if (!param)
@@ -39,20 +53,105 @@ proto::Status apply(const monitor::MonitorChain& chain, const nlohmann::json& bo
 /// apply() where the monitors run: their scripts are theirs only, and a slow getparam delays only
 /// this request.
 Task<proto::Status> apply_on_worker(const std::shared_ptr<MessageFilter>& monitors,
-                                    const nlohmann::json& body, nlohmann::json& results, bool& any_setparam) {
+                                    const nlohmann::json& body, nlohmann::json& results, bool& any_setparam,
+                                    Takers& took) {
     auto* stage = monitor::stage_of(monitors);
     if (!stage)
         co_return proto::Ok{};
     proto::Status status = proto::Error{"the monitors of this connection are gone"};
-    const std::function<void()> work = [&] { status = apply(stage->chain(), body, results, any_setparam); };
+    const std::function<void()> work = [&] {
+        status = apply(stage->chain(), body, results, any_setparam, took);
+    };
     co_await stage->run(work);
     co_return status;
 }
 
-proto::Reply answer(const nlohmann::json& results, bool any_setparam, const nlohmann::json& body) {
+/// The monitor's own keys of a portmonitor clause (script_host.cpp's spec_of): not options that
+/// create(options) sees, so a value given to setparam under one of these names is not theirs.
+bool monitor_own_key(const std::string& key) {
+    for (const char* own : {"type", "file", "constraint", "aux", "onerror"}) {
+        if (key == own)
+            return true;
+    }
+    return false;
+}
+
+/// The clauses a monitor chain is built from, in the same order (ScriptHost::build_chain).
+bool runs_monitor(const proto::Clause& clause) {
+    return clause.modifier == "portmonitor" && !arbitration::arbitration_only(clause);
+}
+
+bool same_params(const proto::Clause& a, const proto::Clause& b) {
+    return std::equal(a.params.begin(), a.params.end(), b.params.begin(), b.params.end(),
+                      [](const proto::CarrierParam& x, const proto::CarrierParam& y) {
+                          return x.key == y.key && x.value == y.value;
+                      });
+}
+
+/// `carrier_text` with `values` written into the clauses whose monitors took them: a key's value
+/// replaced where it stands, or the key added at the end of the clause. So the text `stats` and
+/// `list` show says what the monitors run with, and a connection made again from it (a persistent
+/// one, a link that comes back) starts with it. A key or value the grammar cannot hold -- a '+' in
+/// the value, a dot in the key -- keeps its old text: the carrier must still read back the same.
+std::string with_values(const std::string& carrier_text, const Takers& send_took, const Takers& recv_took,
+                        const nlohmann::json& values) {
+    auto parsed = proto::parse_carrier(carrier_text);
+    if (!parsed || !values.is_object())
+        return carrier_text;
+    proto::Carrier carrier = std::move(*parsed);
+    std::size_t send_place = 0;
+    std::size_t recv_place = 0;
+    // By index, not by reference: writing a value replaces `carrier`, clauses and all.
+    for (std::size_t c = 0; c < carrier.clauses.size(); ++c) {
+        if (!runs_monitor(carrier.clauses[c]))
+            continue;
+        const bool send = carrier.clauses[c].side == proto::Side::send;
+        const std::size_t place = send ? send_place++ : recv_place++;
+        const Takers& took = send ? send_took : recv_took;
+        if (std::find(took.begin(), took.end(), place) == took.end())
+            continue;
+        for (const auto& [key, value] : values.items()) {
+            if (monitor_own_key(key))
+                continue;
+            proto::Carrier candidate = carrier;
+            auto& params = candidate.clauses[c].params;
+            const std::string value_text = value.is_string() ? value.get<std::string>() : value.dump();
+            auto it = std::find_if(params.begin(), params.end(),
+                                   [&](const proto::CarrierParam& p) { return p.key == key; });
+            if (it != params.end())
+                it->value = value_text;
+            else
+                params.push_back({key, value_text});
+            auto again = proto::parse_carrier(candidate.text());
+            if (again && again->clauses.size() == candidate.clauses.size() &&
+                same_params(again->clauses[c], candidate.clauses[c]))
+                carrier = std::move(candidate);
+        }
+    }
+    return carrier.text();
+}
+
+/// Unsigned numbers of `field` in `body`; anything else in it is left out.
+Takers takers_of(const nlohmann::json& body, const char* field) {
+    Takers took;
+    const auto it = body.find(field);
+    if (it == body.end() || !it->is_array())
+        return took;
+    for (const auto& place : *it) {
+        if (place.is_number_unsigned())
+            took.push_back(place.get<std::size_t>());
+    }
+    return took;
+}
+
+proto::Reply answer(const nlohmann::json& results, bool any_setparam, const nlohmann::json& body,
+                    const Takers& took = {}) {
     return {0,
             ReplyCode::ok,
-            {{"monitors", results}, {"any_setparam", any_setparam}, {"action", text(body, "action")}}};
+            {{"monitors", results},
+             {"any_setparam", any_setparam},
+             {"action", text(body, "action")},
+             {"took", took}}};
 }
 
 }  // namespace
@@ -76,16 +175,19 @@ Task<proto::Reply> ControlPlane::param(std::shared_ptr<Session>, const proto::Re
                                       "ports " + source + " and " + destination + " are not connected");
     nlohmann::json results = nlohmann::json::array();
     bool any_setparam = false;
+    Takers send_took;
+    Takers recv_took;
     // An mcast connection's send-side monitors are its port's, shared by all its mcast connections.
     std::shared_ptr<MessageFilter> send_side = connection->send_monitors;
     if (const auto* mcast = dynamic_cast<const McastLink*>(connection->sink.get()))
         send_side = mcast->sender().send_stage();
-    auto applied = co_await apply_on_worker(send_side, request.body, results, any_setparam);
+    auto applied = co_await apply_on_worker(send_side, request.body, results, any_setparam, send_took);
     if (!applied)
         co_return proto::make_refusal(0, ReplyCode::refused, applied.error().message);
     if (!connection->remote) {
         auto* inlet = static_cast<Inlet*>(connection->sink.get());
-        auto inlet_applied = co_await apply_on_worker(inlet->monitors, request.body, results, any_setparam);
+        auto inlet_applied =
+            co_await apply_on_worker(inlet->monitors, request.body, results, any_setparam, recv_took);
         if (!inlet_applied)
             co_return proto::make_refusal(0, ReplyCode::refused, inlet_applied.error().message);
     } else {
@@ -93,16 +195,39 @@ Task<proto::Reply> ControlPlane::param(std::shared_ptr<Session>, const proto::Re
         recv_half.body = request.body;
         recv_half.body["op"] = "param_recv";
         recv_half.body.erase("forwarded");
+        // The far end rewrites its copy of the carrier text too: it needs to know which send-side
+        // clauses took the values.
+        recv_half.body["send_took"] = send_took;
         auto reply = co_await forward(recv_half, destination);
         if (reply.code != ReplyCode::ok)
             co_return reply;
         for (const auto& entry : reply.body.value("monitors", nlohmann::json::array()))
             results.push_back(entry);
         any_setparam = any_setparam || reply.body.value("any_setparam", false);
+        recv_took = takers_of(reply.body, "took");
     }
     if (action == "set" && !any_setparam) {
         co_return proto::make_refusal(0, ReplyCode::refused,
                                       "no monitor on " + source + " -> " + destination + " has setparam");
+    }
+    // The connection may have gone during the co_awaits: a carrier sent to the name server now
+    // would bring it back into `plexus list`.
+    const bool still_connected =
+        std::find(port->outgoing.begin(), port->outgoing.end(), connection) != port->outgoing.end();
+    if (action == "set" && still_connected) {
+        const std::string carrier = with_values(connection->carrier, send_took, recv_took,
+                                                request.body.value("values", nlohmann::json()));
+        if (carrier != connection->carrier) {
+            connection->carrier = carrier;
+            if (!connection->remote)
+                static_cast<Inlet*>(connection->sink.get())->set_carrier(carrier);
+            // The name server merges an add_connection with the one it knows (same source and
+            // destination): only the carrier text changes there.
+            names::ConnectionEntry entry{source, destination, carrier, connection->persistent};
+            if (auto told = co_await host_.names().add_connection(std::move(entry)); !told)
+                spdlog::warn("name server: cannot update the carrier of {} -> {}: {}", source, destination,
+                             told.error().message);
+        }
     }
     co_return answer(results, any_setparam, request.body);
 }
@@ -123,12 +248,21 @@ Task<proto::Reply> ControlPlane::param_recv(std::shared_ptr<Session>, const prot
         if (auto inlet = weak.lock(); inlet && inlet->source() == source)
             inlets.push_back(std::move(inlet));
     }
+    const Takers send_took = takers_of(request.body, "send_took");
+    Takers took;
     for (const auto& inlet : inlets) {
-        auto applied = co_await apply_on_worker(inlet->monitors, request.body, results, any_setparam);
+        Takers inlet_took;
+        auto applied =
+            co_await apply_on_worker(inlet->monitors, request.body, results, any_setparam, inlet_took);
         if (!applied)
             co_return proto::make_refusal(0, ReplyCode::refused, applied.error().message);
+        // This end's copy of the carrier text, as the sending end rewrites its own (param()).
+        if (text(request.body, "action") == "set")
+            inlet->set_carrier(with_values(inlet->carrier(), send_took, inlet_took,
+                                           request.body.value("values", nlohmann::json())));
+        took.insert(took.end(), inlet_took.begin(), inlet_took.end());
     }
-    co_return answer(results, any_setparam, request.body);
+    co_return answer(results, any_setparam, request.body, took);
 }
 
 }  // namespace plexus::daemon

@@ -44,6 +44,8 @@ public:
     const std::shared_ptr<Port>& port() const { return port_; }
     const std::string& source() const { return source_; }
     const std::string& carrier() const { return carrier_; }
+    /// `plexus param set` changed what its monitors run with (control/param.cpp).
+    void set_carrier(std::string carrier) { carrier_ = std::move(carrier); }
     const arbitration::Member& member() const { return *member_; }
 
     /// The recv-side monitors; null when there are none. They decide with the arbitration.

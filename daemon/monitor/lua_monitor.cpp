@@ -1,6 +1,8 @@
 #include "lua_monitor.hpp"
 
 #include <cstring>
+#include <string>
+#include <string_view>
 
 #include "lazy_map.hpp"
 #include "lua_guard.hpp"
@@ -14,6 +16,22 @@ namespace {
 
 constexpr const char* api_table = "PortMonitor";
 constexpr const char* message_type = "plexus.msg";
+/// The most of a script's own words a connect refusal carries: enough for a sentence, and a
+/// script cannot make the CLI's one-line error (or the reply frame) as big as it likes.
+constexpr std::size_t reason_bytes = 300;
+
+/// `text` as a connect refusal shows it: without Lua's traceback (the daemon log has it), cut at
+/// reason_bytes on a UTF-8 character boundary.
+std::string reason_for_user(std::string_view text) {
+    if (const auto traceback = text.find("\nstack traceback:"); traceback != std::string_view::npos)
+        text = text.substr(0, traceback);
+    if (text.size() <= reason_bytes)
+        return std::string(text);
+    std::size_t end = reason_bytes;
+    while (end > 0 && (static_cast<unsigned char>(text[end]) & 0xC0) == 0x80)
+        --end;  // text[end] continues a character: cut before the character starts
+    return std::string(text.substr(0, end)) + "...";
+}
 
 /// One message as a callback sees it; lives on the C++ stack for one process() call.
 struct MessageView {
@@ -229,6 +247,10 @@ private:
         int message = 0;
     } pins_;
     bool has_update_ = false;
+    /// Until create has answered, the last line the script printed (at most reason_bytes and a
+    /// bit): a script that refuses often says why with print, and the user should see it.
+    bool remember_prints_ = true;
+    std::string last_printed_;
 };
 
 void LuaMonitor::install_api(lua_State* L) {
@@ -316,9 +338,10 @@ proto::Status LuaMonitor::create() {
     const MonitorSpec& spec = monitor_.spec();
     const std::string& name = spec.script.name;
     try {
-        Monitor& monitor = monitor_;
-        sandbox_ = std::make_unique<LuaSandbox>(policy_.limits, [&monitor](std::string_view line) {
-            monitor.log(Monitor::LogLevel::info, line);
+        sandbox_ = std::make_unique<LuaSandbox>(policy_.limits, [this](std::string_view line) {
+            monitor_.log(Monitor::LogLevel::info, line);
+            if (remember_prints_)
+                last_printed_ = reason_for_user(line);
         });
     } catch (const std::exception& e) {
         return proto::Error{"script '" + name + "': " + e.what()};
@@ -360,7 +383,8 @@ proto::Status LuaMonitor::create() {
         return proto::Error{"script '" + name + "' failed to load: " + loaded.error().message};
 
     bool refused = false;
-    auto created = sandbox_->run([this, &spec, &refused](lua_State* L) {
+    std::string returned;  // create's second result, when it refuses: `return false, "no camera"`
+    auto created = sandbox_->run([this, &spec, &refused, &returned](lua_State* L) {
         install_api(L);
         if (!push_callback(L, "create"))
             return;
@@ -377,13 +401,27 @@ proto::Status LuaMonitor::create() {
             lua_pushlstring(L, value.data(), value.size());
             lua_setfield(L, -2, key.c_str());
         }
-        lua_call(L, 1, 1);
-        refused = lua_isboolean(L, -1) && !lua_toboolean(L, -1);
+        lua_call(L, 1, 2);
+        refused = lua_isboolean(L, -2) && !lua_toboolean(L, -2);
+        // Only a string or a number: anything else would print as "table: 0x...", no reason at all.
+        if (refused && (lua_type(L, -1) == LUA_TSTRING || lua_type(L, -1) == LUA_TNUMBER)) {
+            std::size_t size = 0;
+            const char* text = lua_tolstring(L, -1, &size);
+            returned = reason_for_user(std::string_view(text, size));
+        }
     });
-    if (created)
-        return proto::Error{"script '" + name + "': create failed: " + created->message};
-    if (refused)
-        return proto::Error{"script '" + name + "' refused the connection (create returned false)"};
+    remember_prints_ = false;
+    if (created) {
+        // The whole error, traceback and all, for the script's author; the connect gets its gist.
+        monitor_.log(Monitor::LogLevel::warn, "create failed: " + created->message);
+        return proto::Error{"script '" + name + "': create failed: " + reason_for_user(created->message)};
+    }
+    if (refused) {
+        // The reason it gave beside false, else the last thing it printed.
+        const std::string& why = returned.empty() ? last_printed_ : returned;
+        return proto::Error{"script '" + name + "' refused the connection" +
+                            (why.empty() ? " (create returned false)" : ": " + why)};
+    }
     auto lookup = sandbox_->run([this](lua_State* L) {
         has_accept_ = has_callback(L, "accept");
         has_update_ = has_callback(L, "update");

@@ -227,9 +227,11 @@ int LuaSandbox::no_finalizer_setmetatable(lua_State* L) {
 }
 
 int LuaSandbox::print_to_log(lua_State* L) {
+    // Counted before luaL_buffinit: in Lua 5.4 it pushes a slot of its own (the buffer's
+    // placeholder), which counted after would print as one more argument, "userdata: 0x...".
+    const int n = lua_gettop(L);
     luaL_Buffer line;
     luaL_buffinit(L, &line);
-    const int n = lua_gettop(L);
     charge(L, n);  // the line's bytes are charged as they are allocated
     for (int i = 1; i <= n; ++i) {
         if (i > 1)
