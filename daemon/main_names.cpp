@@ -57,7 +57,10 @@ int main(int argc, char** argv) {
     app.add_option("--secret-file", secret_file,
                    "the deployment secret (env PLEXUS_SECRET_FILE): every TCP peer must prove it holds it");
     app.add_flag("--insecure", insecure, "listen beyond loopback without a secret (anyone may register)");
-    app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
+    // spdlog reads a name it does not know as "off": a typo would silence the daemon.
+    app.add_option("--log-level", log_level, "trace, debug, info, warn, error")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}));
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

@@ -97,7 +97,10 @@ int main(int argc, char** argv) {
         "the same on every machine; TCP peers must prove they hold it and datagrams carry a MAC");
     app.add_flag("--insecure", config.insecure,
                  "listen beyond loopback without a secret (anyone who reaches the daemon can use it)");
-    app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();
+    // spdlog reads a name it does not know as "off": a typo would silence the daemon.
+    app.add_option("--log-level", log_level, "trace, debug, info, warn, error")
+        ->capture_default_str()
+        ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}));
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

@@ -85,5 +85,19 @@ TEST(DaemonOptions_test, NameServerRefusesBadNumbers) {
     }
 }
 
+// spdlog reads an unknown level name as "off": `--log-level bogus` ran a daemon that said nothing.
+TEST(DaemonOptions_test, AnUnknownLogLevelIsRefused) {
+    TempDir dir;
+    for (const auto& program : {plexusd_path(), names_path()}) {
+        const std::vector<std::string> argv{
+            program,    "--embedded-names", "--names",     "127.0.0.1:0", "--socket", dir.file("level.sock"),
+            "--listen", "127.0.0.1:0",      "--log-level", "bogus"};
+        std::vector<std::string> names_argv{program, "--listen", "127.0.0.1:0", "--log-level", "bogus"};
+        auto outcome = run_with_deadline(dir, program == names_path() ? names_argv : argv, "level");
+        EXPECT_EQ(outcome.status, std::optional<int>(2)) << program << ": " << outcome.err;
+        EXPECT_NE(outcome.err.find("--log-level"), std::string::npos) << outcome.err;
+    }
+}
+
 }  // namespace
 }  // namespace plexus::test

@@ -38,8 +38,22 @@ TEST(Hello_test, RoundTrips) {
 TEST(Hello_test, HasDocumentedLayout) {
     const Bytes fields = fields_of(encode_hello({1, "cli", ""}));
     Bytes expected{'P', 'L', 'X', 'S', 0x01, 0x03, 'c', 'l', 'i', 0x00};
-    expected.resize(expected.size() + 32 + 1, 0);  // nonce, flags
+    expected.resize(expected.size() + 32 + 1 + 1, 0);  // nonce, flags, max_frame (0: not said)
     EXPECT_EQ(fields, expected);
+}
+
+TEST(Hello_test, CarriesTheSendersMaxFrame) {
+    Hello sent{protocol_version, "daemon", "robot-1"};
+    sent.max_frame = 64u * 1024u * 1024u;
+    const auto hello = decode_hello(fields_of(encode_hello(sent)));
+    ASSERT_TRUE(hello) << hello.error().message;
+    EXPECT_EQ(hello->max_frame, sent.max_frame);
+    // A hello from before max_frame (ending at its flags) says nothing: 0.
+    Bytes older = hello_fields(protocol_version, "daemon", "x");
+    older.resize(older.size() + 32 + 1, 0);
+    const auto old_hello = decode_hello(older);
+    ASSERT_TRUE(old_hello) << old_hello.error().message;
+    EXPECT_EQ(old_hello->max_frame, 0u);
 }
 
 TEST(Hello_test, RoundTripsLimits) {
@@ -54,12 +68,13 @@ TEST(Hello_test, RoundTripsLimits) {
 
 TEST(Hello_test, RefusesEveryTruncation) {
     const Bytes fields = fields_of(encode_hello({protocol_version, "client", "n"}));
-    // A hello may end after its node (a sender with no secret, from before the nonce); any other
-    // cut is refused.
-    const std::size_t without_nonce = fields.size() - 32 - 1;
+    // A hello may end after its node (a sender with no secret, from before the nonce) or after its
+    // flags (from before max_frame); any other cut is refused.
+    const std::size_t without_max_frame = fields.size() - 1;
+    const std::size_t without_nonce = without_max_frame - 32 - 1;
     for (std::size_t n = 0; n < fields.size(); ++n) {
         const auto hello = decode_hello(ByteView(fields).first(n));
-        EXPECT_EQ(hello.ok(), n == without_nonce) << "cut at " << n;
+        EXPECT_EQ(hello.ok(), n == without_nonce || n == without_max_frame) << "cut at " << n;
     }
 }
 
@@ -100,11 +115,13 @@ TEST(Hello_test, ReturnsOtherVersionEvenWhenRestDiffers) {
 
 TEST(Hello_test, IgnoresTrailingFields) {
     Bytes fields = hello_fields(protocol_version, "daemon", "x");
-    fields.resize(fields.size() + 32 + 1, 0);  // nonce, flags: then fields of a later version
-    fields.push_back(0x42);
+    fields.resize(fields.size() + 32 + 1, 0);  // nonce, flags
+    fields.push_back(0x42);                    // max_frame: then fields of a later version
+    fields.push_back(0x43);
     const auto hello = decode_hello(fields);
     ASSERT_TRUE(hello);
     EXPECT_EQ(hello->node, "x");
+    EXPECT_EQ(hello->max_frame, 0x42u);
 }
 
 }  // namespace
