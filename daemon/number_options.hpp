@@ -8,11 +8,12 @@
 // Add it with Option::transform, not check: it also rewrites the value in plain decimal ("010" as
 // "10"), so that CLI11 does not read it as octal.
 
-#include <charconv>
 #include <cstdint>
 #include <string>
 
 #include <CLI/CLI.hpp>
+
+#include "plexus/proto/whole_number.hpp"
 
 namespace plexus::daemon {
 
@@ -21,15 +22,10 @@ inline CLI::Validator whole_number(std::uint64_t least, std::uint64_t most) {
     const std::string range = std::to_string(least) + " to " + std::to_string(most);
     return CLI::Validator(
         [least, most, range](std::string& input) -> std::string {
-            const std::string refusal = "expected a whole number from " + range + ", got '" + input + "'";
-            // Digits only: no sign, no "0x", no exponent, no "nan" (which from_chars would read).
-            if (input.empty() || input.find_first_not_of("0123456789") != std::string::npos)
-                return refusal;
-            std::uint64_t value = 0;
-            const auto [end, error] = std::from_chars(input.data(), input.data() + input.size(), value);
-            if (error != std::errc{} || end != input.data() + input.size() || value < least || value > most)
-                return refusal;
-            input = std::to_string(value);
+            const auto value = proto::parse_whole_number(input, least, most);
+            if (!value)
+                return "expected a whole number from " + range + ", got '" + input + "'";
+            input = std::to_string(*value);  // "010" is ten, not CLI11's octal eight
             return {};
         },
         "[" + range + "]");

@@ -5,6 +5,8 @@
 #include <iomanip>
 #include <sstream>
 
+#include "plexus/proto/whole_number.hpp"
+
 namespace plexus::cli {
 
 namespace {
@@ -26,16 +28,10 @@ CLI::Validator whole_number(std::uint64_t least, std::uint64_t most) {
     const std::string range = range_text(std::to_string(least), std::to_string(most));
     return CLI::Validator(
         [least, most, range](std::string& input) -> std::string {
-            const std::string refusal = "expected a whole number from " + range + ", got '" + input + "'";
-            // Digits only: from_chars would also take a leading '-' for a signed type, and CLI11's
-            // strtoull takes "-5" as 2^64-5 and "0x10" as 16.
-            if (input.empty() || input.find_first_not_of("0123456789") != std::string::npos)
-                return refusal;
-            std::uint64_t value = 0;
-            const auto [end, error] = std::from_chars(input.data(), input.data() + input.size(), value);
-            if (error != std::errc{} || end != input.data() + input.size() || value < least || value > most)
-                return refusal;
-            input = std::to_string(value);  // "010" is ten, not CLI11's octal eight
+            const auto value = proto::parse_whole_number(input, least, most);
+            if (!value)
+                return "expected a whole number from " + range + ", got '" + input + "'";
+            input = std::to_string(*value);  // "010" is ten, not CLI11's octal eight
             return {};
         },
         "[" + range + "]");
