@@ -2,7 +2,9 @@
 
 #include <unistd.h>
 
+#include <cstdlib>
 #include <filesystem>
+#include <string_view>
 #include <fstream>
 
 #include <spdlog/spdlog.h>
@@ -170,7 +172,9 @@ int Daemon::run() {
     asio::co_spawn(io_, accept_tcp(), asio::detached);
     asio::co_spawn(io_, accept_unix(), asio::detached);
     udp_.start();
-    heap_trimmer_.start();
+    // PLEXUS_HEAP_TRIM=0 keeps freed memory in the heap, as before the trimmer (for comparisons).
+    if (const char* trim = std::getenv("PLEXUS_HEAP_TRIM"); !trim || std::string_view(trim) != "0")
+        heap_trimmer_.start();
     wait_for_signal();
     spdlog::info("plexusd node '{}' listening on {} and {}; name server {}", config_.node, address(),
                  config_.socket_path, config_.names.text());

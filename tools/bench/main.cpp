@@ -80,7 +80,13 @@ int main(int argc, char** argv) {
     memory->add_option("--ports", options.ports, "ports to open")->capture_default_str();
     memory->add_flag("--json", options.json, "one JSON object per line");
     memory->add_option("--plexusd", options.plexusd, "the plexusd binary")->capture_default_str();
-    memory->callback([&] { status = run_memory(options); });
+    bool burst = false;
+    memory->add_flag("--burst", burst,
+                     "instead: --ports streams fill their queues (--capacity, default 1024 messages of --size "
+                     "bytes) into stalled readers, then close; RSS idle, at the peak and after");
+    memory->add_option("--size", options.size, "with --burst: bytes per message")->capture_default_str();
+    memory->add_option("--capacity", options.capacity, "with --burst: messages per stream");
+    memory->callback([&] { status = burst ? run_memory_burst(options) : run_memory(options); });
 
     auto* memcpy_command = app.add_subcommand(
         "memcpy",

@@ -11,6 +11,8 @@ int run_latency(const Options& options);
 int run_throughput(const Options& options);
 /// Resident memory of one plexusd, idle and with `options.ports` ports open.
 int run_memory(const Options& options);
+/// Resident memory of one plexusd before, at the peak of, and after a burst into stalled readers.
+int run_memory_burst(const Options& options);
 /// Single-thread memcpy rate for the payload size, warm and cold (memcpy_scenario.cpp).
 int run_memcpy(const Options& options);
 /// Throughput and daemon CPU with no monitor, a one-field accept and a rewriting update.
