@@ -4,8 +4,8 @@
 
 #include <cstdlib>
 #include <filesystem>
-#include <string_view>
 #include <fstream>
+#include <string_view>
 
 #include <spdlog/spdlog.h>
 

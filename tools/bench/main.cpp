@@ -81,9 +81,10 @@ int main(int argc, char** argv) {
     memory->add_flag("--json", options.json, "one JSON object per line");
     memory->add_option("--plexusd", options.plexusd, "the plexusd binary")->capture_default_str();
     bool burst = false;
-    memory->add_flag("--burst", burst,
-                     "instead: --ports streams fill their queues (--capacity, default 1024 messages of --size "
-                     "bytes) into stalled readers, then close; RSS idle, at the peak and after");
+    memory->add_flag(
+        "--burst", burst,
+        "instead: --ports streams fill their queues (--capacity, default 1024 messages of --size "
+        "bytes) into stalled readers, then close; RSS idle, at the peak and after");
     memory->add_option("--size", options.size, "with --burst: bytes per message")->capture_default_str();
     memory->add_option("--capacity", options.capacity, "with --burst: messages per stream");
     memory->callback([&] { status = burst ? run_memory_burst(options) : run_memory(options); });

@@ -115,8 +115,9 @@ int run_memory_burst(const Options& options) {
             at_one = now;
     }
     at_five = rss_kib(daemon);
-    std::printf("memory --burst: %zu streams of %zu messages of %zu B into stalled readers, then every port closed\n",
-                streams, per_stream, options.size);
+    std::printf(
+        "memory --burst: %zu streams of %zu messages of %zu B into stalled readers, then every port closed\n",
+        streams, per_stream, options.size);
     std::printf("  plexusd RSS  idle %.1f MiB   peak %.1f MiB   1 s after %.1f MiB   5 s after %.1f MiB\n",
                 mib(idle), mib(peak), mib(at_one), mib(at_five));
     if (back_after >= 0)
