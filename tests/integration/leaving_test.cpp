@@ -175,6 +175,42 @@ TEST(Leaving_test, ANameServerKilledInTheMiddleOfConnectsLeavesTheDaemonStoppabl
     }
 }
 
+// The daemon at the other end of connections is killed while they are being made, then comes
+// back: the connecting daemon answers every request (an error that says why, or success), goes
+// back to idle, and stops on SIGTERM. A client that closes its socket mid-request is a leaver too.
+TEST(Leaving_test, APeerDaemonKilledInTheMiddleOfConnectsLeavesTheOtherStoppable) {
+    TempDir dir;
+    Daemon near(dir, "near");
+    Daemon far(dir, "far", near.names());
+    auto far_reader = start_cli(dir, far, {"read", "/far/in", "--timeout", "60"}, "far-reader");
+    CliWriter writer(dir, near, "/near/out", "writer");
+    ASSERT_TRUE(wait_port(dir, near, "/far/in") && wait_port(dir, near, "/near/out"));
+    for (int round = 0; round < 3; ++round) {
+        SCOPED_TRACE("round " + std::to_string(round));
+        std::vector<std::unique_ptr<Process>> connects;
+        for (int i = 0; i < 4; ++i) {
+            connects.push_back(start_cli(dir, near, {"connect", "/near/out", "/far/in", "tcp"},
+                                         "connect" + std::to_string(round) + "-" + std::to_string(i)));
+        }
+        // One client walks away from its request: its socket closes before the answer.
+        start_cli(dir, near, {"disconnect", "/near/out", "/far/in"}, "walks-away" + std::to_string(round))
+            ->signal(SIGTERM);
+        far.process().signal(SIGKILL);
+        for (auto& process : connects)
+            EXPECT_TRUE(process->wait(slower(20s)).has_value()) << "a connect hung once its peer died";
+        EXPECT_EQ(run_cli(dir, near, {"stats"}, "", slower(10s)).status, 0);
+        far.start_again();
+        far_reader =
+            start_cli(dir, far, {"read", "/far/in", "--timeout", "60"}, "far-reader" + std::to_string(round));
+        ASSERT_TRUE(wait_port(dir, near, "/far/in"));
+    }
+    EXPECT_TRUE(settles(near.process().pid()));
+    near.process().signal(SIGTERM);
+    const auto status = near.process().wait(exit_bound());
+    ASSERT_TRUE(status.has_value()) << "plexusd did not exit within its grace after SIGTERM";
+    EXPECT_EQ(*status, 0);
+}
+
 // `plexus up` killed (-9) part-way, round after round: the next `up` still applies the application
 // (idempotent, whatever the last one left), `down` removes it, and the daemon stops on SIGTERM.
 TEST(Leaving_test, UpKilledPartWayLeavesNothingTheNextUpAndDownCannotMend) {
