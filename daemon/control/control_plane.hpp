@@ -30,7 +30,7 @@ struct MonitorChain;
 
 /// The daemon's answers to control requests (PROTOCOL.md, "Control operations"): a table from op
 /// name to handler, each with the session roles that may send it. Handlers live in files by
-/// subject: ports.cpp, connections.cpp, param.cpp, forward.cpp, stats_view.cpp, events_view.cpp.
+/// subject: ports.cpp, connections.cpp, param.cpp, forward.cpp, views.cpp.
 class ControlPlane {
 public:
     ControlPlane(asio::any_io_executor executor, ControlHost& host);
@@ -110,14 +110,10 @@ private:
     /// Sends the request to the daemon that hosts `port` and relays its reply.
     Task<proto::Reply> forward(const proto::Request& request, const std::string& port);
 
-    // stats_view.cpp
+    // views.cpp: the views of inspect/, for this daemon's ports, or asked of the one hosting them.
     Task<proto::Reply> stats(std::shared_ptr<Session> session, const proto::Request& request);
-    nlohmann::json stats_json(const std::string& only_port) const;
-
-    // events_view.cpp
     /// `plexus events PORT`: the port's event container and arbitration state.
     Task<proto::Reply> events(std::shared_ptr<Session> session, const proto::Request& request);
-    nlohmann::json events_json(const Port& port, bool check) const;
 
     // GCC 12 miscompiles braced temporaries and lambdas inside co_await expressions: build them
     // in these plain functions instead.

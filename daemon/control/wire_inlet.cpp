@@ -6,7 +6,7 @@
 #include <spdlog/spdlog.h>
 
 #include "arbitration/carrier_rules.hpp"
-#include "overlap_text.hpp"
+#include "inspect/overlap_text.hpp"
 #include "script_host.hpp"
 
 namespace plexus::daemon {

@@ -7,7 +7,7 @@
 #include "arbitration/carrier_rules.hpp"
 #include "arbitration/clock.hpp"
 // The daemon's words for an overlap's witness (header only), so check and connect say the same.
-#include "control/overlap_text.hpp"
+#include "inspect/overlap_text.hpp"
 
 namespace plexus::app {
 

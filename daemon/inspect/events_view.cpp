@@ -1,27 +1,17 @@
 // `plexus events PORT`: the port's event container, the constraints and stimulation of the
 // connections into it, and their counters. (A connection's place in the arbitration is made in
 // wire_inlet.cpp.)
+#include "events_view.hpp"
+
 #include <mutex>
 
-#include "control_plane.hpp"
-#include "core/router.hpp"
 #include "inlet_counters.hpp"
 #include "overlap_text.hpp"
-#include "request_fields.hpp"
 
-namespace plexus::daemon {
+namespace plexus::daemon::inspect {
 
-Task<proto::Reply> ControlPlane::events(std::shared_ptr<Session>, const proto::Request& request) {
-    const std::string name = text(request.body, "port");
-    auto port = host_.router().find(name);
-    if (!port)
-        co_return co_await forward(request, name);
-    co_return ok(events_json(*port, request.body.value("check", false)));
-}
-
-nlohmann::json ControlPlane::events_json(const Port& port, bool check) const {
-    const double now = host_.clock().now();
-    nlohmann::json body{{"port", port.name()}, {"node", host_.config().node}};
+nlohmann::json events_view(const Port& port, bool check, const std::string& node, double now) {
+    nlohmann::json body{{"port", port.name()}, {"node", node}};
     nlohmann::json events = nlohmann::json::array();
     nlohmann::json connections = nlohmann::json::array();
     nlohmann::json overlaps = nlohmann::json::array();
@@ -83,4 +73,4 @@ nlohmann::json ControlPlane::events_json(const Port& port, bool check) const {
     return body;
 }
 
-}  // namespace plexus::daemon
+}  // namespace plexus::daemon::inspect

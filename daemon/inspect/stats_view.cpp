@@ -1,15 +1,13 @@
-// `plexus stats`: every port of this daemon (or one), its queue, its connections out and in,
-// and the daemon-wide counters.
-#include "control_plane.hpp"
+#include "stats_view.hpp"
+
 #include "core/router.hpp"
 #include "inlet_counters.hpp"
 #include "monitor/stage.hpp"
 #include "net/link.hpp"
 #include "net/udp_carrier.hpp"
-#include "request_fields.hpp"
 #include "script_host.hpp"
 
-namespace plexus::daemon {
+namespace plexus::daemon::inspect {
 
 namespace {
 
@@ -23,16 +21,9 @@ void add_stage_counters(nlohmann::json& entry, const monitor::MonitorStage& stag
 
 }  // namespace
 
-Task<proto::Reply> ControlPlane::stats(std::shared_ptr<Session>, const proto::Request& request) {
-    const std::string port = text(request.body, "port");
-    if (!port.empty() && !host_.router().find(port))
-        co_return co_await forward(request, port);
-    co_return ok(stats_json(port));
-}
-
-nlohmann::json ControlPlane::stats_json(const std::string& only_port) const {
+nlohmann::json stats_view(ControlHost& host, const ShmUsage& shm, const std::string& only_port) {
     nlohmann::json ports = nlohmann::json::array();
-    for (const auto& [name, port] : host_.router().ports()) {
+    for (const auto& [name, port] : host.router().ports()) {
         if (!only_port.empty() && name != only_port)
             continue;
         nlohmann::json connections = nlohmann::json::array();
@@ -97,13 +88,13 @@ nlohmann::json ControlPlane::stats_json(const std::string& only_port) const {
                          {"outgoing", connections},
                          {"inbound", inbound}});
     }
-    const auto& counters = host_.counters();
-    const auto& scripts = host_.scripts();
-    return {{"node", host_.config().node},
-            {"address", host_.address()},
+    const auto& counters = host.counters();
+    const auto& scripts = host.scripts();
+    return {{"node", host.config().node},
+            {"address", host.address()},
             {"ports", ports},
             {"daemon",
-             {{"sessions", host_.session_count()},
+             {{"sessions", host.session_count()},
               {"sessions_accepted", counters.sessions_accepted},
               {"accept_errors", counters.accept_errors},
               {"protocol_errors", counters.protocol_errors},
@@ -113,19 +104,19 @@ nlohmann::json ControlPlane::stats_json(const std::string& only_port) const {
               {"dropped_link_down", counters.dropped_link_down},
               {"shm_passed", counters.shm_passed},
               {"shm_copied", counters.shm_copied},
-              {"shm_regions", shm_usage_->regions},
-              {"shm_bytes", shm_usage_->bytes},
-              {"shm_slots", shm_usage_->slots},
-              {"udp_datagrams_sent", host_.udp().counters().datagrams_sent},
-              {"udp_datagrams_received", host_.udp().counters().datagrams_received},
-              {"udp_bad_datagrams", host_.udp().counters().bad_datagrams},
-              {"udp_unknown_stream", host_.udp().counters().unknown_stream},
-              {"udp_wrong_sender", host_.udp().counters().wrong_sender},
-              {"udp_send_failures", host_.udp().counters().send_failures},
-              {"udp_bad_mac", host_.udp().counters().bad_mac},
-              {"udp_reassembly_bytes", host_.udp().budget().bytes},
+              {"shm_regions", shm.regions},
+              {"shm_bytes", shm.bytes},
+              {"shm_slots", shm.slots},
+              {"udp_datagrams_sent", host.udp().counters().datagrams_sent},
+              {"udp_datagrams_received", host.udp().counters().datagrams_received},
+              {"udp_bad_datagrams", host.udp().counters().bad_datagrams},
+              {"udp_unknown_stream", host.udp().counters().unknown_stream},
+              {"udp_wrong_sender", host.udp().counters().wrong_sender},
+              {"udp_send_failures", host.udp().counters().send_failures},
+              {"udp_bad_mac", host.udp().counters().bad_mac},
+              {"udp_reassembly_bytes", host.udp().budget().bytes},
               {"monitor_published", scripts.published()},
               {"monitor_publish_dropped", scripts.publish_dropped()}}}};
 }
 
-}  // namespace plexus::daemon
+}  // namespace plexus::daemon::inspect
