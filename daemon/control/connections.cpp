@@ -261,11 +261,9 @@ Task<ControlPlane::SendingEnd> ControlPlane::open_sending_end(std::shared_ptr<Po
         }
     }
     // The receiving daemon wires its end (monitors, arbitration) while it answers attach.
-    nlohmann::json attach_body = {{"op", "attach"},
-                                  {"source", source},
-                                  {"destination", destination},
-                                  {"carrier", carrier},
-                                  {"strict", strict}};
+    nlohmann::json attach_body = proto::request_body(
+        proto::Op::attach,
+        {{"source", source}, {"destination", destination}, {"carrier", carrier}, {"strict", strict}});
     if (!group.empty())
         attach_body["group"] = group;
     auto attached = co_await link_peer->request(attach_body, peer_timeout);
@@ -442,10 +440,9 @@ Task<proto::Reply> ControlPlane::disconnect(std::shared_ptr<Session>, const prot
 Task<void> ControlPlane::restore_persistent(std::vector<names::ConnectionEntry> persistent) {
     for (const auto& entry : persistent) {
         proto::Request request;
-        request.body = {{"op", "connect"},
-                        {"source", entry.source},
-                        {"destination", entry.destination},
-                        {"carrier", entry.carrier}};
+        request.body = proto::request_body(
+            proto::Op::connect,
+            {{"source", entry.source}, {"destination", entry.destination}, {"carrier", entry.carrier}});
         // Either end may come up first; the one that comes second makes the connection, so a
         // failure here (the other end is not there yet) is expected and only logged. The daemon
         // asks itself: there is no session.

@@ -9,26 +9,28 @@
 
 namespace plexus::daemon {
 
+using proto::Op;
+
 // `open`, `close` and `shm` concern a client's own ports; `attach` turns a link session into the
 // receiving end of a connection; the rest are questions and commands anyone may send.
 const ControlPlane::Operation ControlPlane::operations_[] = {
-    {"open", Callers::client, &ControlPlane::open_port},
-    {"close", Callers::client, &ControlPlane::close_port},
-    {"shm", Callers::client, &ControlPlane::shm},
-    {"attach", Callers::link, &ControlPlane::attach},
-    {"connect", Callers::any, &ControlPlane::connect},
-    {"disconnect", Callers::any, &ControlPlane::disconnect},
-    {"stats", Callers::any, &ControlPlane::stats},
-    {"param", Callers::any, &ControlPlane::param},
-    {"param_recv", Callers::any, &ControlPlane::param_recv},
-    {"ping", Callers::any, &ControlPlane::ping},
-    {"events", Callers::any, &ControlPlane::events},
-    {"node", Callers::any, &ControlPlane::node},
-    {"lookup", Callers::any, &ControlPlane::ask_names},
-    {"list", Callers::any, &ControlPlane::ask_names},
+    {Op::open, Callers::client, &ControlPlane::open_port},
+    {Op::close, Callers::client, &ControlPlane::close_port},
+    {Op::shm, Callers::client, &ControlPlane::shm},
+    {Op::attach, Callers::link, &ControlPlane::attach},
+    {Op::connect, Callers::any, &ControlPlane::connect},
+    {Op::disconnect, Callers::any, &ControlPlane::disconnect},
+    {Op::stats, Callers::any, &ControlPlane::stats},
+    {Op::param, Callers::any, &ControlPlane::param},
+    {Op::param_recv, Callers::any, &ControlPlane::param_recv},
+    {Op::ping, Callers::any, &ControlPlane::ping},
+    {Op::events, Callers::any, &ControlPlane::events},
+    {Op::node, Callers::any, &ControlPlane::node},
+    {Op::lookup, Callers::any, &ControlPlane::ask_names},
+    {Op::list, Callers::any, &ControlPlane::ask_names},
 };
 
-const ControlPlane::Operation* ControlPlane::find_operation(const std::string& op, const std::string& role) {
+const ControlPlane::Operation* ControlPlane::find_operation(Op op, const std::string& role) {
     const auto* row = std::find_if(std::begin(operations_), std::end(operations_),
                                    [&](const Operation& candidate) { return op == candidate.op; });
     if (row == std::end(operations_))
@@ -49,7 +51,8 @@ ControlPlane::ControlPlane(asio::any_io_executor executor, ControlHost& host)
 
 Task<proto::Reply> ControlPlane::handle(std::shared_ptr<Session> session, proto::Request request) {
     const std::string op = request.body["op"];
-    const Operation* found = find_operation(op, session->role());
+    const auto known = proto::op_named(op);
+    const Operation* found = known ? find_operation(*known, session->role()) : nullptr;
     if (!found) {
         co_return refuse("unknown request '" + op + "' for a " + session->role() + " session",
                          proto::ReplyCode::usage);

@@ -16,6 +16,7 @@
 #include "plexus/proto/control.hpp"
 #include "plexus/proto/endpoint.hpp"
 #include "plexus/proto/hello.hpp"
+#include "plexus/proto/ops.hpp"
 
 namespace plexus::daemon {
 
@@ -49,7 +50,7 @@ private:
     /// Which sessions may send an op, by the role their hello gave.
     enum class Callers { any, client, link };
     struct Operation {
-        const char* op;
+        proto::Op op;
         Callers callers;
         Handler handler;
     };
@@ -57,7 +58,7 @@ private:
     /// PROTOCOL.md.
     static const Operation operations_[];
     /// The row of `op` if a session whose hello said `role` may send it; else null.
-    static const Operation* find_operation(const std::string& op, const std::string& role);
+    static const Operation* find_operation(proto::Op op, const std::string& role);
 
     /// The sending end of a connection to another daemon, once that daemon has accepted it.
     struct SendingEnd {

@@ -193,7 +193,7 @@ Task<proto::Reply> ControlPlane::param(std::shared_ptr<Session>, const proto::Re
     } else {
         proto::Request recv_half;
         recv_half.body = request.body;
-        recv_half.body["op"] = "param_recv";
+        recv_half.body["op"] = proto::op_name(proto::Op::param_recv);
         recv_half.body.erase("forwarded");
         // The far end rewrites its copy of the carrier text too: it needs to know which send-side
         // clauses took the values.

@@ -21,11 +21,11 @@ std::vector<ConnectionEntry> persistent_from_json(const nlohmann::json& list) {
 
 // GCC 12 miscompiles braced temporaries inside co_await expressions: built here instead.
 nlohmann::json register_port_body(const std::string& port) {
-    return {{"op", op::register_port}, {"port", port}};
+    return {{"op", proto::op_name(proto::Op::register_port)}, {"port", port}};
 }
 
 nlohmann::json add_connection_body(const ConnectionEntry& connection) {
-    return {{"op", op::add_connection},
+    return {{"op", proto::op_name(proto::Op::add_connection)},
             {"source", connection.source},
             {"destination", connection.destination},
             {"carrier", connection.carrier},
@@ -34,7 +34,7 @@ nlohmann::json add_connection_body(const ConnectionEntry& connection) {
 }  // namespace
 
 nlohmann::json NameClient::register_node_body() const {
-    return {{"op", op::register_node}, {"node", node_}, {"address", address_}};
+    return {{"op", proto::op_name(proto::Op::register_node)}, {"node", node_}, {"address", address_}};
 }
 
 NameClient::NameClient(asio::io_context& io, proto::Endpoint names, std::string node, std::string address,
@@ -105,7 +105,7 @@ Task<proto::Result<proto::Reply>> NameClient::ask(nlohmann::json body) {
 
 Task<proto::Result<std::vector<ConnectionEntry>>> NameClient::register_port(std::string port) {
     using Outcome = proto::Result<std::vector<ConnectionEntry>>;
-    nlohmann::json body = {{"op", op::register_port}, {"port", port}};
+    nlohmann::json body = {{"op", proto::op_name(proto::Op::register_port)}, {"port", port}};
     auto reply = co_await ask(std::move(body));
     if (!reply)
         co_return Outcome(reply.error());
@@ -118,7 +118,7 @@ Task<proto::Status> NameClient::unregister_port(std::string port) {
 
 Task<proto::Status> NameClient::unregister_port(std::string port,
                                                 std::chrono::steady_clock::duration timeout) {
-    nlohmann::json body = {{"op", op::unregister_port}, {"port", port}};
+    nlohmann::json body = {{"op", proto::op_name(proto::Op::unregister_port)}, {"port", port}};
     auto reply = co_await request(std::move(body), timeout);
     if (!reply)
         co_return proto::Status(reply.error());
@@ -130,7 +130,7 @@ Task<proto::Status> NameClient::unregister_port(std::string port,
 
 Task<proto::Result<PortEntry>> NameClient::lookup(std::string port) {
     using Outcome = proto::Result<PortEntry>;
-    nlohmann::json body = {{"op", op::lookup}, {"port", port}};
+    nlohmann::json body = {{"op", proto::op_name(proto::Op::lookup)}, {"port", port}};
     auto reply = co_await request(std::move(body));
     if (!reply)
         co_return Outcome(reply.error());
@@ -142,7 +142,7 @@ Task<proto::Result<PortEntry>> NameClient::lookup(std::string port) {
 
 Task<proto::Result<std::string>> NameClient::mcast_group(std::string port) {
     using Outcome = proto::Result<std::string>;
-    nlohmann::json body = {{"op", op::mcast_group}, {"port", port}};
+    nlohmann::json body = {{"op", proto::op_name(proto::Op::mcast_group)}, {"port", port}};
     auto reply = co_await ask(std::move(body));
     if (!reply)
         co_return Outcome(reply.error());
@@ -156,8 +156,10 @@ Task<proto::Status> NameClient::add_connection(ConnectionEntry connection) {
 }
 
 Task<proto::Status> NameClient::remove_connection(std::string source, std::string destination, bool forget) {
-    nlohmann::json body = {
-        {"op", op::remove_connection}, {"source", source}, {"destination", destination}, {"forget", forget}};
+    nlohmann::json body = {{"op", proto::op_name(proto::Op::remove_connection)},
+                           {"source", source},
+                           {"destination", destination},
+                           {"forget", forget}};
     auto reply = co_await ask(std::move(body));
     co_return reply ? proto::Status(proto::Ok{}) : proto::Status(reply.error());
 }

@@ -51,11 +51,6 @@ private:
     std::optional<SessionAddresses> where_;  ///< both ends' addresses, read at the first request
 };
 
-std::string text_field(const nlohmann::json& body, const char* key) {
-    auto it = body.find(key);
-    return it != body.end() && it->is_string() ? it->get<std::string>() : std::string{};
-}
-
 }  // namespace
 
 NameServer::NameServer(asio::io_context& io, NameServerConfig config)
@@ -239,100 +234,6 @@ proto::Reply NameServer::answer(const proto::Request& request, std::uint64_t ses
         return proto::make_refusal(request.id, ReplyCode::usage,
                                    std::string("malformed request: ") + e.what());
     }
-}
-
-proto::Reply NameServer::handle(const proto::Request& request, std::uint64_t session,
-                                const SessionAddresses& where) {
-    const auto& body = request.body;
-    const std::string asked = body["op"];
-    auto ok = [&](nlohmann::json out = nlohmann::json::object()) {
-        return proto::Reply{request.id, ReplyCode::ok, out};
-    };
-    auto refuse = [&](const std::string& why, ReplyCode code = ReplyCode::refused) {
-        return proto::make_refusal(request.id, code, why);
-    };
-    auto status_reply = [&](const proto::Status& status) {
-        return status ? ok() : refuse(status.error().message);
-    };
-
-    if (asked == op::ping)
-        return ok({{"names", endpoint().text()},
-                   {"auth_failures", auth_failures_},
-                   {"handshake_timeouts", handshake_timeouts_}});
-    if (asked == op::lookup) {
-        auto entry = registry_.lookup(text_field(body, "port"));
-        if (!entry)
-            return refuse("port " + text_field(body, "port") + " is not registered", ReplyCode::no);
-        return ok(
-            {{"port", entry->name}, {"node", entry->node}, {"address", address_for(entry->address, where)}});
-    }
-    if (asked == op::list) {
-        auto listed = registry_.list();
-        for (auto& port : listed["ports"])
-            port["address"] = address_for(port["address"].get<std::string>(), where);
-        return ok(listed);
-    }
-    if (session == 0)
-        return refuse("'" + asked + "' is not available over UDP; use TCP", ReplyCode::usage);
-    if (asked == op::mcast_group) {
-        auto group = registry_.mcast_group(text_field(body, "port"));
-        if (!group)
-            return refuse(group.error().message);
-        return ok({{"group", *group}});
-    }
-
-    if (asked == op::register_node) {
-        const std::string announced = text_field(body, "address");
-        const std::string address = recorded_address(announced, where);
-        auto status = registry_.register_node(text_field(body, "node"), address, session);
-        if (status && address != announced)
-            spdlog::info("names: node '{}' at {} (it announced {}: the address its session came from)",
-                         text_field(body, "node"), address, announced);
-        else if (status)
-            spdlog::info("names: node '{}' at {}", text_field(body, "node"), address);
-        return status_reply(status);
-    }
-    if (asked == op::register_port) {
-        const std::string port = text_field(body, "port");
-        auto status = registry_.register_port(port, session);
-        if (!status)
-            return refuse(status.error().message);
-        nlohmann::json persistent = nlohmann::json::array();
-        for (const auto& c : registry_.persistent_for(port)) {
-            persistent.push_back(
-                {{"source", c.source}, {"destination", c.destination}, {"carrier", c.carrier}});
-        }
-        return ok({{"persistent", persistent}});
-    }
-    if (asked == op::unregister_port)
-        return status_reply(registry_.unregister_port(text_field(body, "port"), session));
-    if (asked == op::add_connection) {
-        const bool persistent = body.value("persistent", false);
-        auto status = registry_.add_connection({text_field(body, "source"), text_field(body, "destination"),
-                                                text_field(body, "carrier"), persistent},
-                                               session);
-        if (status && persistent)
-            save_state();
-        return status_reply(status);
-    }
-    if (asked == op::remove_connection) {
-        const bool forget = body.value("forget", false);
-        if (!forget) {
-            // A connection that merely went down stays known when it is persistent.
-            for (const auto& c : registry_.persistent()) {
-                if (c.source == text_field(body, "source") &&
-                    c.destination == text_field(body, "destination")) {
-                    return ok();
-                }
-            }
-        }
-        auto status =
-            registry_.remove_connection(text_field(body, "source"), text_field(body, "destination"), session);
-        if (forget)
-            save_state();
-        return status_reply(status);
-    }
-    return refuse("unknown request '" + asked + "'", ReplyCode::usage);
 }
 
 void NameServer::session_closed(std::uint64_t session) {

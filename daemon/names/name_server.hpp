@@ -9,6 +9,7 @@
 #include "plexus/proto/auth.hpp"
 #include "plexus/proto/control.hpp"
 #include "plexus/proto/endpoint.hpp"
+#include "plexus/proto/ops.hpp"
 #include "reachable_address.hpp"
 #include "registry.hpp"
 
@@ -66,7 +67,34 @@ private:
     proto::Status start_discovery();
     Task<void> discovery_loop();
     void save_state();
+    /// One request as its handler sees it.
+    struct Asked {
+        const proto::Request& request;
+        std::uint64_t session;  ///< 0: a UDP datagram
+        const SessionAddresses& where;
+    };
+    using Handler = proto::Reply (NameServer::*)(const Asked& asked);
+    /// Who may send an op: anyone (also over UDP, read-only look-ups), or TCP sessions only.
+    enum class Callers { anyone, tcp };
+    struct Operation {
+        proto::Op op;
+        Callers callers;
+        Handler handler;
+    };
+    /// The table (name_operations.cpp), in the daemon's control plane's style: to add an op,
+    /// write its handler, add a row, list it in PROTOCOL.md.
+    static const Operation operations_[];
     proto::Reply handle(const proto::Request& request, std::uint64_t session, const SessionAddresses& where);
+    // name_operations.cpp: one handler per op.
+    proto::Reply ping(const Asked& asked);
+    proto::Reply lookup(const Asked& asked);
+    proto::Reply list(const Asked& asked);
+    proto::Reply mcast_group(const Asked& asked);
+    proto::Reply register_node(const Asked& asked);
+    proto::Reply register_port(const Asked& asked);
+    proto::Reply unregister_port(const Asked& asked);
+    proto::Reply add_connection(const Asked& asked);
+    proto::Reply remove_connection(const Asked& asked);
 
     asio::io_context& io_;
     NameServerConfig config_;

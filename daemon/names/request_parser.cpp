@@ -39,7 +39,7 @@ std::optional<proto::Request> parse_discovery_query(proto::ByteView datagram, st
     if (decoded.status != proto::DecodeStatus::frame || decoded.type != proto::FrameType::request)
         return std::nullopt;
     auto request = proto::decode_request(decoded.fields);
-    if (!request || request->body.value("op", std::string{}) != op::discover)
+    if (!request || request->body.value("op", std::string{}) != proto::op_name(proto::Op::discover))
         return std::nullopt;
     return std::move(*request);
 }
