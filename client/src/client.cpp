@@ -8,6 +8,7 @@
 #include "plexus/proto/defaults.hpp"
 #include "plexus/proto/discovery.hpp"
 #include "plexus/proto/message.hpp"
+#include "plexus/proto/ops.hpp"
 
 namespace plexus {
 
@@ -326,7 +327,7 @@ Port Client::open(const std::string& name, PortOptions options) {
 
 std::string Client::connect(const std::string& source, const std::string& destination,
                             const std::string& carrier, bool persist) {
-    auto reply = request({{"op", "connect"},
+    auto reply = request({{"op", proto::op_name(proto::Op::connect)},
                           {"source", source},
                           {"destination", destination},
                           {"carrier", carrier},
@@ -336,27 +337,28 @@ std::string Client::connect(const std::string& source, const std::string& destin
 }
 
 void Client::disconnect(const std::string& source, const std::string& destination) {
-    request({{"op", "disconnect"}, {"source", source}, {"destination", destination}});
+    request(
+        {{"op", proto::op_name(proto::Op::disconnect)}, {"source", source}, {"destination", destination}});
     link_->forget(source, destination);
 }
 
 Value Client::list() {
-    return request({{"op", "list"}});
+    return request({{"op", proto::op_name(proto::Op::list)}});
 }
 
 std::optional<Value> Client::lookup(const std::string& port) {
-    auto reply = link_->request({{"op", "lookup"}, {"port", port}}, control_timeout);
+    auto reply = link_->request({{"op", proto::op_name(proto::Op::lookup)}, {"port", port}}, control_timeout);
     if (reply.code == proto::ReplyCode::no)
         return std::nullopt;
     return checked(reply);
 }
 
 Value Client::stats(const std::string& port) {
-    return request({{"op", "stats"}, {"port", port}});
+    return request({{"op", proto::op_name(proto::Op::stats)}, {"port", port}});
 }
 
 Value Client::ping(const std::string& port) {
-    return request({{"op", "ping"}, {"port", port}});
+    return request({{"op", proto::op_name(proto::Op::ping)}, {"port", port}});
 }
 
 void Client::on_state(std::function<void(ConnectionState)> callback) {

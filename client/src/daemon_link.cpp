@@ -1,4 +1,5 @@
 #include "daemon_link.hpp"
+#include "plexus/proto/ops.hpp"
 
 #include <fcntl.h>
 #include <poll.h>
@@ -25,7 +26,7 @@ constexpr auto restore_timeout = 10000ms;
 constexpr auto idle_check = std::chrono::milliseconds(200);
 
 nlohmann::json open_body(const std::string& name, const PortOptions& options) {
-    nlohmann::json body{{"op", "open"},
+    nlohmann::json body{{"op", proto::op_name(proto::Op::open)},
                         {"port", name},
                         {"policy", options.policy == QueuePolicy::strict ? "strict" : "latest"}};
     if (options.capacity > 0)
@@ -34,7 +35,7 @@ nlohmann::json open_body(const std::string& name, const PortOptions& options) {
 }
 
 nlohmann::json connect_body(const ConnectionSpec& spec) {
-    return {{"op", "connect"},
+    return {{"op", proto::op_name(proto::Op::connect)},
             {"source", spec.source},
             {"destination", spec.destination},
             {"carrier", spec.carrier},
@@ -162,7 +163,7 @@ void DaemonLink::close(const std::shared_ptr<PortRecord>& record, std::chrono::m
     try {
         connection->flush();
         connection->forget(handle);
-        checked(connection->request({{"op", "close"}, {"handle", handle}}, timeout));
+        checked(connection->request({{"op", proto::op_name(proto::Op::close)}, {"handle", handle}}, timeout));
     } catch (const Error&) {
         if (!connection->broken())
             throw;
@@ -392,7 +393,8 @@ void DaemonLink::restore(const std::shared_ptr<Connection>& connection) {
         std::unique_lock port(record.mutex);
         if (record.closed) {
             port.unlock();
-            connection->request({{"op", "close"}, {"handle", handles[i]}}, restore_timeout);
+            connection->request({{"op", proto::op_name(proto::Op::close)}, {"handle", handles[i]}},
+                                restore_timeout);
             continue;
         }
         // Under the port's lock: its own writes wait, and cannot overtake what it held.

@@ -1,5 +1,7 @@
 #include "plexus/proto/discovery.hpp"
 
+#include "plexus/proto/ops.hpp"
+
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -112,7 +114,7 @@ Result<NamesChoice> choose_names(const std::optional<std::string>& flag, const s
 }
 
 Bytes discovery_query() {
-    return encode_request({1, {{"op", "discover"}}});
+    return encode_request({1, request_body(Op::discover)});
 }
 
 std::optional<std::string> discovery_answer(ByteView datagram, const std::string& from) {

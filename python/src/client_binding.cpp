@@ -7,6 +7,7 @@
 #include <plexus/proto/port_name.hpp>
 
 #include "conversion.hpp"
+#include "plexus/proto/ops.hpp"
 #include "port_binding.hpp"
 
 namespace py = pybind11;
@@ -128,7 +129,7 @@ void bind_client(py::module_& module) {
         .def(
             "list",
             [](Client& client) {
-                return ask(client, {{"op", "list"}});
+                return ask(client, {{"op", proto::op_name(proto::Op::list)}});
             },
             "Ports and connections as the name server knows them: {\"ports\": [...], \"connections\": "
             "[...]}.")
@@ -137,7 +138,7 @@ void bind_client(py::module_& module) {
             [](Client& client, const std::string& port) {
                 if (!port.empty())
                     require_port_name(port);
-                return ask(client, {{"op", "stats"}, {"port", port}});
+                return ask(client, {{"op", proto::op_name(proto::Op::stats)}, {"port", port}});
             },
             py::arg("port") = "",
             "Counters of the local daemon, or of the daemon hosting `port` (as `plexus stats --json`).")
@@ -145,7 +146,8 @@ void bind_client(py::module_& module) {
             "events",
             [](Client& client, const std::string& port, bool check) {
                 require_port_name(port);
-                return ask(client, {{"op", "events"}, {"port", port}, {"check", check}});
+                return ask(client,
+                           {{"op", proto::op_name(proto::Op::events)}, {"port", port}, {"check", check}});
             },
             py::arg("port"), py::arg("check") = false,
             "The arbitration of an input port (as `plexus events PORT --json`): event container, "
@@ -154,7 +156,7 @@ void bind_client(py::module_& module) {
             "ping",
             [](Client& client, const std::string& port) {
                 require_port_name(port);
-                return ask(client, {{"op", "ping"}, {"port", port}});
+                return ask(client, {{"op", proto::op_name(proto::Op::ping)}, {"port", port}});
             },
             py::arg("port"), "Asks the daemon hosting `port` to answer; returns its node and address.")
         .def(

@@ -10,6 +10,7 @@
 
 #include "counter.hpp"
 #include "plexus/client.hpp"
+#include "plexus/proto/ops.hpp"
 #include "plexus/proto/port_name.hpp"
 
 namespace plexus::cli {
@@ -67,7 +68,8 @@ int where(const Common& common) {
 }
 
 int list(const Common& common, bool json) {
-    auto answer = Client::ask_names(common.names(), {{"op", "list"}}).value_or(Value::object());
+    auto answer = Client::ask_names(common.names(), {{"op", proto::op_name(proto::Op::list)}})
+                      .value_or(Value::object());
     if (json) {
         std::cout << answer.dump() << '\n';
         return 0;
@@ -96,7 +98,7 @@ int connect(const Common& common, const std::string& source, const std::string& 
     require_port_name(source);
     require_port_name(destination);
     auto client = make_client(common);
-    const Value reply = client.request({{"op", "connect"},
+    const Value reply = client.request({{"op", proto::op_name(proto::Op::connect)},
                                         {"source", source},
                                         {"destination", destination},
                                         {"carrier", carrier},
@@ -205,9 +207,12 @@ int read(const Common& common, const ReadOptions& options) {
 int exists(const Common& common, const std::string& port, const std::string& destination) {
     require_port_name(port);
     if (destination.empty())
-        return Client::ask_names(common.names(), {{"op", "lookup"}, {"port", port}}) ? 0 : 1;
+        return Client::ask_names(common.names(), {{"op", proto::op_name(proto::Op::lookup)}, {"port", port}})
+                   ? 0
+                   : 1;
     require_port_name(destination);
-    auto answer = Client::ask_names(common.names(), {{"op", "list"}}).value_or(Value::object());
+    auto answer = Client::ask_names(common.names(), {{"op", proto::op_name(proto::Op::list)}})
+                      .value_or(Value::object());
     for (const auto& c : answer.value("connections", Value::array())) {
         if (c.value("source", "") == port && c.value("destination", "") == destination &&
             c.value("live", false)) {
@@ -223,7 +228,8 @@ int wait(const Common& common, const std::string& port, double timeout) {
     auto pause = std::chrono::milliseconds(10);
     for (;;) {
         try {
-            if (Client::ask_names(common.names(), {{"op", "lookup"}, {"port", port}}))
+            if (Client::ask_names(common.names(),
+                                  {{"op", proto::op_name(proto::Op::lookup)}, {"port", port}}))
                 return 0;
         } catch (const Error& e) {
             // The name server may not be up yet: waiting for it is part of waiting for the port.

@@ -11,6 +11,7 @@
 #include "commands.hpp"
 #include "counter.hpp"
 #include "plexus/client.hpp"
+#include "plexus/proto/ops.hpp"
 #include "plexus/proto/port_name.hpp"
 
 namespace plexus::cli {
@@ -94,7 +95,8 @@ int events(const Common& common, const EventsOptions& options) {
     if (auto error = proto::port_name_error(options.port))
         throw Error(ErrorCode::usage, *error);
     auto client = plexus::Client({common.socket});
-    const Value request{{"op", "events"}, {"port", options.port}, {"check", options.check}};
+    const Value request{
+        {"op", proto::op_name(proto::Op::events)}, {"port", options.port}, {"check", options.check}};
     const bool terminal = ::isatty(STDOUT_FILENO) != 0;
     for (long shown = 1;; ++shown) {
         const Value answer = client.request(request);

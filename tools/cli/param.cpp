@@ -4,6 +4,7 @@
 #include "commands.hpp"
 #include "plexus/client.hpp"
 #include "plexus/proto/control.hpp"
+#include "plexus/proto/ops.hpp"
 #include "plexus/proto/port_name.hpp"
 
 namespace plexus::cli {
@@ -39,7 +40,10 @@ int param(const Common& common, const std::string& action, const std::string& so
         throw Error(ErrorCode::usage, "param get takes no KEY=VALUE");
     if (action == "set" && assignments.empty())
         throw Error(ErrorCode::usage, "param set needs at least one KEY=VALUE");
-    Value body = {{"op", "param"}, {"action", action}, {"source", source}, {"destination", destination}};
+    Value body = {{"op", proto::op_name(proto::Op::param)},
+                  {"action", action},
+                  {"source", source},
+                  {"destination", destination}};
     if (action == "set")
         body["values"] = parse_assignments(assignments);
     plexus::Client client({common.socket});

@@ -1,6 +1,7 @@
 #include "live_system.hpp"
 
 #include "plexus/proto/carrier.hpp"
+#include "plexus/proto/ops.hpp"
 
 namespace plexus::cli {
 
@@ -17,7 +18,7 @@ bool same_carrier(const std::string& wanted, const std::string& live) {
 LiveSystem::LiveSystem(const std::string& socket) : client_(Client::Options{socket}) {}
 
 std::string LiveSystem::node() {
-    return client_.request({{"op", "node"}}).value("node", "");
+    return client_.request({{"op", proto::op_name(proto::Op::node)}}).value("node", "");
 }
 
 bool LiveSystem::port_exists(const std::string& port) {
@@ -44,7 +45,7 @@ std::optional<LiveConnection> LiveSystem::find(const std::vector<LiveConnection>
 
 std::vector<std::string> LiveSystem::connect(const std::string& source, const std::string& destination,
                                              const std::string& carrier, bool persist) {
-    const Value reply = client_.request({{"op", "connect"},
+    const Value reply = client_.request({{"op", proto::op_name(proto::Op::connect)},
                                          {"source", source},
                                          {"destination", destination},
                                          {"carrier", carrier},
