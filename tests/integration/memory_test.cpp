@@ -15,6 +15,11 @@ namespace {
 // in all); then every reader and writer goes. plexusd kept ~all of it for good (226 MiB after 50
 // such streams, against 7 MiB idle): glibc keeps a freed heap unless asked to give it back.
 TEST(Memory_test, MemoryFilledByStalledReadersReturnsOnceTheirPortsClose) {
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+    // The daemon's malloc is then the sanitizer's, with its own quarantine: glibc's heap, which is
+    // what this test is about, is not in use (an ASan daemon kept 245 MiB, idle 111 MiB).
+    GTEST_SKIP() << "built with a sanitizer: malloc is the sanitizer's, glibc's trim does not apply";
+#endif
     constexpr int streams = 20;
     constexpr int messages = 1100;  // more than a queue holds: every writer ends up held back
     TempDir dir;
