@@ -334,9 +334,16 @@ TEST_P(Pathological_test, StopsWithinTheBudgetPlusFiveMilliseconds) {
     for (int attempt = 0; attempt < 5; ++attempt) {
         const auto stopped = run_with_budget(GetParam());
         ASSERT_TRUE(stopped.error) << "the call ended on its own";
-        EXPECT_TRUE(stopped.error->timeout) << stopped.error->message;
-        EXPECT_NE(stopped.error->message.find("time budget of 20 ms exceeded"), std::string::npos)
-            << stopped.error->message;
+        // Stopped by its time budget; or, for an attack that also allocates (unpack's 999,000
+        // values take ~16 MB of stack against a 16 MiB cap), by the memory cap when a quiet machine
+        // reaches the cap before the deadline (CI saw it once). Either way it must stop in time.
+        const bool by_memory = stopped.error->out_of_memory ||
+                               stopped.error->message.find("not enough memory") != std::string::npos;
+        EXPECT_TRUE(stopped.error->timeout || by_memory) << stopped.error->message;
+        if (!by_memory) {
+            EXPECT_NE(stopped.error->message.find("time budget of 20 ms exceeded"), std::string::npos)
+                << stopped.error->message;
+        }
         quickest = std::min(quickest, stopped.elapsed);
         times += std::to_string(std::chrono::duration<double, std::milli>(stopped.elapsed).count()) + " ms ";
     }
