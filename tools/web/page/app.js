@@ -89,7 +89,7 @@ function onSystem(sys) {
   state.portNodes = new Map([...ports].map(([name, p]) => [name, p.node]));
   for (const p of arbitrated) if (!order.includes(p)) order.push(p);
   state.arbitratedOrder = order;
-  panel.setDocs(docs);
+  panel.setDocs(docs, arbitrated);
   renderPortList();
   if (!state.selected && order.length) select(fromHash() || order[0], false);
   else if (!state.selected && ports.size) select(fromHash() || [...ports.keys()][0], false);

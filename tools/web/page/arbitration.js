@@ -60,6 +60,7 @@ export class ArbitrationPanel {
     this.rows = new Map();        // source -> row elements
     this.eventRows = new Map();   // event name+owner -> row
     this.docs = new Map();        // port -> its events document from /api/system (counters, carrier, aux)
+    this.inbound = new Set();     // ports with connections in, from the graph
     this.plot = null;
     this.plotKey = '';
     this.dirty = false;
@@ -68,7 +69,7 @@ export class ArbitrationPanel {
     requestAnimationFrame(frame);
   }
 
-  setDocs(docs) { this.docs = docs; if (this.port) this.renderConnections(); }
+  setDocs(docs, inbound) { this.docs = docs; this.inbound = inbound; this.changed(); }
 
   select(port) {
     if (port === this.port) return;
@@ -103,9 +104,12 @@ export class ArbitrationPanel {
     setText(this.e.inconsistent, why ? `inconsistent: ${why}` : '');
     if (!arbitrated) {
       if (!this.e.list.firstChild || !this.e.list.firstChild.classList.contains('empty')) {
-        this.e.list.replaceChildren(el('div', { class: 'empty', text: this.port ? `${this.port} has no connections in: nothing to arbitrate.` : 'No port selected.' }));
+        this.e.list.replaceChildren(el('div', { class: 'empty' }));
         this.rows.clear();
       }
+      setText(this.e.list.firstChild, !this.port ? 'No port selected.'
+        : this.inbound.has(this.port) ? `waiting for the arbitration of ${this.port}…`
+          : `${this.port} has no connections in: nothing to arbitrate.`);
       return;
     }
     this.renderConnections();
@@ -241,7 +245,7 @@ export class ArbitrationPanel {
     const sources = h ? h.sources.slice() : [];
     this.plotKey = `${this.port}|${sources.join('|')}`;
     if (!sources.length) {
-      this.e.plot.replaceChildren(el('div', { class: 'empty', text: this.port ? 'waiting for arbitration data…' : '' }));
+      this.e.plot.replaceChildren(el('div', { class: 'empty', text: this.port && this.inbound.has(this.port) ? 'waiting for arbitration data…' : '' }));
       return;
     }
     this.e.plot.replaceChildren();

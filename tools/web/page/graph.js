@@ -229,11 +229,11 @@ export class Graph {
       }
     });
     cy.layout({
-      name: 'dagre', rankDir: 'LR', nodeSep: 34, rankSep: 110, edgeSep: 14, padding: 16,
+      name: 'dagre', rankDir: 'LR', nodeSep: 34, rankSep: 170, edgeSep: 14, padding: 16,
       fit: true, animate: false,
     }).run();
     // a small system is not blown up to fill the panel
-    if (cy.zoom() > 1.5) { cy.zoom(1.5); cy.center(); }
+    if (cy.zoom() > 1.2) { cy.zoom(1.2); cy.center(); }
   }
 
   select(port) {

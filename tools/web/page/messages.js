@@ -22,7 +22,6 @@ export class Messages {
   constructor() {
     this.list = document.getElementById('messages');
     this.title = document.getElementById('msg-port');
-    this.note = document.getElementById('msg-note');
     this.port = null;
     this.items = [];
     this.lastSeq = null;
@@ -32,11 +31,9 @@ export class Messages {
     this.port = port;
     this.items = [];
     this.title.textContent = port ? `of ${port}` : '';
-    this.note.textContent = note || '';
+    this.remote = note || '';
     this.render();
   }
-
-  setNote(note) { if (this.note.textContent !== note) this.note.textContent = note; }
 
   // Entries of /api/messages (newest last) or one `message` stream event.
   add(entries) {
@@ -54,7 +51,7 @@ export class Messages {
 
   render() {
     if (!this.items.length) {
-      this.list.replaceChildren(el('div', { class: 'empty', text: this.port ? 'no message seen yet' : 'select a port' }));
+      this.list.replaceChildren(el('div', { class: 'empty', text: this.remote || (this.port ? 'no message seen yet' : 'select a port') }));
       return;
     }
     const rows = this.items.slice().reverse().map((m) => el('div', { class: 'msg' },
@@ -62,7 +59,7 @@ export class Messages {
         el('span', { class: 'msg-t', text: fmtClock(m.t) }),
         el('span', { class: 'msg-seq', text: `#${m.seq ?? '?'}` }),
         el('span', { class: 'msg-size', text: fmtBytes(m.size) })),
-      el('code', { class: 'msg-payload', text: payloadText(m.payload) })));
+      el('code', { class: 'msg-payload', text: payloadText(m.payload), title: payloadText(m.payload) })));
     this.list.replaceChildren(...rows);
   }
 }
