@@ -78,8 +78,9 @@ def console(driver):
     return driver.plexus_console
 
 
-def wait(driver, what, fn, timeout):
-    """Polls fn(driver) until it returns something truthy, at most timeout seconds."""
+def wait(driver, what, fn, timeout, seen=None):
+    """Polls fn(driver) until it returns something truthy, at most timeout seconds. On a timeout
+    the message has seen['last'] (what fn saw last) when fn keeps it there."""
     last = {}
 
     def probe(d):
@@ -94,7 +95,12 @@ def wait(driver, what, fn, timeout):
     try:
         return WebDriverWait(driver, timeout, poll_frequency=0.1).until(probe)
     except TimeoutException:
-        detail = f" (last: {last['error']})" if 'error' in last else f" (last: {last.get('value')!r})"
+        if seen and 'last' in seen:
+            detail = f" (saw: {seen['last']!r})"
+        elif 'error' in last:
+            detail = f" (last: {last['error']})"
+        else:
+            detail = f" (last: {last.get('value')!r})"
         raise PageError(f'timed out after {timeout} s waiting for {what}{detail}') from None
 
 
@@ -122,21 +128,29 @@ def check_page(url, driver=None, port=GAZE_PORT, connections=GAZE_CONNECTIONS,
         wait(driver, f'{port} selected',
              lambda d: d.execute_script('return window.plexusPage.selectedPort') == port, timeout)
 
+    seen = {}
+
     def listed(d):
-        found = d.execute_script(
+        found = seen['last'] = d.execute_script(
             'return [...document.querySelectorAll(\'[data-testid="connection-list"] [data-source]\')]'
             '.map(e => e.getAttribute("data-source"))')
         return found if all(c in found for c in connections) else False
-    wait(driver, f'connections {", ".join(connections)} listed for {port}', listed, timeout)
+    wait(driver, f'connections {", ".join(connections)} listed for {port}', listed, timeout, seen)
 
     def plotted(d):
-        points = d.execute_script('return window.plexusPage.plotPoints()') or {}
+        points = seen['last'] = d.execute_script('return window.plexusPage.plotPoints()') or {}
         return points if all(points.get(c, 0) >= min_points for c in connections) else False
-    points = wait(driver, f'at least {min_points} plot points in the last 10 s per connection', plotted, timeout)
+    points = wait(driver, f'at least {min_points} plot points in the last 10 s per connection', plotted, timeout, seen)
     if not driver.find_elements(By.CSS_SELECTOR, '[data-testid="plot"] canvas'):
         raise PageError('the plot has no canvas')
     if not driver.find_elements(By.CSS_SELECTOR, '#graph canvas'):
         raise PageError('the graph has no canvas')
+
+    def drawn(d):
+        g = seen['last'] = d.execute_script('return window.plexusPage.graph()') or {}
+        return all(p in g.get('ports', []) for p in (port, *connections)) and \
+            all(f'{c}->{port}' in g.get('edges', []) for c in connections)
+    wait(driver, f'the graph drawing {port} and its connections', drawn, timeout, seen)
     wait(driver, 'the stream connected (no "disconnected" badge)',
          lambda d: not d.find_element(By.CSS_SELECTOR, '[data-testid="disconnected"]').is_displayed(), timeout)
     winner = wait(driver, 'a winner shown', lambda d: winner_text(d), timeout)

@@ -16,6 +16,7 @@
 //   window.plexusPage.plotPoints()      {source: number of 20 Hz points received in the last 10 s}
 //                                       for the selected port
 //   window.plexusPage.select(port)      select a port as a click in the graph does
+//   window.plexusPage.graph()           {ports: [names drawn], edges: ["/a/out->/b/in", ...]}
 //   window.plexusPage.errors            count of exceptions caught in event handlers (normally 0)
 
 import { Graph } from './graph.js';
@@ -50,6 +51,12 @@ window.plexusPage = {
   get selectedPort() { return state.selected; },
   plotPoints() { return history.points(state.selected, 10); },
   select(port) { select(port, true); },
+  graph() {
+    return {
+      ports: graph.cy.nodes('.port').map((n) => n.data('port')),
+      edges: graph.cy.edges().map((e) => e.id().slice(2)),
+    };
+  },
   get errors() { return state.errors; },
 };
 
