@@ -11,6 +11,8 @@
 #include <spdlog/spdlog.h>
 #include <nlohmann/json.hpp>
 
+#include "plexus/proto/endpoint.hpp"
+
 #include "plexus/proto/datagram.hpp"
 
 namespace plexus::daemon {
@@ -100,6 +102,7 @@ void apply_config_text(const std::string& path, std::string_view text, DaemonCon
     auto json = nlohmann::json::parse(text, nullptr, true, true);
     static const std::set<std::string> known{"names",
                                              "advertise",
+                                             "http",
                                              "max_frame",
                                              "default_capacity",
                                              "link_capacity",
@@ -143,6 +146,15 @@ void apply_config_text(const std::string& path, std::string_view text, DaemonCon
         throw std::runtime_error("config " + path + ": handshake_timeout_ms must be between 100 and 3600000");
     config.names_state = json.value("names_state", config.names_state);
     config.advertise = json.value("advertise", config.advertise);
+    if (json.contains("http")) {
+        const auto& http = json["http"];
+        if (!http.is_string())
+            throw std::runtime_error("config " + path + ": http must be \"HOST:PORT\", e.g. \"127.0.0.1:8080\"");
+        auto endpoint = proto::parse_endpoint(http.get<std::string>());
+        if (!endpoint)
+            throw std::runtime_error("config " + path + ": http: " + endpoint.error().message);
+        config.http.listen = *endpoint;
+    }
     for (const auto& dir : json.value("scripts", std::vector<std::string>{}))
         config.script_dirs.push_back(dir);
     for (const auto& dir : json.value("monitor_libs", std::vector<std::string>{}))

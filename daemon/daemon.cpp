@@ -67,6 +67,14 @@ std::string Daemon::address() const {
     return config_.listen.host + ":" + std::to_string(ec ? 0 : local.port());
 }
 
+std::string Daemon::http_address() const {
+    return http_ ? http_->address() : std::string();
+}
+
+nlohmann::json Daemon::http_counters() const {
+    return http_ ? http_->counters().to_json() : nlohmann::json();
+}
+
 std::string Daemon::advertised_address() const {
     if (config_.advertise.empty())
         return address();
@@ -139,6 +147,15 @@ int Daemon::run() {
     if (auto bound = bind(); !bound) {
         spdlog::error("{}", bound.error().message);
         return 4;
+    }
+    if (config_.http.listen) {
+        http_ = std::make_unique<web::HttpServer>(io_, config_.http, *this, control_.shm_usage());
+        if (auto bound = http_->bind(); !bound) {
+            spdlog::error("{}", bound.error().message);
+            return 4;
+        }
+        http_->start();
+        spdlog::info("web page at http://{}/", http_->address());
     }
     names_ = std::make_unique<names::NameClient>(io_, config_.names, config_.node, advertised_address(),
                                                  config_.max_frame, config_.secret);
@@ -216,6 +233,7 @@ Task<void> Daemon::announce_ready() {
                                {"address", address()},
                                {"socket", config_.socket_path},
                                {"names", config_.names.text()},
+                               {"http", http_address()},
                                {"pid", static_cast<long>(::getpid())}};
     const std::string temporary = config_.ready_file + ".tmp";
     {
@@ -342,6 +360,8 @@ Task<void> Daemon::shutdown() {
     unix_acceptor_.close(ignored);
     udp_.stop();
     heap_trimmer_.stop();
+    if (http_)
+        http_->stop();
     stopping_ = true;
     // Unregister first, then close: readers elsewhere see the ports go away cleanly. The names are
     // copied: clients that leave while this waits for the name server close their ports, which

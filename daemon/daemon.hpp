@@ -24,6 +24,7 @@
 #include "net/signal.hpp"
 #include "net/udp_carrier.hpp"
 #include "plexus/proto/control.hpp"
+#include "web/http_server.hpp"
 
 namespace plexus::daemon {
 
@@ -60,6 +61,8 @@ public:
     // --- ControlHost, used by the control plane (the config and counters by sessions too) ---
     const DaemonConfig& config() const override { return config_; }
     std::string address() const override;
+    std::string http_address() const override;
+    nlohmann::json http_counters() const override;
     Router& router() override { return router_; }
     names::NameClient& names() override { return *names_; }
     ScriptHost& scripts() override { return *scripts_; }
@@ -107,6 +110,7 @@ private:
     std::uint64_t next_session_ = 1;
     ControlPlane control_;
     HeapTrimmer heap_trimmer_;
+    std::unique_ptr<web::HttpServer> http_;  ///< the web endpoint, with --http; after control_ (reads it)
     bool stopping_ = false;
     int exit_status_ = 0;  ///< what run() returns: 4 when the name server refused this node at start
     /// The Unix socket file is ours to remove at exit (shutdown closes the acceptor before that).

@@ -15,6 +15,7 @@
 #include "plexus/proto/auth.hpp"
 #include "plexus/proto/endpoint.hpp"
 #include "plexus/proto/frame.hpp"
+#include "web/http_config.hpp"
 
 namespace plexus::daemon {
 
@@ -55,6 +56,7 @@ struct DaemonConfig {
     /// made with it. Without one the daemon only listens on loopback, unless `insecure`.
     std::optional<proto::Secret> secret;
     bool insecure = false;  ///< --insecure: listen beyond loopback without a secret (warned loudly)
+    web::HttpConfig http;   ///< the web endpoint (--http); off unless it has an address
 };
 
 /// Daemon-wide counters that `plexus stats` shows.

@@ -95,6 +95,12 @@ int main(int argc, char** argv) {
         "--secret-file", secret_file,
         "the deployment secret (env PLEXUS_SECRET_FILE): a file only its owner may read, 16+ bytes, "
         "the same on every machine; TCP peers must prove they hold it and datagrams carry a MAC");
+    std::optional<std::string> http;
+    app.add_option("--http", http,
+                   "serve the web page of the whole system, its JSON views, live stream and Prometheus "
+                   "/metrics at HOST:PORT (config \"http\"; off by default; port 0: any). Beyond "
+                   "loopback only with the secret (browsers then need `plexus web --token`) or "
+                   "--insecure (docs/WEB.md)");
     app.add_flag("--insecure", config.insecure,
                  "listen beyond loopback without a secret (anyone who reaches the daemon can use it)");
     // spdlog reads a name it does not know as "off": a typo would silence the daemon.
@@ -139,6 +145,10 @@ int main(int argc, char** argv) {
         std::vector<std::string> listening{config.listen.host};
         if (embedded)
             listening.push_back(config.names.host);
+        if (http)
+            config.http.listen = endpoint_or_throw(*http, "--http");
+        if (config.http.listen)
+            listening.push_back(config.http.listen->host);
         if (auto allowed = plexus::daemon::check_listening(listening, config.secret.has_value(),
                                                            config.insecure, "plexusd");
             !allowed) {

@@ -5,6 +5,8 @@
 #include <memory>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 #include "arbitration/clock.hpp"
 #include "daemon_config.hpp"
 
@@ -29,6 +31,10 @@ public:
     virtual const DaemonConfig& config() const = 0;
     /// HOST:PORT of the daemon's TCP listener: where other daemons and the CLI reach it.
     virtual std::string address() const = 0;
+    /// HOST:PORT of the web endpoint (--http); "" when it serves none.
+    virtual std::string http_address() const = 0;
+    /// The web endpoint's counters (web/http_counters.hpp), null when it serves none.
+    virtual nlohmann::json http_counters() const = 0;
     virtual Router& router() = 0;
     virtual names::NameClient& names() = 0;
     virtual ScriptHost& scripts() = 0;

@@ -28,6 +28,7 @@ const ControlPlane::Operation ControlPlane::operations_[] = {
     {Op::node, Callers::any, &ControlPlane::node},
     {Op::lookup, Callers::any, &ControlPlane::ask_names},
     {Op::list, Callers::any, &ControlPlane::ask_names},
+    {Op::inspect, Callers::any, &ControlPlane::inspect},
 };
 
 const ControlPlane::Operation* ControlPlane::find_operation(Op op, const std::string& role) {

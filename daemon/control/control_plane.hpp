@@ -41,6 +41,8 @@ public:
     Task<proto::Reply> handle(std::shared_ptr<Session> session, proto::Request request);
     /// Makes the remembered connections of a port that just registered.
     Task<void> restore_persistent(std::vector<names::ConnectionEntry> persistent);
+    /// The shared-memory regions handed out so far (the stats view counts them).
+    const ShmUsage& shm_usage() const { return *shm_usage_; }
 
 private:
     /// Every handler has this shape, whether or not it looks at the session. Coroutines must be
@@ -115,6 +117,8 @@ private:
     Task<proto::Reply> stats(std::shared_ptr<Session> session, const proto::Request& request);
     /// `plexus events PORT`: the port's event container and arbitration state.
     Task<proto::Reply> events(std::shared_ptr<Session> session, const proto::Request& request);
+    /// This daemon's part of the whole system's view, for a web endpoint (never forwarded).
+    Task<proto::Reply> inspect(std::shared_ptr<Session> session, const proto::Request& request);
 
     // GCC 12 miscompiles braced temporaries and lambdas inside co_await expressions: build them
     // in these plain functions instead.

@@ -17,7 +17,10 @@ Task<proto::Reply> ControlPlane::ping(std::shared_ptr<Session>, const proto::Req
 
 Task<proto::Reply> ControlPlane::node(std::shared_ptr<Session>, const proto::Request&) {
     const auto& config = host_.config();
-    co_return ok({{"node", config.node}, {"address", host_.address()}, {"names", config.names.text()}});
+    co_return ok({{"node", config.node},
+                  {"address", host_.address()},
+                  {"names", config.names.text()},
+                  {"http", host_.http_address()}});
 }
 
 Task<proto::Reply> ControlPlane::ask_names(std::shared_ptr<Session>, const proto::Request& request) {

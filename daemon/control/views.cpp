@@ -3,6 +3,7 @@
 #include "control_plane.hpp"
 #include "core/router.hpp"
 #include "inspect/events_view.hpp"
+#include "inspect/node_view.hpp"
 #include "inspect/stats_view.hpp"
 #include "request_fields.hpp"
 
@@ -22,6 +23,12 @@ Task<proto::Reply> ControlPlane::events(std::shared_ptr<Session>, const proto::R
         co_return co_await forward(request, name);
     co_return ok(inspect::events_view(*port, request.body.value("check", false), host_.config().node,
                                       host_.clock().now()));
+}
+
+Task<proto::Reply> ControlPlane::inspect(std::shared_ptr<Session>, const proto::Request& request) {
+    if (text(request.body, "only") == "arbitration")
+        co_return ok(inspect::arbitration_view(host_));
+    co_return ok(inspect::node_view(host_, *shm_usage_));
 }
 
 }  // namespace plexus::daemon

@@ -6,6 +6,8 @@ namespace plexus::daemon {
 
 void Port::deliver(const Message& message) {
     received += message.count();
+    if (sampler) [[unlikely]]
+        sampler->offer(message);
     const bool was_empty = queue_.empty();
     queue_.push(message);
     if (was_empty && on_readable)

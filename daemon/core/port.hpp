@@ -9,6 +9,7 @@
 
 #include "../arbitration/arbiter.hpp"
 #include "connection.hpp"
+#include "message_sampler.hpp"
 #include "reader_queue.hpp"
 
 namespace plexus::daemon {
@@ -51,6 +52,8 @@ public:
     std::uint64_t unconnected = 0;  ///< of those, written while no connection went out of it
     std::uint64_t received = 0;     ///< messages that arrived through connections
     std::uint64_t delivered = 0;    ///< messages handed to its client's socket
+    /// Set while someone watches the port's last messages (the web endpoint); null otherwise.
+    std::unique_ptr<MessageSampler> sampler;
 
     void mark_closed();
 

@@ -17,6 +17,7 @@ void add_stage_counters(nlohmann::json& entry, const monitor::MonitorStage& stag
     entry["dropped_monitor_backlog"] = stage.dropped_backlog();
     entry["monitors_inline"] = stage.runs_inline();
     entry["monitor_inline_overruns"] = stage.inline_overruns();
+    entry["monitor_cost_seconds"] = stage.cost_histogram().to_json();
 }
 
 }  // namespace
@@ -90,7 +91,7 @@ nlohmann::json stats_view(ControlHost& host, const ShmUsage& shm, const std::str
     }
     const auto& counters = host.counters();
     const auto& scripts = host.scripts();
-    return {{"node", host.config().node},
+    nlohmann::json view{{"node", host.config().node},
             {"address", host.address()},
             {"ports", ports},
             {"daemon",
@@ -117,6 +118,9 @@ nlohmann::json stats_view(ControlHost& host, const ShmUsage& shm, const std::str
               {"udp_reassembly_bytes", host.udp().budget().bytes},
               {"monitor_published", scripts.published()},
               {"monitor_publish_dropped", scripts.publish_dropped()}}}};
+    if (auto http = host.http_counters(); !http.is_null())
+        view["http"] = std::move(http);  // the web endpoint's, when it serves one (docs/WEB.md)
+    return view;
 }
 
 }  // namespace plexus::daemon::inspect

@@ -184,6 +184,7 @@ void MonitorStage::note_cost(Clock::duration took, std::size_t messages) {
     const double per_message =
         std::chrono::duration<double, std::nano>(took).count() / static_cast<double>(messages);
     cost_ns_ = cost_ns_ < 0 ? per_message : cost_ns_ + (per_message - cost_ns_) / 8;
+    cost_histogram_.observe(per_message * 1e-9, messages);
     const double limit = std::chrono::duration<double, std::nano>(options_.inline_cost_limit).count();
     if (inline_now_ && cost_ns_ > limit)
         inline_now_ = false;

@@ -33,6 +33,7 @@
 #include <mutex>
 
 #include "../arbitration/arbiter.hpp"
+#include "../core/latency_histogram.hpp"
 #include "../core/message_filter.hpp"
 #include "../net/asio.hpp"
 #include "chain.hpp"
@@ -87,6 +88,8 @@ public:
     /// Whether the monitors run inline now, and how many inline calls overran (see above).
     bool runs_inline() const { return inline_now_; }
     std::uint64_t inline_overruns() const { return inline_overruns_; }
+    /// What running the monitors cost per message, inline or on a worker (daemon's thread).
+    const LatencyHistogram& cost_histogram() const { return cost_histogram_; }
 
     /// An inline drain takes no more messages after this long...
     static constexpr auto inline_batch_time = std::chrono::microseconds(50);
@@ -136,6 +139,7 @@ private:
     std::uint64_t dropped_backlog_ = 0;
     bool inline_now_ = false;
     std::uint64_t inline_overruns_ = 0;
+    LatencyHistogram cost_histogram_;
     double cost_ns_ = -1;  ///< moving average of the monitors' time per message; negative: none yet
 
     /// Held while the monitors run (see the ownership note above).

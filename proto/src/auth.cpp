@@ -23,6 +23,7 @@ namespace {
 constexpr std::string_view connecting_label = "plexus-auth-v1 connecting";
 constexpr std::string_view accepting_label = "plexus-auth-v1 accepting";
 constexpr std::string_view datagram_label = "plexus-datagram-v1";
+constexpr std::string_view web_token_label = "plexus web token v1";
 
 Proof hmac(ByteView key, std::initializer_list<ByteView> parts) {
     // One HMAC over the concatenation; the parts are short, so joining them costs nothing.
@@ -150,6 +151,23 @@ Nonce random_nonce() {
 
 bool same_proof(const Proof& a, ByteView b) {
     return b.size() == a.size() && ::CRYPTO_memcmp(a.data(), b.data(), a.size()) == 0;
+}
+
+bool same_text(std::string_view a, std::string_view b) {
+    // The length is not secret (every token has 64 characters); the bytes are.
+    return a.size() == b.size() && ::CRYPTO_memcmp(a.data(), b.data(), a.size()) == 0;
+}
+
+std::string Secret::web_token() const {
+    const Proof mac = hmac(keys_->proof_key, {as_bytes(web_token_label)});
+    static constexpr char digits[] = "0123456789abcdef";
+    std::string hex;
+    hex.reserve(mac.size() * 2);
+    for (const std::uint8_t byte : mac) {
+        hex.push_back(digits[byte >> 4]);
+        hex.push_back(digits[byte & 0x0f]);
+    }
+    return hex;
 }
 
 }  // namespace plexus::proto

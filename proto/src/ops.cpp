@@ -7,7 +7,7 @@ namespace plexus::proto {
 
 namespace {
 // In the enum's order: op_name indexes it.
-constexpr std::array<std::pair<Op, std::string_view>, 21> names{{
+constexpr std::array<std::pair<Op, std::string_view>, 22> names{{
     {Op::open, "open"},
     {Op::close, "close"},
     {Op::shm, "shm"},
@@ -22,6 +22,7 @@ constexpr std::array<std::pair<Op, std::string_view>, 21> names{{
     {Op::node, "node"},
     {Op::lookup, "lookup"},
     {Op::list, "list"},
+    {Op::inspect, "inspect"},
     {Op::register_node, "register_node"},
     {Op::register_port, "register_port"},
     {Op::unregister_port, "unregister_port"},

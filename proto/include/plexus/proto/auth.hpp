@@ -51,6 +51,10 @@ public:
     }
     /// Checks a datagram's MAC in constant time.
     bool datagram_mac_ok(ByteView signed_part, ByteView mac) const;
+    /// The web endpoint's token (docs/WEB.md): hex of HMAC(secret, "plexus web token v1"). A person
+    /// enters it once in a browser; it opens the read-only views and nothing else, so it is not the
+    /// secret, and the secret cannot be found from it.
+    std::string web_token() const;
 
 private:
     struct Keys;
@@ -61,5 +65,7 @@ private:
 Nonce random_nonce();
 /// Compares in time that does not depend on where they differ.
 bool same_proof(const Proof& a, ByteView b);
+/// Compares two texts (tokens) in time that does not depend on where they differ.
+bool same_text(std::string_view a, std::string_view b);
 
 }  // namespace plexus::proto

@@ -27,6 +27,7 @@ enum class Op {
     node,        ///< the daemon's node name, address and name server
     lookup,      ///< where a port lives (also relayed by a daemon to the name server)
     list,        ///< every port and connection (also relayed)
+    inspect,     ///< a daemon's part of the whole system's view (its stats and arbitration), for the web
     // The name server's.
     register_node,
     register_port,
