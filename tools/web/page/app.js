@@ -208,6 +208,7 @@ function openStream(messagesPort) {
   es.addEventListener('error', guard(() => {
     if (es !== state.es) return;
     state.connected = false;
+    state.failed = true;
     renderStatus();
     // The browser retries by itself while CONNECTING; once CLOSED (an HTTP error) it gives up.
     if (es.readyState === EventSource.CLOSED) {
@@ -224,7 +225,8 @@ function renderStatus() {
   const stalled = state.connected && state.lastEvent && now - state.lastEvent > STALL_MS;
   const down = !state.connected || stalled;
   const badge = document.getElementById('badge');
-  badge.hidden = !down || !state.lastEvent && state.connected;
+  // not while the first connection is still being made: only once it failed or went quiet
+  badge.hidden = !(stalled || (!state.connected && (state.lastEvent || state.failed)));
   setText(badge, stalled ? 'no data' : 'disconnected');
   const sys = state.system;
   const parts = [];
