@@ -18,8 +18,9 @@ namespace plexus::daemon::web {
 /// The token a request carries: `Authorization: Bearer TOKEN`, else the cookie `plexus_token`.
 std::optional<std::string> token_of(std::string_view authorization, std::string_view cookies);
 
-/// The value of `name` in a query string (`a=1&token=x`), percent-decoding left out on purpose:
-/// every value the endpoint reads (ports, tokens) is plain text; "" when absent.
+/// The value of `name` in a query string (`port=%2Fgaze%2Fin&check=true`), %XX decoded (as a
+/// browser's encodeURIComponent writes it; '+' is left as it is, being legal in names); "" when
+/// absent.
 std::string query_value(std::string_view query, std::string_view name);
 
 /// Why a request is refused, or nothing when it may be answered.
