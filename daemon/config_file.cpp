@@ -103,6 +103,10 @@ void apply_config_text(const std::string& path, std::string_view text, DaemonCon
     static const std::set<std::string> known{"names",
                                              "advertise",
                                              "http",
+                                             "http_max_connections",
+                                             "http_read_timeout_ms",
+                                             "http_write_timeout_ms",
+                                             "http_stream_backlog_bytes",
                                              "max_frame",
                                              "default_capacity",
                                              "link_capacity",
@@ -149,12 +153,27 @@ void apply_config_text(const std::string& path, std::string_view text, DaemonCon
     if (json.contains("http")) {
         const auto& http = json["http"];
         if (!http.is_string())
-            throw std::runtime_error("config " + path + ": http must be \"HOST:PORT\", e.g. \"127.0.0.1:8080\"");
+            throw std::runtime_error("config " + path +
+                                     ": http must be \"HOST:PORT\", e.g. \"127.0.0.1:8080\"");
         auto endpoint = proto::parse_endpoint(http.get<std::string>());
         if (!endpoint)
             throw std::runtime_error("config " + path + ": http: " + endpoint.error().message);
         config.http.listen = *endpoint;
     }
+    auto& http = config.http;
+    http.max_connections = whole_number(json, "http_max_connections", http.max_connections, path);
+    http.read_timeout = std::chrono::milliseconds(
+        whole_number(json, "http_read_timeout_ms", http.read_timeout.count(), path));
+    http.write_timeout = std::chrono::milliseconds(
+        whole_number(json, "http_write_timeout_ms", http.write_timeout.count(), path));
+    http.stream_backlog_bytes =
+        whole_number(json, "http_stream_backlog_bytes", http.stream_backlog_bytes, path);
+    if (http.max_connections < 1 || http.read_timeout.count() < 100 || http.write_timeout.count() < 100 ||
+        http.stream_backlog_bytes < 4096)
+        throw std::runtime_error(
+            "config " + path +
+            ": http_max_connections must be at least 1, http_read_timeout_ms and "
+            "http_write_timeout_ms at least 100, http_stream_backlog_bytes at least 4096");
     for (const auto& dir : json.value("scripts", std::vector<std::string>{}))
         config.script_dirs.push_back(dir);
     for (const auto& dir : json.value("monitor_libs", std::vector<std::string>{}))

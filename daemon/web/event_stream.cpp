@@ -16,6 +16,9 @@ namespace beast = boost::beast;
 
 namespace {
 
+/// The kernel's send buffer of a stream client's socket: some 20 s of events at the usual rate.
+constexpr int stream_socket_buffer = 64 * 1024;
+
 double wall_seconds() {
     return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
@@ -122,6 +125,10 @@ Task<void> EventStream::serve(beast::tcp_stream& stream, std::string messages_po
         "Connection: close\r\n\r\n"
         // The browser reconnects by itself after this many ms when the stream breaks.
         "retry: 1000\n\n";
+    // The kernel's buffer is a backlog too, and one that autotuning grows to megabytes for a client
+    // that never reads: keep it small, so that what waits for a client is what is counted here.
+    boost::system::error_code ignored;
+    stream.socket().set_option(asio::socket_base::send_buffer_size(stream_socket_buffer), ignored);
     auto client = std::make_shared<Client>(executor_);
     client->stream = &stream;
     client->messages_port = std::move(messages_port);

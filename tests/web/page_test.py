@@ -26,6 +26,7 @@ Exit status 0 when every check passed; the screenshot is saved either way.
 import argparse
 import json
 import os
+import signal
 import sys
 import time
 
@@ -170,6 +171,22 @@ def wait_winner(driver, not_equal, timeout=15):
     return winner
 
 
+def wait_winner_is(driver, source, timeout=30):
+    """Waits until the winner shown is `source`."""
+    wait(driver, f'{source} to be shown as the winner', lambda d: winner_text(d) == source, timeout)
+    console(driver)
+    print(f'page: winner is {source}')
+
+
+def stop_winner(driver, source, pid, timeout=30):
+    """Waits until `source` wins, stops its writer (process `pid`, SIGTERM), and waits until the
+    page shows another winner (or none): what a person sees when a detector stops."""
+    wait_winner_is(driver, source, timeout)
+    os.kill(pid, signal.SIGTERM)
+    print(f'page: stopped {source} (pid {pid})')
+    return wait_winner(driver, not_equal=source, timeout=timeout)
+
+
 def screenshot(driver, path):
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
     driver.save_screenshot(path)
@@ -195,6 +212,8 @@ def main(argv=None):
     ap.add_argument('--expect-connections', default=','.join(GAZE_CONNECTIONS))
     ap.add_argument('--wait-winner-change', type=float, metavar='SECONDS',
                     help='also wait (at most SECONDS) for the winner shown to change')
+    ap.add_argument('--stop-winner', metavar='SOURCE=PID',
+                    help='wait until SOURCE wins, stop process PID (its writer), wait for the winner to change')
     ap.add_argument('--timeout', type=float, default=20)
     args = ap.parse_args(argv)
     shot = args.screenshot or (os.path.join(args.artefacts, 'web-page.png') if args.artefacts else None)
@@ -204,6 +223,9 @@ def main(argv=None):
         winner = check_page(args.url, driver, port=args.port, connections=connections, timeout=args.timeout)
         if args.wait_winner_change:
             wait_winner(driver, not_equal=winner, timeout=args.wait_winner_change)
+        if args.stop_winner:
+            source, pid = args.stop_winner.rsplit('=', 1)
+            stop_winner(driver, source, int(pid), timeout=max(args.timeout, 30))
     except PageError as e:
         print(f'FAIL: {e}', file=sys.stderr)
         try:

@@ -36,6 +36,7 @@ private:
 
     // Where the options land; commands read them in their callbacks.
     bool json_ = false;
+    bool web_token_ = false;  ///< plexus web --token
     std::string source_;
     std::string destination_;
     std::string carrier_;

@@ -58,6 +58,8 @@ int stats(const Common& common, const std::string& port, bool json);
 /// The event container, constraints, stimulation and counters of an input port; exit 1 when
 /// --check finds two connections that can deliver at once.
 int events(const Common& common, const EventsOptions& options);
+/// `plexus web`: the local daemon's web page address; with `token`, the web token instead.
+int web(const Common& common, bool token);
 /// Prints, as a JSON array, {script, side, param} for each monitor on SRC -> DST; `set` calls
 /// setparam with the KEY=VALUE pairs first.
 int param(const Common& common, const std::string& action, const std::string& source,

@@ -1,0 +1,30 @@
+#!/usr/bin/python3
+"""GET a URL and print the status code on the first line, then the body (for tests that ask a
+web endpoint from inside a network namespace, where only a command can run). Redirects are not
+followed: a test sees the answer itself (303 from /login).
+
+    http_get.py URL [HEADER: VALUE]...
+"""
+import sys
+import urllib.error
+import urllib.request
+
+
+
+class NoRedirects(urllib.request.HTTPRedirectHandler):
+    def redirect_request(self, *args, **kwargs):
+        return None
+
+
+opener = urllib.request.build_opener(NoRedirects)
+request = urllib.request.Request(sys.argv[1])
+for header in sys.argv[2:]:
+    name, value = header.split(':', 1)
+    request.add_header(name.strip(), value.strip())
+try:
+    with opener.open(request, timeout=20) as reply:
+        status, body = reply.status, reply.read()
+except urllib.error.HTTPError as refused:
+    status, body = refused.code, refused.read()
+sys.stdout.write(f'{status}\n')
+sys.stdout.write(body.decode('utf-8', 'replace'))
