@@ -1,5 +1,7 @@
 #include "system_view.hpp"
 
+#include <set>
+
 #include <spdlog/spdlog.h>
 
 #include "inspect/node_view.hpp"
@@ -12,6 +14,14 @@ namespace plexus::daemon::web {
 namespace {
 /// A daemon that takes longer than this to answer `inspect` is shown with its last part.
 constexpr auto ask_timeout = std::chrono::seconds(2);
+
+/// Keeps why `remote` could not be asked; logs it once per run of failures, not 20 times a second.
+template <typename Remote>
+void note_failure(Remote& remote, std::string why) {
+    if (remote.error.empty())
+        spdlog::warn("web: {}; the page shows its last known part", why);
+    remote.error = std::move(why);
+}
 
 double wall_clock_now() {
     return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
@@ -58,7 +68,8 @@ Task<nlohmann::json> SystemView::names() {
 void SystemView::learn_daemons(const nlohmann::json& names) {
     const auto ports = names.find("ports");
     if (ports == names.end() || !ports->is_array())
-        return;
+        return;  // the name server did not answer: keep what we knew
+    std::set<std::string> listed;
     for (const auto& port : *ports) {
         const std::string node = port.value("node", "");
         const std::string address = port.value("address", "");
@@ -70,7 +81,18 @@ void SystemView::learn_daemons(const nlohmann::json& names) {
             remote->address = address;
         }
         remote->node = node;
+        listed.insert(address);
     }
+    // A daemon that went (or came back at another address) is forgotten, with its link and its
+    // last part, so that the map holds no more than the daemons there are.
+    std::erase_if(remotes_, [&](const auto& entry) {
+        const auto& remote = *entry.second;
+        if (listed.contains(entry.first) || remote.asking_part || remote.asking_arbitration || remote.connecting)
+            return false;
+        if (remote.link)
+            remote.link->close_when_drained();
+        return true;
+    });
 }
 
 Task<void> SystemView::ask(std::shared_ptr<Remote> remote, bool only_arbitration) {
@@ -95,8 +117,8 @@ Task<void> SystemView::ask(std::shared_ptr<Remote> remote, bool only_arbitration
         }
         remote->connecting = false;
         if (!connected) {
-            remote->error =
-                "cannot reach the daemon of node '" + remote->node + "': " + connected.error().message;
+            note_failure(*remote,
+                         "cannot reach the daemon of node '" + remote->node + "': " + connected.error().message);
             asking = false;
             co_return;
         }
@@ -115,7 +137,8 @@ Task<void> SystemView::ask(std::shared_ptr<Remote> remote, bool only_arbitration
         co_await link->request(proto::request_body(proto::Op::inspect, std::move(fields)), ask_timeout);
     asking = false;
     if (!reply || reply->code != proto::ReplyCode::ok) {
-        remote->error = !reply ? reply.error().message : reply->body.value("error", std::string("refused"));
+        note_failure(*remote, "the daemon of node '" + remote->node + "' did not answer: " +
+                                  (!reply ? reply.error().message : reply->body.value("error", std::string("refused"))));
         remote->link_broken = true;
         co_return;
     }
