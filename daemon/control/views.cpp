@@ -9,19 +9,25 @@
 namespace plexus::daemon {
 
 Task<proto::Reply> ControlPlane::stats(std::shared_ptr<Session>, const proto::Request& request) {
-    const std::string port = text(request.body, "port");
+    const auto asked = proto::StatsRequest::decode(request.body);
+    if (!asked)
+        co_return malformed(asked.error());
+    const std::string& port = asked->port;
     if (!port.empty() && !host_.router().find(port))
-        co_return co_await forward(request, port);
-    co_return ok(inspect::stats_view(host_, *shm_usage_, port));
+        co_return co_await forward(request, asked->forwarded, port);
+    co_return ok(proto::StatsReply{inspect::stats_view(host_, *shm_usage_, port)});
 }
 
 Task<proto::Reply> ControlPlane::events(std::shared_ptr<Session>, const proto::Request& request) {
-    const std::string name = text(request.body, "port");
+    const auto asked = proto::EventsRequest::decode(request.body);
+    if (!asked)
+        co_return malformed(asked.error());
+    const std::string& name = asked->port;
     auto port = host_.router().find(name);
     if (!port)
-        co_return co_await forward(request, name);
-    co_return ok(inspect::events_view(*port, request.body.value("check", false), host_.config().node,
-                                      host_.clock().now()));
+        co_return co_await forward(request, asked->forwarded, name);
+    co_return ok(proto::EventsReply{
+        inspect::events_view(*port, asked->check, host_.config().node, host_.clock().now())});
 }
 
 }  // namespace plexus::daemon
