@@ -8,7 +8,8 @@
 #include "plexus/proto/defaults.hpp"
 #include "plexus/proto/discovery.hpp"
 #include "plexus/proto/message.hpp"
-#include "plexus/proto/ops.hpp"
+#include "plexus/proto/name_operations.hpp"
+#include "plexus/proto/operations.hpp"
 
 namespace plexus {
 
@@ -327,38 +328,46 @@ Port Client::open(const std::string& name, PortOptions options) {
 
 std::string Client::connect(const std::string& source, const std::string& destination,
                             const std::string& carrier, bool persist) {
-    auto reply = request({{"op", proto::op_name(proto::Op::connect)},
-                          {"source", source},
-                          {"destination", destination},
-                          {"carrier", carrier},
-                          {"persist", persist}});
+    proto::ConnectRequest asked;
+    asked.source = source;
+    asked.destination = destination;
+    asked.carrier = carrier;
+    asked.persist = persist;
+    const auto reply =
+        detail::checked_as<proto::ConnectReply>(link_->request(asked.encode(), control_timeout));
     link_->remember({source, destination, carrier, persist});
-    return reply.value("carrier", carrier);
+    // An older daemon may leave the carrier out: the one asked for is then the one made.
+    return reply.carrier.empty() ? carrier : reply.carrier;
 }
 
 void Client::disconnect(const std::string& source, const std::string& destination) {
-    request(
-        {{"op", proto::op_name(proto::Op::disconnect)}, {"source", source}, {"destination", destination}});
+    request(proto::DisconnectRequest{source, destination}.encode());
     link_->forget(source, destination);
 }
 
 Value Client::list() {
-    return request({{"op", proto::op_name(proto::Op::list)}});
+    return detail::checked_as<proto::ListReply>(
+               link_->request(proto::ListRequest{}.encode(), control_timeout))
+        .document;
 }
 
 std::optional<Value> Client::lookup(const std::string& port) {
-    auto reply = link_->request({{"op", proto::op_name(proto::Op::lookup)}, {"port", port}}, control_timeout);
+    auto reply = link_->request(proto::LookupRequest{port}.encode(), control_timeout);
     if (reply.code == proto::ReplyCode::no)
         return std::nullopt;
-    return checked(reply);
+    return detail::checked_as<proto::LookupReply>(reply).encode();
 }
 
 Value Client::stats(const std::string& port) {
-    return request({{"op", proto::op_name(proto::Op::stats)}, {"port", port}});
+    return detail::checked_as<proto::StatsReply>(
+               link_->request(proto::StatsRequest{port}.encode(), control_timeout))
+        .document;
 }
 
 Value Client::ping(const std::string& port) {
-    return request({{"op", proto::op_name(proto::Op::ping)}, {"port", port}});
+    return detail::checked_as<proto::PingReply>(
+               link_->request(proto::PingRequest{port}.encode(), control_timeout))
+        .encode();
 }
 
 void Client::on_state(std::function<void(ConnectionState)> callback) {

@@ -19,7 +19,7 @@
 #include "plexus/proto/frame.hpp"
 #include "plexus/proto/hello.hpp"
 #include "plexus/proto/message.hpp"
-#include "plexus/proto/ops.hpp"
+#include "plexus/proto/operations.hpp"
 #include "plexus/proto/shm.hpp"
 #include "tcp_handshake.hpp"
 
@@ -88,9 +88,8 @@ std::shared_ptr<Connection> Connection::to_daemon(const std::string& socket_path
     }
     auto connection = std::make_shared<Connection>(fd, socket_path);
     // A wrong program on the socket is reported now rather than at the first real request.
-    proto::Reply reply =
-        connection->request({{"op", proto::op_name(proto::Op::node)}}, std::chrono::milliseconds(5000));
-    if (reply.code != proto::ReplyCode::ok)
+    proto::Reply reply = connection->request(proto::NodeRequest{}.encode(), std::chrono::milliseconds(5000));
+    if (reply.code != proto::ReplyCode::ok || !proto::NodeReply::decode(reply.body))
         throw Error(ErrorCode::refused, "the program at " + socket_path + " is not plexusd");
     // PLEXUS_SHM=0 keeps every payload in the socket (for comparisons, or to rule shm out).
     const char* shm = std::getenv("PLEXUS_SHM");
@@ -161,8 +160,7 @@ Connection::~Connection() {
 }
 
 bool Connection::enable_shm() {
-    const proto::Reply reply =
-        request({{"op", proto::op_name(proto::Op::shm)}}, std::chrono::milliseconds(5000));
+    const proto::Reply reply = request(proto::ShmRequest{}.encode(), std::chrono::milliseconds(5000));
     std::lock_guard lock(shm_mutex_);
     shm_ = reply.code == proto::ReplyCode::ok;
     return shm_;
@@ -380,14 +378,16 @@ Connection::WriterRegion* Connection::writer_region(std::uint64_t handle, std::s
     // The first large write on this port asks for its region. The region's frame (and its
     // descriptor) comes before the reply, so it is here once the reply is.
     const proto::Reply reply =
-        request({{"op", proto::op_name(proto::Op::shm)}, {"handle", handle}, {"bytes", payload_size}},
-                std::chrono::milliseconds(5000));
+        request(proto::ShmRequest{handle, payload_size}.encode(), std::chrono::milliseconds(5000));
     std::lock_guard lock(shm_mutex_);
     auto& known = port_regions_[handle];
     known.reset();
     if (reply.code != proto::ReplyCode::ok)
         return nullptr;  // shared memory used up or off: this port writes through the socket
-    const auto id = reply.body.value("region", std::uint64_t{0});
+    const auto answer = proto::ShmReply::decode(reply.body);
+    if (!answer)
+        return nullptr;  // not an answer this library understands: the socket will do
+    const auto id = answer->region.value_or(0);
     const auto region = writer_regions_.find(id);
     if (region == writer_regions_.end())
         return nullptr;

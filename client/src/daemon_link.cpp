@@ -1,5 +1,5 @@
 #include "daemon_link.hpp"
-#include "plexus/proto/ops.hpp"
+#include "plexus/proto/operations.hpp"
 
 #include <fcntl.h>
 #include <poll.h>
@@ -26,20 +26,21 @@ constexpr auto restore_timeout = 10000ms;
 constexpr auto idle_check = std::chrono::milliseconds(200);
 
 nlohmann::json open_body(const std::string& name, const PortOptions& options) {
-    nlohmann::json body{{"op", proto::op_name(proto::Op::open)},
-                        {"port", name},
-                        {"policy", options.policy == QueuePolicy::strict ? "strict" : "latest"}};
+    proto::OpenRequest open;
+    open.port = name;
+    open.policy = options.policy == QueuePolicy::strict ? "strict" : "latest";
     if (options.capacity > 0)
-        body["capacity"] = options.capacity;
-    return body;
+        open.capacity = options.capacity;
+    return open.encode();
 }
 
 nlohmann::json connect_body(const ConnectionSpec& spec) {
-    return {{"op", proto::op_name(proto::Op::connect)},
-            {"source", spec.source},
-            {"destination", spec.destination},
-            {"carrier", spec.carrier},
-            {"persist", spec.persist}};
+    proto::ConnectRequest connect;
+    connect.source = spec.source;
+    connect.destination = spec.destination;
+    connect.carrier = spec.carrier;
+    connect.persist = spec.persist;
+    return connect.encode();
 }
 
 }  // namespace
@@ -136,7 +137,7 @@ std::shared_ptr<PortRecord> DaemonLink::open(const std::string& name, PortOption
     }
     auto record = std::make_shared<PortRecord>(name, options);
     record->connection = connection;
-    record->handle = checked(reply).at("handle").get<std::uint64_t>();
+    record->handle = checked_as<proto::OpenReply>(reply).handle;
     std::lock_guard lock(mutex_);
     // Opened on a daemon that went away meanwhile: the port went with it.
     if (current_ != connection)
@@ -163,7 +164,7 @@ void DaemonLink::close(const std::shared_ptr<PortRecord>& record, std::chrono::m
     try {
         connection->flush();
         connection->forget(handle);
-        checked(connection->request({{"op", proto::op_name(proto::Op::close)}, {"handle", handle}}, timeout));
+        checked(connection->request(proto::CloseRequest{handle}.encode(), timeout));
     } catch (const Error&) {
         if (!connection->broken())
             throw;
@@ -375,9 +376,9 @@ void DaemonLink::restore(const std::shared_ptr<Connection>& connection) {
     }
     std::vector<std::uint64_t> handles;
     for (const auto& record : ports) {
-        const auto reply =
-            checked(connection->request(open_body(record->name, record->options), restore_timeout));
-        handles.push_back(reply.at("handle").get<std::uint64_t>());
+        const auto reply = checked_as<proto::OpenReply>(
+            connection->request(open_body(record->name, record->options), restore_timeout));
+        handles.push_back(reply.handle);
     }
     // The other ends may be ports of components that are reconnecting too: give them a moment, so
     // that what was held reaches them rather than a port with no connections.
@@ -393,8 +394,7 @@ void DaemonLink::restore(const std::shared_ptr<Connection>& connection) {
         std::unique_lock port(record.mutex);
         if (record.closed) {
             port.unlock();
-            connection->request({{"op", proto::op_name(proto::Op::close)}, {"handle", handles[i]}},
-                                restore_timeout);
+            connection->request(proto::CloseRequest{handles[i]}.encode(), restore_timeout);
             continue;
         }
         // Under the port's lock: its own writes wait, and cannot overtake what it held.

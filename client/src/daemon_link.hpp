@@ -22,11 +22,22 @@
 
 #include "connection.hpp"
 #include "plexus/client.hpp"
+#include "plexus/proto/operations.hpp"
 
 namespace plexus::detail {
 
 /// The body of an ok reply; throws Error (with the reply's code and reason) for any other.
 nlohmann::json checked(const proto::Reply& reply);
+
+/// An ok reply read as `Answer`, a reply struct of plexus/proto/operations.hpp; throws Error for a
+/// refusal, and for an answer that does not decode (a peer that is not the plexusd we speak to).
+template <class Answer>
+Answer checked_as(const proto::Reply& reply) {
+    auto decoded = Answer::decode(checked(reply));
+    if (!decoded)
+        throw Error(ErrorCode::refused, decoded.error().message);
+    return std::move(*decoded);
+}
 
 /// A message a port wrote while its daemon was away, sent once the port is open again.
 struct HeldMessage {

@@ -73,14 +73,14 @@ std::shared_ptr<MessageFilter> send_stage(ScriptHost& scripts, std::shared_ptr<m
 
 proto::Result<std::shared_ptr<MessageSink>> ControlPlane::udp_sending_end(std::shared_ptr<Peer> link,
                                                                           const proto::Endpoint& endpoint,
-                                                                          const proto::Reply& attached,
+                                                                          const proto::AttachReply& attached,
                                                                           std::string description,
                                                                           std::optional<int> dscp) {
-    const auto port = attached.body.value("udp_port", 0);
-    const auto stream = attached.body.value("stream", std::uint64_t{0});
+    const std::uint64_t port = attached.udp_port.value_or(0);
+    const std::uint64_t stream = attached.stream;
     boost::system::error_code ec;
     const auto address = asio::ip::make_address(endpoint.host, ec);
-    if (port <= 0 || port > 65535 || stream == 0 || ec) {
+    if (port == 0 || port > 65535 || stream == 0 || ec) {
         return proto::Error{
             "the daemon at " + endpoint.text() +
             " gave no usable udp port and stream for this connection (udp needs IP addresses)"};
@@ -92,9 +92,13 @@ proto::Result<std::shared_ptr<MessageSink>> ControlPlane::udp_sending_end(std::s
 }
 
 Task<proto::Reply> ControlPlane::connect(std::shared_ptr<Session>, const proto::Request& request) {
-    const std::string source = text(request.body, "source");
-    const std::string destination = text(request.body, "destination");
-    std::string carrier_text = text(request.body, "carrier");
+    auto decoded = proto::ConnectRequest::decode(request.body);
+    if (!decoded)
+        co_return malformed(decoded.error());
+    const proto::ConnectRequest asked = std::move(*decoded);
+    const std::string source = asked.source;
+    const std::string destination = asked.destination;
+    std::string carrier_text = asked.carrier;
     for (const auto& name : {source, destination}) {
         if (auto error = proto::port_name_error(name))
             co_return refuse(*error, ReplyCode::usage);
@@ -113,7 +117,7 @@ Task<proto::Reply> ControlPlane::connect(std::shared_ptr<Session>, const proto::
     auto& router = host_.router();
     auto port = router.find(source);
     if (!port)
-        co_return co_await forward(request, source);
+        co_return co_await forward(request, asked.forwarded, source);
     // The send-side monitors run here whatever the destination; made first, so that a script
     // that fails leaves nothing behind.
     auto send_chain = host_.scripts().build_chain(carrier, proto::Side::send, source, destination);
@@ -131,8 +135,7 @@ Task<proto::Reply> ControlPlane::connect(std::shared_ptr<Session>, const proto::
         connection->destination = destination;
         connection->carrier = automatic ? "local" : carrier_text;
         connection->priority = carrier.qos.prio.value_or(0);
-        const InletSpec spec{local_destination, source, carrier, connection->carrier,
-                             request.body.value("strict", false)};
+        const InletSpec spec{local_destination, source, carrier, connection->carrier, asked.strict};
         // The connection takes the inlet before the inlet joins its port: a pair already
         // connected is refused with nothing joined.
         const InletHandOver hand_over = [&](const std::shared_ptr<Inlet>& inlet) {
@@ -143,11 +146,11 @@ Task<proto::Reply> ControlPlane::connect(std::shared_ptr<Session>, const proto::
         auto wired = wire_inlet(host_.scripts(), host_.clock(), spec, hand_over);
         if (!wired)
             co_return refuse(wired.error().message);
-        connection->persistent = request.body.value("persist", false);
+        connection->persistent = asked.persist;
         names::ConnectionEntry entry{source, destination, connection->carrier, connection->persistent};
         co_await host_.names().add_connection(std::move(entry));
         spdlog::info("connected {} -> {} ({})", source, destination, connection->carrier);
-        co_return ok({{"carrier", connection->carrier}, {"warnings", wired->warnings}});
+        co_return ok(proto::ConnectReply{connection->carrier, wired->warnings});
     }
     if (wants_local) {
         co_return refuse("carrier 'local' needs both ports on one daemon, and " + destination +
@@ -166,14 +169,14 @@ Task<proto::Reply> ControlPlane::connect(std::shared_ptr<Session>, const proto::
     if (automatic)
         chosen = "tcp";
     std::shared_ptr<monitor::MonitorChain> chain = std::move(*send_chain);
-    co_return co_await connect_remote(request, port, destination, chosen, where, chain);
+    co_return co_await connect_remote(asked, port, chosen, where, chain);
 }
 
-Task<proto::Reply> ControlPlane::connect_remote(const proto::Request& request, std::shared_ptr<Port> port,
-                                                std::string destination, std::string carrier,
-                                                std::string address,
+Task<proto::Reply> ControlPlane::connect_remote(proto::ConnectRequest asked, std::shared_ptr<Port> port,
+                                                std::string carrier, std::string address,
                                                 std::shared_ptr<monitor::MonitorChain> send_chain) {
     const std::string source = port->name();
+    const std::string destination = asked.destination;
     for (const auto& existing : port->outgoing) {
         if (existing->destination == destination)
             co_return refuse("ports " + source + " and " + destination + " are already connected");
@@ -181,8 +184,7 @@ Task<proto::Reply> ControlPlane::connect_remote(const proto::Request& request, s
     auto endpoint = proto::parse_endpoint(address);
     if (!endpoint)
         co_return refuse("the name server gave a bad address for " + destination + ": " + address);
-    const bool strict = request.body.value("strict", false);
-    auto end = co_await open_sending_end(port, destination, carrier, *endpoint, strict);
+    auto end = co_await open_sending_end(port, destination, carrier, *endpoint, asked.strict);
     if (!end.peer)
         co_return end.answer;
     auto connection = std::make_shared<Connection>();
@@ -191,7 +193,7 @@ Task<proto::Reply> ControlPlane::connect_remote(const proto::Request& request, s
     connection->carrier = carrier;
     connection->remote = true;
     connection->priority = qos_of(carrier).prio.value_or(0);
-    connection->persistent = request.body.value("persist", false);
+    connection->persistent = asked.persist;
     connection->sink = end.sink;
     if (auto* mcast = dynamic_cast<McastLink*>(end.sink.get())) {
         // The send-side monitors of mcast run once per message, for the port's one sender, not
@@ -220,8 +222,7 @@ Task<proto::Reply> ControlPlane::connect_remote(const proto::Request& request, s
     names::ConnectionEntry entry{source, destination, carrier, connection->persistent};
     co_await host_.names().add_connection(std::move(entry));
     spdlog::info("connected {} -> {} ({} to {})", source, destination, carrier, address);
-    co_return ok(
-        {{"carrier", carrier}, {"warnings", end.answer.body.value("warnings", nlohmann::json::array())}});
+    co_return ok(proto::ConnectReply{carrier, end.attached.warnings});
 }
 
 Task<ControlPlane::SendingEnd> ControlPlane::open_sending_end(std::shared_ptr<Port> port,
@@ -261,15 +262,18 @@ Task<ControlPlane::SendingEnd> ControlPlane::open_sending_end(std::shared_ptr<Po
         }
     }
     // The receiving daemon wires its end (monitors, arbitration) while it answers attach.
-    nlohmann::json attach_body = proto::request_body(
-        proto::Op::attach,
-        {{"source", source}, {"destination", destination}, {"carrier", carrier}, {"strict", strict}});
-    if (!group.empty())
-        attach_body["group"] = group;
-    auto attached = co_await link_peer->request(attach_body, peer_timeout);
-    if (!attached || attached->code != ReplyCode::ok) {
+    const nlohmann::json attach_body =
+        proto::AttachRequest{source, destination, carrier, strict, group}.encode();
+    auto replied = co_await link_peer->request(attach_body, peer_timeout);
+    if (!replied || replied->code != ReplyCode::ok) {
         link_peer->close("attach refused");
-        end.answer = attached ? *attached : refuse(attached.error().message);
+        end.answer = replied ? *replied : refuse(replied.error().message);
+        co_return end;
+    }
+    auto attached = proto::AttachReply::decode(replied->body);
+    if (!attached) {
+        link_peer->close("bad attach answer");
+        end.answer = refuse(attached.error().message);
         co_return end;
     }
     if (port->closed()) {
@@ -277,7 +281,8 @@ Task<ControlPlane::SendingEnd> ControlPlane::open_sending_end(std::shared_ptr<Po
         end.answer = refuse("port " + source + " closed while connecting");
         co_return end;
     }
-    end.answer = *attached;
+    end.answer = *replied;
+    end.attached = *attached;
     if (!group.empty()) {
         // mcast: every message goes once to the source port's group, whatever the connections.
         auto sender = host_.udp().mcast_sender(source, *group_endpoint(group));
@@ -305,12 +310,11 @@ Task<ControlPlane::SendingEnd> ControlPlane::open_sending_end(std::shared_ptr<Po
     // keeps only the newest few and a small socket buffer, so a slow network adds little delay
     // (the kernel's buffer would otherwise hold seconds of data at 10 Mbit/s); into a strict port
     // it holds the writer back.
-    const bool latest = attached->body.value("policy", std::string("strict")) == "latest";
-    const std::size_t capacity =
-        latest ? std::min<std::size_t>(
-                     host_.config().link_capacity,
-                     std::max<std::size_t>(1, attached->body.value("capacity", std::size_t{16})))
-               : host_.config().link_capacity;
+    const bool latest = attached->policy == "latest";
+    const std::size_t capacity = latest
+                                     ? std::min<std::size_t>(host_.config().link_capacity,
+                                                             std::max<std::uint64_t>(1, attached->capacity))
+                                     : host_.config().link_capacity;
     constexpr int latest_send_buffer = 64 * 1024;
     if (latest)
         link_peer->limit_send_buffer(latest_send_buffer);
@@ -346,16 +350,19 @@ void ControlPlane::watch_link(const SendingEnd& end, const std::shared_ptr<Conne
 }
 
 Task<proto::Reply> ControlPlane::attach(std::shared_ptr<Session> session, const proto::Request& request) {
-    const std::string destination = text(request.body, "destination");
+    const auto asked = proto::AttachRequest::decode(request.body);
+    if (!asked)
+        co_return malformed(asked.error());
+    const std::string destination = asked->destination;
     auto port = host_.router().find(destination);
     if (!port)
         co_return refuse("port " + destination + " does not exist on node '" + host_.config().node + "'");
     if (session->is_link())
         co_return refuse("this link is already attached", ReplyCode::usage);
-    const std::string source = text(request.body, "source");
+    const std::string source = asked->source;
     if (auto error = proto::port_name_error(source))
         co_return refuse(*error, ReplyCode::usage);
-    auto carrier = proto::parse_carrier(text(request.body, "carrier"));
+    auto carrier = proto::parse_carrier(asked->carrier);
     if (!carrier)
         co_return refuse("bad carrier: " + carrier.error().message);
     if (auto valid = proto::validate_carrier(*carrier); !valid)
@@ -370,14 +377,15 @@ Task<proto::Reply> ControlPlane::attach(std::shared_ptr<Session> session, const 
         co_return refuse("port " + source + " lives on node '" + owner->node +
                          "', and this link comes from node '" + link_node + "': refused");
     }
-    const InletSpec spec{port, source, *carrier, carrier->text(), request.body.value("strict", false)};
+    const InletSpec spec{port, source, *carrier, carrier->text(), asked->strict};
     auto wired = wire_inlet(host_.scripts(), host_.clock(), spec);
     if (!wired)
         co_return refuse(wired.error().message);
     // The sending daemon shapes its end after this port's queue (a latest port gets a latest link).
-    nlohmann::json answer = {{"warnings", wired->warnings},
-                             {"policy", queue_policy_name(port->queue().policy())},
-                             {"capacity", port->queue().capacity()}};
+    proto::AttachReply answer;
+    answer.warnings = wired->warnings;
+    answer.policy = queue_policy_name(port->queue().policy());
+    answer.capacity = port->queue().capacity();
     if (carrier->base == "udp") {
         // udp: datagrams from the link's address, for a stream of its own, feed the inlet.
         const auto sender = session->remote_ip();
@@ -385,20 +393,20 @@ Task<proto::Reply> ControlPlane::attach(std::shared_ptr<Session> session, const 
             co_return refuse("the udp carrier needs a link over TCP (an IP address to take datagrams from)");
         auto stream = host_.udp().open_stream(wired->inlet, *sender);
         wired->inlet->datagrams = UdpCarrier::datagrams(*stream);
-        answer["udp_port"] = host_.udp().port();
-        answer["stream"] = UdpCarrier::id(*stream);
+        answer.udp_port = host_.udp().port();
+        answer.stream = UdpCarrier::id(*stream);
         session->hold_while_linked(stream);
     }
     // tcp: the link session itself feeds the inlet, with the data frames the sending daemon writes.
     if (carrier->base == "mcast") {
         // mcast: join the source port's group, which the name server (not the sender) vouches for.
-        const std::string asked = text(request.body, "group");
+        const std::string& claimed = asked->group;
         auto given = co_await host_.names().mcast_group(source);
         if (!given)
             co_return refuse("no multicast group for " + source + ": " + given.error().message);
         const auto group = group_endpoint(*given);
-        if (!group || asked != *given)
-            co_return refuse("the group " + asked + " is not the one the name server gives " + source);
+        if (!group || claimed != *given)
+            co_return refuse("the group " + claimed + " is not the one the name server gives " + source);
         const auto sender = session->remote_ip();
         if (!sender)
             co_return refuse("the mcast carrier needs a link over TCP");
@@ -424,38 +432,40 @@ Task<proto::Reply> ControlPlane::attach(std::shared_ptr<Session> session, const 
 }
 
 Task<proto::Reply> ControlPlane::disconnect(std::shared_ptr<Session>, const proto::Request& request) {
-    const std::string source = text(request.body, "source");
-    const std::string destination = text(request.body, "destination");
+    const auto asked = proto::DisconnectRequest::decode(request.body);
+    if (!asked)
+        co_return malformed(asked.error());
+    const std::string source = asked->source;
+    const std::string destination = asked->destination;
     if (!host_.router().find(source))
-        co_return co_await forward(request, source);
+        co_return co_await forward(request, asked->forwarded, source);
     auto removed = host_.router().remove(source, destination);
     if (!removed)
         co_return refuse("ports " + source + " and " + destination + " are not connected", ReplyCode::no);
     host_.notify_space();
     co_await host_.names().remove_connection(source, destination, true);
     spdlog::info("disconnected {} -> {}", source, destination);
-    co_return ok();
+    co_return ok(proto::DisconnectReply{});
 }
 
 Task<void> ControlPlane::restore_persistent(std::vector<names::ConnectionEntry> persistent) {
     for (const auto& entry : persistent) {
+        proto::ConnectRequest asked;
+        asked.source = entry.source;
+        asked.destination = entry.destination;
+        asked.carrier = entry.carrier;
         proto::Request request;
-        request.body = proto::request_body(
-            proto::Op::connect,
-            {{"source", entry.source}, {"destination", entry.destination}, {"carrier", entry.carrier}});
+        request.body = asked.encode();
         // Either end may come up first; the one that comes second makes the connection, so a
         // failure here (the other end is not there yet) is expected and only logged. The daemon
         // asks itself: there is no session.
         const std::shared_ptr<Session> no_session;
         auto reply = co_await connect(no_session, request);
         if (reply.code == ReplyCode::ok) {
-            spdlog::info("restored persistent connection {} -> {}", request.body["source"].get<std::string>(),
-                         request.body["destination"].get<std::string>());
+            spdlog::info("restored persistent connection {} -> {}", entry.source, entry.destination);
         } else {
-            spdlog::debug("persistent connection {} -> {} not restored yet: {}",
-                          request.body["source"].get<std::string>(),
-                          request.body["destination"].get<std::string>(),
-                          reply.body.value("error", std::string{}));
+            spdlog::debug("persistent connection {} -> {} not restored yet: {}", entry.source,
+                          entry.destination, reply.body.value("error", std::string{}));
         }
     }
 }

@@ -26,8 +26,8 @@ const ControlPlane::Operation ControlPlane::operations_[] = {
     {Op::ping, Callers::any, &ControlPlane::ping},
     {Op::events, Callers::any, &ControlPlane::events},
     {Op::node, Callers::any, &ControlPlane::node},
-    {Op::lookup, Callers::any, &ControlPlane::ask_names},
-    {Op::list, Callers::any, &ControlPlane::ask_names},
+    {Op::lookup, Callers::any, &ControlPlane::lookup},
+    {Op::list, Callers::any, &ControlPlane::list},
     {Op::inspect, Callers::any, &ControlPlane::inspect},
 };
 

@@ -16,6 +16,8 @@
 #include "plexus/proto/control.hpp"
 #include "plexus/proto/endpoint.hpp"
 #include "plexus/proto/hello.hpp"
+#include "plexus/proto/name_operations.hpp"
+#include "plexus/proto/operations.hpp"
 #include "plexus/proto/ops.hpp"
 
 namespace plexus::daemon {
@@ -67,7 +69,8 @@ private:
         std::shared_ptr<Peer> peer;                ///< the link to the receiving daemon; null if refused
         std::shared_ptr<MessageSink> sink;         ///< what the router hands messages to
         std::shared_ptr<const ReaderQueue> queue;  ///< what waits to leave, counted if the link dies
-        proto::Reply answer;  ///< the receiving daemon's answer to attach, or why there is no end
+        proto::Reply answer;          ///< the receiving daemon's answer to attach, or why there is no end
+        proto::AttachReply attached;  ///< that answer decoded, when it was one
     };
 
     // ports.cpp: a client's own ports.
@@ -79,8 +82,8 @@ private:
     // connections.cpp
     /// Needs no session: restore_persistent calls it with none.
     Task<proto::Reply> connect(std::shared_ptr<Session> session, const proto::Request& request);
-    Task<proto::Reply> connect_remote(const proto::Request& request, std::shared_ptr<Port> source,
-                                      std::string destination, std::string carrier, std::string address,
+    Task<proto::Reply> connect_remote(proto::ConnectRequest asked, std::shared_ptr<Port> source,
+                                      std::string carrier, std::string address,
                                       std::shared_ptr<monitor::MonitorChain> send_chain);
     /// Connects to the daemon at `endpoint`, asks it to attach `destination` for this connection,
     /// and makes the queue the router will hand messages to. The one place a carrier's sending end
@@ -91,7 +94,7 @@ private:
     /// answer to attach (`udp_port`, `stream`).
     proto::Result<std::shared_ptr<MessageSink>> udp_sending_end(std::shared_ptr<Peer> link,
                                                                 const proto::Endpoint& endpoint,
-                                                                const proto::Reply& attached,
+                                                                const proto::AttachReply& attached,
                                                                 std::string description,
                                                                 std::optional<int> dscp = {});
     /// When the link of `connection` closes: counts what it could not send, removes the connection.
@@ -108,10 +111,14 @@ private:
     // forward.cpp: questions about this daemon, or for another one or the name server.
     Task<proto::Reply> ping(std::shared_ptr<Session> session, const proto::Request& request);
     Task<proto::Reply> node(std::shared_ptr<Session> session, const proto::Request& request);
-    /// `lookup` and `list`: asked of the name server, its answer relayed.
-    Task<proto::Reply> ask_names(std::shared_ptr<Session> session, const proto::Request& request);
-    /// Sends the request to the daemon that hosts `port` and relays its reply.
-    Task<proto::Reply> forward(const proto::Request& request, const std::string& port);
+    /// `lookup`: asked of the name server, its answer relayed.
+    Task<proto::Reply> lookup(std::shared_ptr<Session> session, const proto::Request& request);
+    /// `list`: asked of the name server, its answer relayed.
+    Task<proto::Reply> list(std::shared_ptr<Session> session, const proto::Request& request);
+    /// Sends the request to the daemon that hosts `port`, marked forwarded, and relays its reply;
+    /// refuses one that was `forwarded` here already. The body goes on as it came, with any field
+    /// this daemon does not know: the daemon that answers may.
+    Task<proto::Reply> forward(const proto::Request& request, bool forwarded, const std::string& port);
 
     // views.cpp: the views of inspect/, for this daemon's ports, or asked of the one hosting them.
     Task<proto::Reply> stats(std::shared_ptr<Session> session, const proto::Request& request);

@@ -9,27 +9,43 @@
 namespace plexus::daemon {
 
 Task<proto::Reply> ControlPlane::ping(std::shared_ptr<Session>, const proto::Request& request) {
-    const std::string port = text(request.body, "port");
+    const auto asked = proto::PingRequest::decode(request.body);
+    if (!asked)
+        co_return malformed(asked.error());
+    const std::string& port = asked->port;
     if (port.empty() || host_.router().find(port))
-        co_return ok({{"node", host_.config().node}, {"address", host_.address()}});
-    co_return co_await forward(request, port);
+        co_return ok(proto::PingReply{host_.config().node, host_.address()});
+    co_return co_await forward(request, asked->forwarded, port);
 }
 
-Task<proto::Reply> ControlPlane::node(std::shared_ptr<Session>, const proto::Request&) {
+Task<proto::Reply> ControlPlane::node(std::shared_ptr<Session>, const proto::Request& request) {
+    if (const auto asked = proto::NodeRequest::decode(request.body); !asked)
+        co_return malformed(asked.error());
     const auto& config = host_.config();
-    co_return ok({{"node", config.node},
-                  {"address", host_.address()},
-                  {"names", config.names.text()},
-                  {"http", host_.http_address()}});
+    co_return ok(proto::NodeReply{config.node, host_.address(), config.names.text(), host_.http_address()});
 }
 
-Task<proto::Reply> ControlPlane::ask_names(std::shared_ptr<Session>, const proto::Request& request) {
-    nlohmann::json question = {{"op", text(request.body, "op")}, {"port", text(request.body, "port")}};
+// Only the fields the name server reads are passed on: a client cannot reach the name server
+// through the daemon with anything else.
+Task<proto::Reply> ControlPlane::lookup(std::shared_ptr<Session>, const proto::Request& request) {
+    const auto asked = proto::LookupRequest::decode(request.body);
+    if (!asked)
+        co_return malformed(asked.error());
+    nlohmann::json question = asked->encode();
     co_return relay(co_await host_.names().request(std::move(question)));
 }
 
-Task<proto::Reply> ControlPlane::forward(const proto::Request& request, const std::string& port) {
-    if (request.body.value("forwarded", false))
+Task<proto::Reply> ControlPlane::list(std::shared_ptr<Session>, const proto::Request& request) {
+    const auto asked = proto::ListRequest::decode(request.body);
+    if (!asked)
+        co_return malformed(asked.error());
+    nlohmann::json question = asked->encode();
+    co_return relay(co_await host_.names().request(std::move(question)));
+}
+
+Task<proto::Reply> ControlPlane::forward(const proto::Request& request, bool forwarded,
+                                         const std::string& port) {
+    if (forwarded)
         co_return refuse("port " + port + " is not on node '" + host_.config().node + "'");
     auto found = co_await host_.names().lookup(port);
     if (!found)

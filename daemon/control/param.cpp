@@ -28,13 +28,14 @@ using Takers = std::vector<std::size_t>;
 
 /// Runs get or set on every monitor of a chain and appends {script, side, param} per monitor, and
 /// the places of those that have a setparam to `took`. On the monitors' worker (see apply_on_worker).
-proto::Status apply(const monitor::MonitorChain& chain, const nlohmann::json& body, nlohmann::json& results,
-                    bool& any_setparam, Takers& took) {
-    const bool set = text(body, "action") == "set";
+proto::Status apply(const monitor::MonitorChain& chain, const proto::ParamArguments& asked,
+                    std::vector<proto::MonitorParams>& results, bool& any_setparam, Takers& took) {
+    const bool set = asked.action == "set";
+    const nlohmann::json values = asked.values.is_null() ? nlohmann::json::object() : asked.values;
     for (std::size_t place = 0; place < chain.monitors.size(); ++place) {
         const auto& monitor = chain.monitors[place];
         if (set) {
-            auto called = monitor->setparam(body.value("values", nlohmann::json::object()));
+            auto called = monitor->setparam(values);
             if (!called)
                 return called.error();
             any_setparam = any_setparam || *called;
@@ -45,7 +46,7 @@ proto::Status apply(const monitor::MonitorChain& chain, const nlohmann::json& bo
         if (!param)
             return param.error();
         auto stats = monitor->stats();
-        results.push_back({{"script", stats["script"]}, {"side", stats["side"]}, {"param", *param}});
+        results.push_back({stats.value("script", std::string{}), stats.value("side", std::string{}), *param});
     }
     return proto::Ok{};
 }
@@ -53,14 +54,15 @@ proto::Status apply(const monitor::MonitorChain& chain, const nlohmann::json& bo
 /// apply() where the monitors run: their scripts are theirs only, and a slow getparam delays only
 /// this request.
 Task<proto::Status> apply_on_worker(const std::shared_ptr<MessageFilter>& monitors,
-                                    const nlohmann::json& body, nlohmann::json& results, bool& any_setparam,
+                                    const proto::ParamArguments& asked,
+                                    std::vector<proto::MonitorParams>& results, bool& any_setparam,
                                     Takers& took) {
     auto* stage = monitor::stage_of(monitors);
     if (!stage)
         co_return proto::Ok{};
     proto::Status status = proto::Error{"the monitors of this connection are gone"};
     const std::function<void()> work = [&] {
-        status = apply(stage->chain(), body, results, any_setparam, took);
+        status = apply(stage->chain(), asked, results, any_setparam, took);
     };
     co_await stage->run(work);
     co_return status;
@@ -131,40 +133,31 @@ std::string with_values(const std::string& carrier_text, const Takers& send_took
     return carrier.text();
 }
 
-/// Unsigned numbers of `field` in `body`; anything else in it is left out.
-Takers takers_of(const nlohmann::json& body, const char* field) {
-    Takers took;
-    const auto it = body.find(field);
-    if (it == body.end() || !it->is_array())
-        return took;
-    for (const auto& place : *it) {
-        if (place.is_number_unsigned())
-            took.push_back(place.get<std::size_t>());
-    }
-    return took;
-}
-
-proto::Reply answer(const nlohmann::json& results, bool any_setparam, const nlohmann::json& body,
+proto::Reply answer(std::vector<proto::MonitorParams> results, bool any_setparam, const std::string& action,
                     const Takers& took = {}) {
-    return {0,
-            ReplyCode::ok,
-            {{"monitors", results},
-             {"any_setparam", any_setparam},
-             {"action", text(body, "action")},
-             {"took", took}}};
+    proto::ParamReply reply;
+    reply.monitors = std::move(results);
+    reply.any_setparam = any_setparam;
+    reply.action = action;
+    reply.took.assign(took.begin(), took.end());
+    return ok(reply);
 }
 
 }  // namespace
 
 Task<proto::Reply> ControlPlane::param(std::shared_ptr<Session>, const proto::Request& request) {
-    const std::string source = text(request.body, "source");
-    const std::string destination = text(request.body, "destination");
-    const std::string action = text(request.body, "action");
+    const auto decoded = proto::ParamRequest::decode(request.body);
+    if (!decoded)
+        co_return malformed(decoded.error());
+    const proto::ParamRequest& asked = *decoded;
+    const std::string& source = asked.source;
+    const std::string& destination = asked.destination;
+    const std::string& action = asked.action;
     if (action != "get" && action != "set")
         co_return proto::make_refusal(0, ReplyCode::usage, "param action must be get or set");
     auto port = host_.router().find(source);
     if (!port)
-        co_return co_await forward(request, source);
+        co_return co_await forward(request, asked.forwarded, source);
     std::shared_ptr<Connection> connection;
     for (const auto& c : port->outgoing) {
         if (c->destination == destination)
@@ -173,7 +166,7 @@ Task<proto::Reply> ControlPlane::param(std::shared_ptr<Session>, const proto::Re
     if (!connection)
         co_return proto::make_refusal(0, ReplyCode::refused,
                                       "ports " + source + " and " + destination + " are not connected");
-    nlohmann::json results = nlohmann::json::array();
+    std::vector<proto::MonitorParams> results;
     bool any_setparam = false;
     Takers send_took;
     Takers recv_took;
@@ -181,30 +174,33 @@ Task<proto::Reply> ControlPlane::param(std::shared_ptr<Session>, const proto::Re
     std::shared_ptr<MessageFilter> send_side = connection->send_monitors;
     if (const auto* mcast = dynamic_cast<const McastLink*>(connection->sink.get()))
         send_side = mcast->sender().send_stage();
-    auto applied = co_await apply_on_worker(send_side, request.body, results, any_setparam, send_took);
+    auto applied = co_await apply_on_worker(send_side, asked, results, any_setparam, send_took);
     if (!applied)
         co_return proto::make_refusal(0, ReplyCode::refused, applied.error().message);
     if (!connection->remote) {
         auto* inlet = static_cast<Inlet*>(connection->sink.get());
         auto inlet_applied =
-            co_await apply_on_worker(inlet->monitors, request.body, results, any_setparam, recv_took);
+            co_await apply_on_worker(inlet->monitors, asked, results, any_setparam, recv_took);
         if (!inlet_applied)
             co_return proto::make_refusal(0, ReplyCode::refused, inlet_applied.error().message);
     } else {
-        proto::Request recv_half;
-        recv_half.body = request.body;
-        recv_half.body["op"] = proto::op_name(proto::Op::param_recv);
-        recv_half.body.erase("forwarded");
+        proto::ParamRecvRequest recv_asked;
+        static_cast<proto::ParamArguments&>(recv_asked) = asked;
         // The far end rewrites its copy of the carrier text too: it needs to know which send-side
         // clauses took the values.
-        recv_half.body["send_took"] = send_took;
-        auto reply = co_await forward(recv_half, destination);
+        recv_asked.send_took.assign(send_took.begin(), send_took.end());
+        proto::Request recv_half;
+        recv_half.body = recv_asked.encode();
+        auto reply = co_await forward(recv_half, false, destination);
         if (reply.code != ReplyCode::ok)
             co_return reply;
-        for (const auto& entry : reply.body.value("monitors", nlohmann::json::array()))
-            results.push_back(entry);
-        any_setparam = any_setparam || reply.body.value("any_setparam", false);
-        recv_took = takers_of(reply.body, "took");
+        auto recv_answer = proto::ParamReply::decode(reply.body);
+        if (!recv_answer)
+            co_return refuse(recv_answer.error().message);
+        for (auto& entry : recv_answer->monitors)
+            results.push_back(std::move(entry));
+        any_setparam = any_setparam || recv_answer->any_setparam;
+        recv_took.assign(recv_answer->took.begin(), recv_answer->took.end());
     }
     if (action == "set" && !any_setparam) {
         co_return proto::make_refusal(0, ReplyCode::refused,
@@ -215,8 +211,7 @@ Task<proto::Reply> ControlPlane::param(std::shared_ptr<Session>, const proto::Re
     const bool still_connected =
         std::find(port->outgoing.begin(), port->outgoing.end(), connection) != port->outgoing.end();
     if (action == "set" && still_connected) {
-        const std::string carrier = with_values(connection->carrier, send_took, recv_took,
-                                                request.body.value("values", nlohmann::json()));
+        const std::string carrier = with_values(connection->carrier, send_took, recv_took, asked.values);
         if (carrier != connection->carrier) {
             connection->carrier = carrier;
             if (!connection->remote)
@@ -229,17 +224,21 @@ Task<proto::Reply> ControlPlane::param(std::shared_ptr<Session>, const proto::Re
                              told.error().message);
         }
     }
-    co_return answer(results, any_setparam, request.body);
+    co_return answer(std::move(results), any_setparam, action);
 }
 
 Task<proto::Reply> ControlPlane::param_recv(std::shared_ptr<Session>, const proto::Request& request) {
-    const std::string source = text(request.body, "source");
-    const std::string destination = text(request.body, "destination");
+    const auto decoded = proto::ParamRecvRequest::decode(request.body);
+    if (!decoded)
+        co_return malformed(decoded.error());
+    const proto::ParamRecvRequest& asked = *decoded;
+    const std::string& source = asked.source;
+    const std::string& destination = asked.destination;
     auto port = host_.router().find(destination);
     if (!port)
         co_return proto::make_refusal(0, ReplyCode::refused,
                                       "port " + destination + " is not on this daemon");
-    nlohmann::json results = nlohmann::json::array();
+    std::vector<proto::MonitorParams> results;
     bool any_setparam = false;
     // The inlets are gathered first: a connection made or removed while a worker applies the
     // parameters changes port->inbound, which a loop over it across the co_await would not survive.
@@ -248,21 +247,19 @@ Task<proto::Reply> ControlPlane::param_recv(std::shared_ptr<Session>, const prot
         if (auto inlet = weak.lock(); inlet && inlet->source() == source)
             inlets.push_back(std::move(inlet));
     }
-    const Takers send_took = takers_of(request.body, "send_took");
+    const Takers send_took(asked.send_took.begin(), asked.send_took.end());
     Takers took;
     for (const auto& inlet : inlets) {
         Takers inlet_took;
-        auto applied =
-            co_await apply_on_worker(inlet->monitors, request.body, results, any_setparam, inlet_took);
+        auto applied = co_await apply_on_worker(inlet->monitors, asked, results, any_setparam, inlet_took);
         if (!applied)
             co_return proto::make_refusal(0, ReplyCode::refused, applied.error().message);
         // This end's copy of the carrier text, as the sending end rewrites its own (param()).
-        if (text(request.body, "action") == "set")
-            inlet->set_carrier(with_values(inlet->carrier(), send_took, inlet_took,
-                                           request.body.value("values", nlohmann::json())));
+        if (asked.action == "set")
+            inlet->set_carrier(with_values(inlet->carrier(), send_took, inlet_took, asked.values));
         took.insert(took.end(), inlet_took.begin(), inlet_took.end());
     }
-    co_return answer(results, any_setparam, request.body, took);
+    co_return answer(std::move(results), any_setparam, asked.action, took);
 }
 
 }  // namespace plexus::daemon

@@ -12,11 +12,14 @@ namespace plexus::daemon {
 
 Task<proto::Reply> ControlPlane::open_port(std::shared_ptr<Session> session, const proto::Request& request) {
     const auto& config = host_.config();
-    const std::string name = text(request.body, "port");
-    const auto policy = parse_queue_policy(request.body.value("policy", std::string("strict")));
+    const auto asked = proto::OpenRequest::decode(request.body);
+    if (!asked)
+        co_return malformed(asked.error());
+    const std::string name = asked->port;
+    const auto policy = parse_queue_policy(asked->policy);
     if (!policy)
         co_return refuse("queue policy must be 'strict' or 'latest'", proto::ReplyCode::usage);
-    const std::size_t capacity = request.body.value("capacity", config.default_capacity);
+    const std::size_t capacity = asked->capacity.value_or(config.default_capacity);
     auto opened = host_.router().open(name, session->id(), *policy, capacity, config.queue_bytes);
     if (!opened)
         co_return refuse(opened.error().message);
@@ -33,16 +36,19 @@ Task<proto::Reply> ControlPlane::open_port(std::shared_ptr<Session> session, con
     // Restore remembered connections before answering, so the client's first write already
     // flows along them.
     co_await restore_persistent(std::move(*registered));
-    co_return ok({{"handle", handle}, {"node", config.node}});
+    co_return ok(proto::OpenReply{handle, config.node});
 }
 
 Task<proto::Reply> ControlPlane::close_port(std::shared_ptr<Session> session, const proto::Request& request) {
-    const std::uint64_t handle = request.body.value("handle", std::uint64_t{0});
+    const auto asked = proto::CloseRequest::decode(request.body);
+    if (!asked)
+        co_return malformed(asked.error());
+    const std::uint64_t handle = asked->handle;
     auto port = session->take_port(handle);
     if (!port)
         co_return refuse("no open port with handle " + std::to_string(handle));
     host_.forget_port(port);
-    co_return ok();
+    co_return ok(proto::CloseReply{});
 }
 
 Task<proto::Reply> ControlPlane::shm(std::shared_ptr<Session> session, const proto::Request& request) {
@@ -51,15 +57,18 @@ Task<proto::Reply> ControlPlane::shm(std::shared_ptr<Session> session, const pro
         co_return refuse("shared memory is off on this daemon (shm_region_bytes is 0)");
     if (!session->is_local())
         co_return refuse("shared memory needs a client on this machine (the Unix socket)");
+    const auto asked = proto::ShmRequest::decode(request.body);
+    if (!asked)
+        co_return malformed(asked.error());
     session->enable_shm();
-    if (!request.body.contains("handle"))
-        co_return ok();
-    const std::uint64_t handle = request.body.value("handle", std::uint64_t{0});
-    const std::uint64_t payload = request.body.value("bytes", std::uint64_t{0});  // before any change
+    if (!asked->handle)
+        co_return ok(proto::ShmReply{});
+    const std::uint64_t handle = *asked->handle;
+    const std::uint64_t payload = asked->bytes;  // before any change
     if (!session->has_port(handle))
         co_return refuse("no open port with handle " + std::to_string(handle));
     if (const auto known = session->shm_region(handle))
-        co_return ok({{"region", known->id()}, {"size", known->size()}});
+        co_return ok(proto::ShmReply{known->id(), known->size()});
     // Room for a few of the payload the client is about to write, however large it is (up to the
     // frame limit, which the copy-out path needs), and never less than the configured size.
     constexpr std::size_t payloads_per_region = 4;
@@ -79,7 +88,7 @@ Task<proto::Reply> ControlPlane::shm(std::shared_ptr<Session> session, const pro
     const auto region = *created;
     // The region frame goes out before the reply, so the client has the region when it learns its id.
     session->add_shm_region(handle, region);
-    co_return ok({{"region", region->id()}, {"size", region->size()}});
+    co_return ok(proto::ShmReply{region->id(), region->size()});
 }
 
 }  // namespace plexus::daemon

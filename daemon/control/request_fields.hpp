@@ -1,27 +1,34 @@
 #pragma once
-// Reading the arguments of a control request's CBOR map, and making its reply.
+// Making the replies of control requests. The requests themselves are read through the structs of
+// plexus/proto/operations.hpp and name_operations.hpp.
 
 #include <string>
 
 #include <nlohmann/json.hpp>
 
 #include "plexus/proto/control.hpp"
+#include "plexus/proto/name_operations.hpp"
+#include "plexus/proto/operations.hpp"
 
 namespace plexus::daemon {
-
-/// The text field `key` of a request body, or "" when it is missing or not text.
-inline std::string text(const nlohmann::json& body, const char* key) {
-    auto it = body.find(key);
-    if (it == body.end() || !it->is_string())
-        return {};
-    return it->get<std::string>();
-}
 
 inline proto::Reply ok(nlohmann::json body = nlohmann::json::object()) {
     return {0, proto::ReplyCode::ok, std::move(body)};
 }
+/// A reply struct of operations.hpp, encoded.
+template <class Answer>
+requires requires(const Answer& answer) {
+    answer.encode();
+}
+proto::Reply ok(const Answer& answer) {
+    return ok(answer.encode());
+}
 inline proto::Reply refuse(std::string why, proto::ReplyCode code = proto::ReplyCode::refused) {
     return proto::make_refusal(0, code, std::move(why));
+}
+/// The answer to a request whose fields did not decode (a field of the wrong type): code 2.
+inline proto::Reply malformed(const proto::Error& why) {
+    return refuse(why.message, proto::ReplyCode::usage);
 }
 inline proto::Reply relay(const proto::Result<proto::Reply>& reply) {
     if (!reply)

@@ -2,6 +2,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include "plexus/proto/name_operations.hpp"
+
 namespace plexus::daemon::names {
 
 namespace {
@@ -10,31 +12,31 @@ constexpr auto first_retry = std::chrono::milliseconds(100);
 constexpr auto longest_retry = std::chrono::seconds(2);
 constexpr auto reconnect_patience = std::chrono::seconds(3);
 
-std::vector<ConnectionEntry> persistent_from_json(const nlohmann::json& list) {
+/// The remembered connections of a register_port answer.
+proto::Result<std::vector<ConnectionEntry>> persistent_of(const nlohmann::json& answer) {
+    auto decoded = proto::RegisterPortReply::decode(answer);
+    if (!decoded)
+        return decoded.error();
     std::vector<ConnectionEntry> entries;
-    for (const auto& c : list) {
-        entries.push_back({c.value("source", std::string{}), c.value("destination", std::string{}),
-                           c.value("carrier", std::string{}), true});
-    }
+    for (auto& c : decoded->persistent)
+        entries.push_back({std::move(c.source), std::move(c.destination), std::move(c.carrier), true});
     return entries;
 }
 
 // GCC 12 miscompiles braced temporaries inside co_await expressions: built here instead.
 nlohmann::json register_port_body(const std::string& port) {
-    return {{"op", proto::op_name(proto::Op::register_port)}, {"port", port}};
+    return proto::RegisterPortRequest{port}.encode();
 }
 
 nlohmann::json add_connection_body(const ConnectionEntry& connection) {
-    return {{"op", proto::op_name(proto::Op::add_connection)},
-            {"source", connection.source},
-            {"destination", connection.destination},
-            {"carrier", connection.carrier},
-            {"persistent", connection.persistent}};
+    return proto::AddConnectionRequest{connection.source, connection.destination, connection.carrier,
+                                       connection.persistent}
+        .encode();
 }
 }  // namespace
 
 nlohmann::json NameClient::register_node_body() const {
-    return {{"op", proto::op_name(proto::Op::register_node)}, {"node", node_}, {"address", address_}};
+    return proto::RegisterNodeRequest{node_, address_}.encode();
 }
 
 NameClient::NameClient(asio::io_context& io, proto::Endpoint names, std::string node, std::string address,
@@ -105,11 +107,11 @@ Task<proto::Result<proto::Reply>> NameClient::ask(nlohmann::json body) {
 
 Task<proto::Result<std::vector<ConnectionEntry>>> NameClient::register_port(std::string port) {
     using Outcome = proto::Result<std::vector<ConnectionEntry>>;
-    nlohmann::json body = {{"op", proto::op_name(proto::Op::register_port)}, {"port", port}};
+    nlohmann::json body = register_port_body(port);
     auto reply = co_await ask(std::move(body));
     if (!reply)
         co_return Outcome(reply.error());
-    co_return persistent_from_json(reply->body.value("persistent", nlohmann::json::array()));
+    co_return persistent_of(reply->body);
 }
 
 Task<proto::Status> NameClient::unregister_port(std::string port) {
@@ -118,7 +120,7 @@ Task<proto::Status> NameClient::unregister_port(std::string port) {
 
 Task<proto::Status> NameClient::unregister_port(std::string port,
                                                 std::chrono::steady_clock::duration timeout) {
-    nlohmann::json body = {{"op", proto::op_name(proto::Op::unregister_port)}, {"port", port}};
+    nlohmann::json body = proto::UnregisterPortRequest{port}.encode();
     auto reply = co_await request(std::move(body), timeout);
     if (!reply)
         co_return proto::Status(reply.error());
@@ -130,23 +132,28 @@ Task<proto::Status> NameClient::unregister_port(std::string port,
 
 Task<proto::Result<PortEntry>> NameClient::lookup(std::string port) {
     using Outcome = proto::Result<PortEntry>;
-    nlohmann::json body = {{"op", proto::op_name(proto::Op::lookup)}, {"port", port}};
+    nlohmann::json body = proto::LookupRequest{port}.encode();
     auto reply = co_await request(std::move(body));
     if (!reply)
         co_return Outcome(reply.error());
     if (reply->code != proto::ReplyCode::ok)
         co_return Outcome(proto::Error{"port " + port + " does not exist"});
-    co_return PortEntry{port, reply->body.value("node", std::string{}),
-                        reply->body.value("address", std::string{})};
+    auto found = proto::LookupReply::decode(reply->body);
+    if (!found)
+        co_return Outcome(found.error());
+    co_return PortEntry{port, std::move(found->node), std::move(found->address)};
 }
 
 Task<proto::Result<std::string>> NameClient::mcast_group(std::string port) {
     using Outcome = proto::Result<std::string>;
-    nlohmann::json body = {{"op", proto::op_name(proto::Op::mcast_group)}, {"port", port}};
+    nlohmann::json body = proto::McastGroupRequest{port}.encode();
     auto reply = co_await ask(std::move(body));
     if (!reply)
         co_return Outcome(reply.error());
-    co_return Outcome(reply->body.value("group", std::string{}));
+    auto given = proto::McastGroupReply::decode(reply->body);
+    if (!given)
+        co_return Outcome(given.error());
+    co_return Outcome(std::move(given->group));
 }
 
 Task<proto::Status> NameClient::add_connection(ConnectionEntry connection) {
@@ -156,10 +163,7 @@ Task<proto::Status> NameClient::add_connection(ConnectionEntry connection) {
 }
 
 Task<proto::Status> NameClient::remove_connection(std::string source, std::string destination, bool forget) {
-    nlohmann::json body = {{"op", proto::op_name(proto::Op::remove_connection)},
-                           {"source", source},
-                           {"destination", destination},
-                           {"forget", forget}};
+    nlohmann::json body = proto::RemoveConnectionRequest{source, destination, forget}.encode();
     auto reply = co_await ask(std::move(body));
     co_return reply ? proto::Status(proto::Ok{}) : proto::Status(reply.error());
 }
@@ -232,7 +236,11 @@ Task<void> NameClient::run() {
                 spdlog::error("name server: cannot register {} again: {}", port,
                               reply ? reply->body.dump() : reply.error().message);
             } else if (on_persistent) {
-                on_persistent(persistent_from_json(reply->body.value("persistent", nlohmann::json::array())));
+                auto persistent = persistent_of(reply->body);
+                if (persistent)
+                    on_persistent(std::move(*persistent));
+                else
+                    spdlog::error("name server: {}", persistent.error().message);
             }
         }
         std::vector<ConnectionEntry> connections;

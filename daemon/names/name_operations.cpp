@@ -3,8 +3,10 @@
 
 #include <algorithm>
 #include <iterator>
+#include <optional>
 
 #include "name_server.hpp"
+#include "plexus/proto/name_operations.hpp"
 
 namespace plexus::daemon::names {
 
@@ -13,13 +15,10 @@ namespace {
 using proto::Op;
 using proto::ReplyCode;
 
-std::string text_field(const nlohmann::json& body, const char* key) {
-    auto it = body.find(key);
-    return it != body.end() && it->is_string() ? it->get<std::string>() : std::string{};
-}
-
-proto::Reply ok(const proto::Request& request, nlohmann::json out = nlohmann::json::object()) {
-    return proto::Reply{request.id, ReplyCode::ok, std::move(out)};
+/// The answer to `request`: a reply struct of plexus/proto/name_operations.hpp, encoded.
+template <class Answer>
+proto::Reply ok(const proto::Request& request, const Answer& answer) {
+    return proto::Reply{request.id, ReplyCode::ok, answer.encode()};
 }
 
 proto::Reply refuse(const proto::Request& request, const std::string& why,
@@ -28,7 +27,19 @@ proto::Reply refuse(const proto::Request& request, const std::string& why,
 }
 
 proto::Reply status_reply(const proto::Request& request, const proto::Status& status) {
-    return status ? ok(request) : refuse(request, status.error().message);
+    return status ? ok(request, proto::EmptyReply{}) : refuse(request, status.error().message);
+}
+
+/// The request's fields in `Request`'s struct, or (in `refusal`) the usage error that answers a
+/// field of the wrong type.
+template <class Request>
+std::optional<Request> decode(const proto::Request& request, proto::Reply& refusal) {
+    auto decoded = Request::decode(request.body);
+    if (!decoded) {
+        refusal = refuse(request, decoded.error().message, ReplyCode::usage);
+        return std::nullopt;
+    }
+    return std::move(*decoded);
 }
 
 }  // namespace
@@ -60,40 +71,56 @@ proto::Reply NameServer::handle(const proto::Request& request, std::uint64_t ses
     return (this->*(row->handler))(Asked{request, session, where});
 }
 
+// Every handler decodes its request first: a field of the wrong type is answered with code 2.
+
 proto::Reply NameServer::ping(const Asked& asked) {
-    return ok(asked.request, {{"names", endpoint().text()},
-                              {"auth_failures", auth_failures_},
-                              {"handshake_timeouts", handshake_timeouts_}});
+    proto::Reply refusal;
+    if (!decode<proto::PingRequest>(asked.request, refusal))
+        return refusal;
+    return ok(asked.request, proto::NamesPingReply{endpoint().text(), auth_failures_, handshake_timeouts_});
 }
 
 proto::Reply NameServer::lookup(const Asked& asked) {
-    const std::string port = text_field(asked.request.body, "port");
+    proto::Reply refusal;
+    const auto request = decode<proto::LookupRequest>(asked.request, refusal);
+    if (!request)
+        return refusal;
+    const std::string& port = request->port;
     auto entry = registry_.lookup(port);
     if (!entry)
         return refuse(asked.request, "port " + port + " is not registered", ReplyCode::no);
-    return ok(asked.request, {{"port", entry->name},
-                              {"node", entry->node},
-                              {"address", address_for(entry->address, asked.where)}});
+    return ok(asked.request,
+              proto::LookupReply{entry->name, entry->node, address_for(entry->address, asked.where)});
 }
 
 proto::Reply NameServer::list(const Asked& asked) {
+    proto::Reply refusal;
+    if (!decode<proto::ListRequest>(asked.request, refusal))
+        return refusal;
     auto listed = registry_.list();
     for (auto& port : listed["ports"])
         port["address"] = address_for(port["address"].get<std::string>(), asked.where);
-    return ok(asked.request, std::move(listed));
+    return ok(asked.request, proto::ListReply{std::move(listed)});
 }
 
 proto::Reply NameServer::mcast_group(const Asked& asked) {
-    auto group = registry_.mcast_group(text_field(asked.request.body, "port"));
+    proto::Reply refusal;
+    const auto request = decode<proto::McastGroupRequest>(asked.request, refusal);
+    if (!request)
+        return refusal;
+    auto group = registry_.mcast_group(request->port);
     if (!group)
         return refuse(asked.request, group.error().message);
-    return ok(asked.request, {{"group", *group}});
+    return ok(asked.request, proto::McastGroupReply{*group});
 }
 
 proto::Reply NameServer::register_node(const Asked& asked) {
-    const auto& body = asked.request.body;
-    const std::string node = text_field(body, "node");
-    const std::string announced = text_field(body, "address");
+    proto::Reply refusal;
+    const auto request = decode<proto::RegisterNodeRequest>(asked.request, refusal);
+    if (!request)
+        return refusal;
+    const std::string& node = request->node;
+    const std::string& announced = request->address;
     const std::string address = recorded_address(announced, asked.where);
     auto status = registry_.register_node(node, address, asked.session);
     if (status && address != announced)
@@ -105,42 +132,53 @@ proto::Reply NameServer::register_node(const Asked& asked) {
 }
 
 proto::Reply NameServer::register_port(const Asked& asked) {
-    const std::string port = text_field(asked.request.body, "port");
+    proto::Reply refusal;
+    const auto request = decode<proto::RegisterPortRequest>(asked.request, refusal);
+    if (!request)
+        return refusal;
+    const std::string& port = request->port;
     auto status = registry_.register_port(port, asked.session);
     if (!status)
         return refuse(asked.request, status.error().message);
-    nlohmann::json persistent = nlohmann::json::array();
+    proto::RegisterPortReply answer;
     for (const auto& c : registry_.persistent_for(port))
-        persistent.push_back({{"source", c.source}, {"destination", c.destination}, {"carrier", c.carrier}});
-    return ok(asked.request, {{"persistent", persistent}});
+        answer.persistent.push_back({c.source, c.destination, c.carrier});
+    return ok(asked.request, answer);
 }
 
 proto::Reply NameServer::unregister_port(const Asked& asked) {
-    return status_reply(asked.request,
-                        registry_.unregister_port(text_field(asked.request.body, "port"), asked.session));
+    proto::Reply refusal;
+    const auto request = decode<proto::UnregisterPortRequest>(asked.request, refusal);
+    if (!request)
+        return refusal;
+    return status_reply(asked.request, registry_.unregister_port(request->port, asked.session));
 }
 
 proto::Reply NameServer::add_connection(const Asked& asked) {
-    const auto& body = asked.request.body;
-    const bool persistent = body.value("persistent", false);
-    auto status = registry_.add_connection({text_field(body, "source"), text_field(body, "destination"),
-                                            text_field(body, "carrier"), persistent},
-                                           asked.session);
-    if (status && persistent)
+    proto::Reply refusal;
+    const auto request = decode<proto::AddConnectionRequest>(asked.request, refusal);
+    if (!request)
+        return refusal;
+    auto status = registry_.add_connection(
+        {request->source, request->destination, request->carrier, request->persistent}, asked.session);
+    if (status && request->persistent)
         save_state();
     return status_reply(asked.request, status);
 }
 
 proto::Reply NameServer::remove_connection(const Asked& asked) {
-    const auto& body = asked.request.body;
-    const std::string source = text_field(body, "source");
-    const std::string destination = text_field(body, "destination");
-    const bool forget = body.value("forget", false);
+    proto::Reply refusal;
+    const auto request = decode<proto::RemoveConnectionRequest>(asked.request, refusal);
+    if (!request)
+        return refusal;
+    const std::string& source = request->source;
+    const std::string& destination = request->destination;
+    const bool forget = request->forget;
     if (!forget) {
         // A connection that merely went down stays known when it is persistent.
         for (const auto& c : registry_.persistent()) {
             if (c.source == source && c.destination == destination)
-                return ok(asked.request);
+                return ok(asked.request, proto::RemoveConnectionReply{});
         }
     }
     auto status = registry_.remove_connection(source, destination, asked.session);

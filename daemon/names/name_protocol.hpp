@@ -8,7 +8,8 @@
 
 namespace plexus::daemon::names {
 
-// The ops themselves are proto::Op (plexus/proto/ops.hpp), with the daemon's.
+// The ops themselves are proto::Op (plexus/proto/ops.hpp), with the daemon's; their requests and
+// replies are the structs of plexus/proto/name_operations.hpp.
 
 struct PortEntry {
     std::string name;

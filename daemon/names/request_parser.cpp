@@ -3,6 +3,7 @@
 #include <string>
 
 #include "name_protocol.hpp"
+#include "plexus/proto/name_operations.hpp"
 
 namespace plexus::daemon::names {
 
@@ -39,7 +40,9 @@ std::optional<proto::Request> parse_discovery_query(proto::ByteView datagram, st
     if (decoded.status != proto::DecodeStatus::frame || decoded.type != proto::FrameType::request)
         return std::nullopt;
     auto request = proto::decode_request(decoded.fields);
-    if (!request || request->body.value("op", std::string{}) != proto::op_name(proto::Op::discover))
+    // decode_request made sure "op" is text.
+    if (!request || proto::op_named(request->body["op"].get<std::string>()) != proto::DiscoverRequest::op ||
+        !proto::DiscoverRequest::decode(request->body))
         return std::nullopt;
     return std::move(*request);
 }

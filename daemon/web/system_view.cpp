@@ -7,7 +7,8 @@
 #include "inspect/node_view.hpp"
 #include "names/name_client.hpp"
 #include "net/peer.hpp"
-#include "plexus/proto/ops.hpp"
+#include "plexus/proto/name_operations.hpp"
+#include "plexus/proto/operations.hpp"
 
 namespace plexus::daemon::web {
 
@@ -57,12 +58,15 @@ void SystemView::close_links() {
 }
 
 Task<nlohmann::json> SystemView::names() {
-    auto reply = co_await host_.names().request(proto::request_body(proto::Op::list));
+    auto reply = co_await host_.names().request(proto::ListRequest{}.encode());
     if (!reply)
         co_return nlohmann::json{{"error", reply.error().message}};
     if (reply->code != proto::ReplyCode::ok)
         co_return nlohmann::json{{"error", reply->body.value("error", std::string("refused"))}};
-    co_return reply->body;
+    auto list = proto::ListReply::decode(reply->body);
+    if (!list)
+        co_return nlohmann::json{{"error", list.error().message}};
+    co_return list->document;
 }
 
 void SystemView::learn_daemons(const nlohmann::json& names) {
@@ -130,11 +134,7 @@ Task<void> SystemView::ask(std::shared_ptr<Remote> remote, bool only_arbitration
         };
     }
     auto link = remote->link;  // the request below must keep it even if the link breaks meanwhile
-    nlohmann::json fields = nlohmann::json::object();
-    if (only_arbitration)
-        fields["only"] = "arbitration";
-    auto reply =
-        co_await link->request(proto::request_body(proto::Op::inspect, std::move(fields)), ask_timeout);
+    auto reply = co_await link->request(proto::InspectRequest{only_arbitration}.encode(), ask_timeout);
     asking = false;
     if (!reply || reply->code != proto::ReplyCode::ok) {
         note_failure(*remote, "the daemon of node '" + remote->node + "' did not answer: " +
@@ -142,10 +142,15 @@ Task<void> SystemView::ask(std::shared_ptr<Remote> remote, bool only_arbitration
         remote->link_broken = true;
         co_return;
     }
+    auto part = proto::InspectReply::decode(reply->body);
+    if (!part || !part->document.value("arbitration", nlohmann::json()).is_array()) {
+        note_failure(*remote, "the daemon of node '" + remote->node + "' answered inspect with something else");
+        co_return;
+    }
     remote->error.clear();
-    remote->arbitration = reply->body.value("arbitration", nlohmann::json::array());
+    remote->arbitration = part->document["arbitration"];
     if (!only_arbitration)
-        remote->part = std::move(reply->body);
+        remote->part = std::move(part->document);
 }
 
 void SystemView::ask_all(bool only_arbitration) {

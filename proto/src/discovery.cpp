@@ -1,6 +1,6 @@
 #include "plexus/proto/discovery.hpp"
 
-#include "plexus/proto/ops.hpp"
+#include "plexus/proto/name_operations.hpp"
 
 #include <cstdlib>
 #include <filesystem>
@@ -114,7 +114,7 @@ Result<NamesChoice> choose_names(const std::optional<std::string>& flag, const s
 }
 
 Bytes discovery_query() {
-    return encode_request({1, request_body(Op::discover)});
+    return encode_request({1, DiscoverRequest{}.encode()});
 }
 
 std::optional<std::string> discovery_answer(ByteView datagram, const std::string& from) {
@@ -125,10 +125,10 @@ std::optional<std::string> discovery_answer(ByteView datagram, const std::string
     auto reply = decode_reply(decoded.fields);
     if (!reply || reply->code != ReplyCode::ok)
         return std::nullopt;
-    const auto names = reply->body.find("names");
-    if (names == reply->body.end() || !names->is_string())
+    const auto answer = DiscoverReply::decode(reply->body);
+    if (!answer)
         return std::nullopt;
-    auto endpoint = parse_endpoint(names->get<std::string>());
+    auto endpoint = parse_endpoint(answer->names);
     if (!endpoint || endpoint->port == 0)
         return std::nullopt;
     if (unspecified(endpoint->host))
@@ -140,7 +140,7 @@ Bytes discovery_reply(std::uint64_t id, const Endpoint& names) {
     Endpoint advertised = names;
     if (unspecified(advertised.host))
         advertised.host = "0.0.0.0";
-    return encode_reply({id, ReplyCode::ok, {{"names", advertised.text()}}});
+    return encode_reply({id, ReplyCode::ok, DiscoverReply{advertised.text()}.encode()});
 }
 
 }  // namespace plexus::proto

@@ -7,7 +7,8 @@
 #include <plexus/proto/port_name.hpp>
 
 #include "conversion.hpp"
-#include "plexus/proto/ops.hpp"
+#include "plexus/proto/name_operations.hpp"
+#include "plexus/proto/operations.hpp"
 #include "port_binding.hpp"
 
 namespace py = pybind11;
@@ -48,6 +49,22 @@ py::object ask(Client& client, const Value& body) {
         reply = client.request(body);
     }
     return to_python(reply);
+}
+
+/// Sends `request` (a request struct of plexus/proto/) and gives its answer, read through `Answer`,
+/// as Python; an answer that does not decode raises RefusedError.
+template <class Answer, class Request>
+py::object ask_as(Client& client, const Request& request) {
+    Value reply;
+    {
+        py::gil_scoped_release release;
+        reply = client.request(request.encode());
+    }
+    auto decoded = Answer::decode(reply);
+    if (!decoded)
+        throw Error(ErrorCode::refused, decoded.error().message);
+    Value answer = decoded->encode();
+    return to_python(answer);
 }
 
 bool exists(Client& client, const std::string& port, const std::optional<std::string>& destination) {
@@ -127,10 +144,7 @@ void bind_client(py::module_& module) {
             py::arg("port"),
             "Where a port lives ({\"port\", \"node\", \"address\"}), or None if it is not registered.")
         .def(
-            "list",
-            [](Client& client) {
-                return ask(client, {{"op", proto::op_name(proto::Op::list)}});
-            },
+            "list", [](Client& client) { return ask_as<proto::ListReply>(client, proto::ListRequest{}); },
             "Ports and connections as the name server knows them: {\"ports\": [...], \"connections\": "
             "[...]}.")
         .def(
@@ -138,7 +152,7 @@ void bind_client(py::module_& module) {
             [](Client& client, const std::string& port) {
                 if (!port.empty())
                     require_port_name(port);
-                return ask(client, {{"op", proto::op_name(proto::Op::stats)}, {"port", port}});
+                return ask_as<proto::StatsReply>(client, proto::StatsRequest{port});
             },
             py::arg("port") = "",
             "Counters of the local daemon, or of the daemon hosting `port` (as `plexus stats --json`).")
@@ -146,8 +160,7 @@ void bind_client(py::module_& module) {
             "events",
             [](Client& client, const std::string& port, bool check) {
                 require_port_name(port);
-                return ask(client,
-                           {{"op", proto::op_name(proto::Op::events)}, {"port", port}, {"check", check}});
+                return ask_as<proto::EventsReply>(client, proto::EventsRequest{port, check});
             },
             py::arg("port"), py::arg("check") = false,
             "The arbitration of an input port (as `plexus events PORT --json`): event container, "
@@ -156,7 +169,7 @@ void bind_client(py::module_& module) {
             "ping",
             [](Client& client, const std::string& port) {
                 require_port_name(port);
-                return ask(client, {{"op", proto::op_name(proto::Op::ping)}, {"port", port}});
+                return ask_as<proto::PingReply>(client, proto::PingRequest{port});
             },
             py::arg("port"), "Asks the daemon hosting `port` to answer; returns its node and address.")
         .def(

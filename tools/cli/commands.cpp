@@ -10,8 +10,10 @@
 
 #include "counter.hpp"
 #include "plexus/client.hpp"
-#include "plexus/proto/ops.hpp"
+#include "plexus/proto/name_operations.hpp"
+#include "plexus/proto/operations.hpp"
 #include "plexus/proto/port_name.hpp"
+#include "replies.hpp"
 
 namespace plexus::cli {
 
@@ -68,8 +70,10 @@ int where(const Common& common) {
 }
 
 int list(const Common& common, bool json) {
-    auto answer = Client::ask_names(common.names(), {{"op", proto::op_name(proto::Op::list)}})
-                      .value_or(Value::object());
+    const Value answer =
+        read_as<proto::ListReply>(
+            Client::ask_names(common.names(), proto::ListRequest{}.encode()).value_or(Value::object()))
+            .document;
     if (json) {
         std::cout << answer.dump() << '\n';
         return 0;
@@ -98,16 +102,17 @@ int connect(const Common& common, const std::string& source, const std::string& 
     require_port_name(source);
     require_port_name(destination);
     auto client = make_client(common);
-    const Value reply = client.request({{"op", proto::op_name(proto::Op::connect)},
-                                        {"source", source},
-                                        {"destination", destination},
-                                        {"carrier", carrier},
-                                        {"persist", persist},
-                                        {"strict", strict}});
-    for (const auto& warning : reply.value("warnings", Value::array()))
-        std::cerr << "warning: " << warning.get<std::string>() << '\n';
-    std::cerr << "connected " << source << " -> " << destination << " (" << reply.value("carrier", carrier)
-              << ")\n";
+    proto::ConnectRequest asked;
+    asked.source = source;
+    asked.destination = destination;
+    asked.carrier = carrier;
+    asked.persist = persist;
+    asked.strict = strict;
+    const auto reply = read_as<proto::ConnectReply>(client.request(asked.encode()));
+    for (const auto& warning : reply.warnings)
+        std::cerr << "warning: " << warning << '\n';
+    std::cerr << "connected " << source << " -> " << destination << " ("
+              << (reply.carrier.empty() ? carrier : reply.carrier) << ")\n";
     return 0;
 }
 
@@ -207,12 +212,12 @@ int read(const Common& common, const ReadOptions& options) {
 int exists(const Common& common, const std::string& port, const std::string& destination) {
     require_port_name(port);
     if (destination.empty())
-        return Client::ask_names(common.names(), {{"op", proto::op_name(proto::Op::lookup)}, {"port", port}})
-                   ? 0
-                   : 1;
+        return Client::ask_names(common.names(), proto::LookupRequest{port}.encode()) ? 0 : 1;
     require_port_name(destination);
-    auto answer = Client::ask_names(common.names(), {{"op", proto::op_name(proto::Op::list)}})
-                      .value_or(Value::object());
+    const Value answer =
+        read_as<proto::ListReply>(
+            Client::ask_names(common.names(), proto::ListRequest{}.encode()).value_or(Value::object()))
+            .document;
     for (const auto& c : answer.value("connections", Value::array())) {
         if (c.value("source", "") == port && c.value("destination", "") == destination &&
             c.value("live", false)) {
@@ -228,8 +233,7 @@ int wait(const Common& common, const std::string& port, double timeout) {
     auto pause = std::chrono::milliseconds(10);
     for (;;) {
         try {
-            if (Client::ask_names(common.names(),
-                                  {{"op", proto::op_name(proto::Op::lookup)}, {"port", port}}))
+            if (Client::ask_names(common.names(), proto::LookupRequest{port}.encode()))
                 return 0;
         } catch (const Error& e) {
             // The name server may not be up yet: waiting for it is part of waiting for the port.

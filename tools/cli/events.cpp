@@ -11,8 +11,9 @@
 #include "commands.hpp"
 #include "counter.hpp"
 #include "plexus/client.hpp"
-#include "plexus/proto/ops.hpp"
+#include "plexus/proto/operations.hpp"
 #include "plexus/proto/port_name.hpp"
+#include "replies.hpp"
 
 namespace plexus::cli {
 
@@ -95,11 +96,13 @@ int events(const Common& common, const EventsOptions& options) {
     if (auto error = proto::port_name_error(options.port))
         throw Error(ErrorCode::usage, *error);
     auto client = plexus::Client({common.socket});
-    const Value request{
-        {"op", proto::op_name(proto::Op::events)}, {"port", options.port}, {"check", options.check}};
+    proto::EventsRequest asked;
+    asked.port = options.port;
+    asked.check = options.check;
+    const Value request = asked.encode();
     const bool terminal = ::isatty(STDOUT_FILENO) != 0;
     for (long shown = 1;; ++shown) {
-        const Value answer = client.request(request);
+        const Value answer = read_as<proto::EventsReply>(client.request(request)).document;
         if (options.json) {
             std::cout << answer.dump() << std::endl;
         } else {

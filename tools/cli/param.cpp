@@ -4,8 +4,9 @@
 #include "commands.hpp"
 #include "plexus/client.hpp"
 #include "plexus/proto/control.hpp"
-#include "plexus/proto/ops.hpp"
+#include "plexus/proto/operations.hpp"
 #include "plexus/proto/port_name.hpp"
+#include "replies.hpp"
 
 namespace plexus::cli {
 
@@ -40,15 +41,16 @@ int param(const Common& common, const std::string& action, const std::string& so
         throw Error(ErrorCode::usage, "param get takes no KEY=VALUE");
     if (action == "set" && assignments.empty())
         throw Error(ErrorCode::usage, "param set needs at least one KEY=VALUE");
-    Value body = {{"op", proto::op_name(proto::Op::param)},
-                  {"action", action},
-                  {"source", source},
-                  {"destination", destination}};
+    proto::ParamRequest asked;
+    asked.action = action;
+    asked.source = source;
+    asked.destination = destination;
     if (action == "set")
-        body["values"] = parse_assignments(assignments);
+        asked.values = parse_assignments(assignments);
     plexus::Client client({common.socket});
-    const Value reply = client.request(body);
-    std::cout << reply.value("monitors", Value::array()).dump() << '\n';
+    const auto reply = read_as<proto::ParamReply>(client.request(asked.encode()));
+    // The documented output: the list of monitors, each {"param", "script", "side"}.
+    std::cout << proto::ParamReply{reply.monitors}.encode()["monitors"].dump() << '\n';
     return 0;
 }
 

@@ -6,7 +6,8 @@
 #include "commands.hpp"
 #include "plexus/client.hpp"
 #include "plexus/proto/auth.hpp"
-#include "plexus/proto/ops.hpp"
+#include "plexus/proto/operations.hpp"
+#include "replies.hpp"
 
 namespace plexus::cli {
 
@@ -37,8 +38,8 @@ int web(const Common& common, bool token) {
         return 0;
     }
     auto client = plexus::Client({common.socket});
-    const auto node = client.request(proto::request_body(proto::Op::node));
-    const std::string address = node.value("http", "");
+    const auto node = read_as<proto::NodeReply>(client.request(proto::NodeRequest{}.encode()));
+    const std::string address = node.http;
     if (address.empty()) {
         std::cerr << "plexus: the daemon at " << common.socket
                   << " serves no web page; start it with --http 127.0.0.1:8080 (or the config key "

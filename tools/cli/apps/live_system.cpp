@@ -1,7 +1,8 @@
 #include "live_system.hpp"
 
 #include "plexus/proto/carrier.hpp"
-#include "plexus/proto/ops.hpp"
+#include "plexus/proto/operations.hpp"
+#include "replies.hpp"
 
 namespace plexus::cli {
 
@@ -18,7 +19,7 @@ bool same_carrier(const std::string& wanted, const std::string& live) {
 LiveSystem::LiveSystem(const std::string& socket) : client_(Client::Options{socket}) {}
 
 std::string LiveSystem::node() {
-    return client_.request({{"op", proto::op_name(proto::Op::node)}}).value("node", "");
+    return read_as<proto::NodeReply>(client_.request(proto::NodeRequest{}.encode())).node;
 }
 
 bool LiveSystem::port_exists(const std::string& port) {
@@ -45,16 +46,12 @@ std::optional<LiveConnection> LiveSystem::find(const std::vector<LiveConnection>
 
 std::vector<std::string> LiveSystem::connect(const std::string& source, const std::string& destination,
                                              const std::string& carrier, bool persist) {
-    const Value reply = client_.request({{"op", proto::op_name(proto::Op::connect)},
-                                         {"source", source},
-                                         {"destination", destination},
-                                         {"carrier", carrier},
-                                         {"persist", persist},
-                                         {"strict", false}});
-    std::vector<std::string> warnings;
-    for (const auto& warning : reply.value("warnings", Value::array()))
-        warnings.push_back(warning.get<std::string>());
-    return warnings;
+    proto::ConnectRequest asked;
+    asked.source = source;
+    asked.destination = destination;
+    asked.carrier = carrier;
+    asked.persist = persist;
+    return read_as<proto::ConnectReply>(client_.request(asked.encode())).warnings;
 }
 
 void LiveSystem::disconnect(const std::string& source, const std::string& destination) {
