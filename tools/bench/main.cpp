@@ -84,6 +84,9 @@ int main(int argc, char** argv) {
     web->add_option("--idle", options.idle_connections, "idle TCP connections to the web endpoint")
         ->check(CLI::Range(0, 200))
         ->capture_default_str();
+    web->add_option("--stream-count", options.stream_count,
+                    "messages per throughput run (default: by size); --count sets the round trips")
+        ->check(CLI::PositiveNumber);
     options.plexus_cli = PLEXUS_CLI_PATH;
     options.app_file = std::string(PLEXUS_SOURCE_DIR) + "/configs/apps/fetch.json";
     web->add_option("--plexus", options.plexus_cli, "the plexus CLI (it runs `plexus up`)")

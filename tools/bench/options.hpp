@@ -25,6 +25,8 @@ struct Options {
     std::string port_tag;
     /// web: idle TCP connections kept open to the web endpoint during the runs with it.
     int idle_connections = 50;
+    /// web: messages per throughput run (0: by size, as `throughput`); --count is the latency's.
+    std::size_t stream_count = 0;
     /// web: the stream's cost: the `plexus` CLI, the application file it brings up (the fetch
     /// robot), the seconds of each CPU window and the windows per variant.
     std::string plexus_cli;

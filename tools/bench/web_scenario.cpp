@@ -3,7 +3,7 @@
 // 1. The data path. The one-hop latency and throughput of `plexus-bench latency` / `throughput`
 //    on two daemons: (a) without --http, (b) with --http 127.0.0.1:0, and during each of its runs
 //    --idle TCP connections to the endpoint that never send a request plus one client reading
-//    /api/stream as fast as it can. Runs alternate a, b; medians and the ratio (b)/(a). The
+//    /api/stream as fast as it can. Runs alternate (a b, b a, ...); medians and (b)/(a). The
 //    measurement's own ports have connections in, so the stream carries arbitration at 20 Hz.
 // 2. The stream's cost. One plexusd with --http running the fetch robot (docs/FETCH.md, brought up
 //    with `plexus up`): its CPU per second over a window without a stream client and over one with a
@@ -227,20 +227,34 @@ DataPathResult measure_data_path(const Options& options) {
     std::vector<double> events, kilobytes;
     {
         RunDeadline deadline;
+        Options stream_options = options;
+        stream_options.count = options.stream_count;
         const auto plain_latency = plexus_latency(*plain, options);
-        const auto plain_throughput = plexus_throughput(*plain, options);
+        const auto plain_throughput = plexus_throughput(*plain, stream_options);
         const auto web_latency = plexus_latency(*web, options);
-        const auto web_throughput = plexus_throughput(*web, options);
-        for (int run = 0; run < options.repeat; ++run) {
-            RunDeadline per_run;
+        const auto web_throughput = plexus_throughput(*web, stream_options);
+        auto measure_plain = [&] {
             latency_a.push_back(plain_latency->run());
             throughput_a.push_back(plain_throughput->run());
+        };
+        auto measure_web = [&] {
             WebLoad load(address, options.idle_connections);
             latency_b.push_back(web_latency->run());
             throughput_b.push_back(web_throughput->run());
             const auto [events_per_s, kb_per_s] = load.finish();
             events.push_back(events_per_s);
             kilobytes.push_back(kb_per_s);
+        };
+        for (int run = 0; run < options.repeat; ++run) {
+            RunDeadline per_run;
+            // Which goes first alternates too (a b, b a, ...): whatever the order does hits both alike.
+            if (run % 2 == 0) {
+                measure_plain();
+                measure_web();
+            } else {
+                measure_web();
+                measure_plain();
+            }
         }
     }
     const std::string runs = ", median of " + std::to_string(options.repeat) + " runs each, alternated";
@@ -254,8 +268,11 @@ DataPathResult measure_data_path(const Options& options) {
                            "\n" + load;
     result.throughput.scenario = "web_throughput_1hop";
     result.throughput.latency_label = "write->read";
+    Options stream_options = options;
+    stream_options.count = options.stream_count;
     result.throughput.title = "throughput, 1 hop, " + std::to_string(options.size) +
-                              " B: " + std::to_string(throughput_count(options)) + " messages per run" + runs;
+                              " B: " + std::to_string(throughput_count(stream_options)) +
+                              " messages per run" + runs;
     for (auto* scenario : {&result.latency, &result.throughput}) {
         scenario->size = options.size;
         scenario->plexus_label = "web";
