@@ -76,6 +76,31 @@ int main(int argc, char** argv) {
                                            "(constraints, priority) and the switch time");
     add_common(arbitration);
     arbitration->callback([&] { status = run_arbitration(options); });
+    auto* web = app.add_subcommand(
+        "web",
+        "the web endpoint's cost: one-hop latency and throughput without --http and with idle "
+        "connections and an /api/stream reader; plexusd CPU/s of the stream with the fetch robot running");
+    add_common(web);
+    web->add_option("--idle", options.idle_connections, "idle TCP connections to the web endpoint")
+        ->check(CLI::Range(0, 200))
+        ->capture_default_str();
+    web->add_option("--stream-count", options.stream_count,
+                    "messages per throughput run (default: by size); --count sets the round trips")
+        ->check(CLI::PositiveNumber);
+    options.plexus_cli = PLEXUS_CLI_PATH;
+    options.app_file = std::string(PLEXUS_SOURCE_DIR) + "/configs/apps/fetch.json";
+    web->add_option("--plexus", options.plexus_cli, "the plexus CLI (it runs `plexus up`)")
+        ->capture_default_str();
+    web->add_option("--app", options.app_file, "the application the stream's cost is measured with")
+        ->capture_default_str();
+    web->add_option("--window", options.window_s, "seconds of each CPU window of the stream's cost")
+        ->check(CLI::Range(0.5, 50.0))
+        ->capture_default_str();
+    web->add_option("--cost-repeat", options.cost_repeat,
+                    "CPU windows per variant (without, with the stream)")
+        ->check(CLI::Range(0, 50))
+        ->capture_default_str();
+    web->callback([&] { status = run_web(options); });
     auto* memory = app.add_subcommand("memory", "plexusd resident memory, idle and with many ports open");
     memory->add_option("--ports", options.ports, "ports to open")->capture_default_str();
     memory->add_flag("--json", options.json, "one JSON object per line");

@@ -23,6 +23,16 @@ struct Options {
     std::string carrier;
     /// Prefix of the port names instead of the carrier's ("monitored" -> "/bench/monitored-ping").
     std::string port_tag;
+    /// web: idle TCP connections kept open to the web endpoint during the runs with it.
+    int idle_connections = 50;
+    /// web: messages per throughput run (0: by size, as `throughput`); --count is the latency's.
+    std::size_t stream_count = 0;
+    /// web: the stream's cost: the `plexus` CLI, the application file it brings up (the fetch
+    /// robot), the seconds of each CPU window and the windows per variant.
+    std::string plexus_cli;
+    std::string app_file;
+    double window_s = 20;
+    int cost_repeat = 3;
 };
 
 /// Round trips per latency run when --count is not given: about 32 MiB each way, 100 to 10,000.

@@ -36,12 +36,13 @@ void row(const char* label, double plexus, double floor) {
 
 void print(const ScenarioResult& result, bool json) {
     if (json) {
-        std::cout << as_json("plexus", result.scenario, result.size, result.plexus).dump() << '\n'
-                  << as_json("floor", result.scenario, result.size, result.floor).dump() << '\n';
+        std::cout << as_json(result.plexus_label, result.scenario, result.size, result.plexus).dump() << '\n'
+                  << as_json(result.floor_label, result.scenario, result.size, result.floor).dump() << '\n';
         return;
     }
     std::printf("%s\n", result.title.c_str());
-    std::printf("  %-28s %14s %14s %14s\n", "", "plexus", "floor", "plexus/floor");
+    std::printf("  %-28s %14s %14s %14s\n", "", result.plexus_label.c_str(), result.floor_label.c_str(),
+                (result.plexus_label + "/" + result.floor_label).c_str());
     row(("p50 " + result.latency_label + " (us)").c_str(), result.plexus.p50_us, result.floor.p50_us);
     row(("p99 " + result.latency_label + " (us)").c_str(), result.plexus.p99_us, result.floor.p99_us);
     row("messages/s", result.plexus.msgs_per_s, result.floor.msgs_per_s);

@@ -18,6 +18,10 @@ struct ScenarioResult {
     std::size_t size = 0;
     RunResult plexus;
     RunResult floor;
+    /// The JSON `system` and column of each (at most 14 characters); the ratio is plexus / floor.
+    /// Another pair compares Plexus with itself (`plexus-bench web`: "web" against "no_http").
+    std::string plexus_label = "plexus";
+    std::string floor_label = "floor";
     std::vector<double> plexusd_peak_rss_mb;  ///< VmHWM of each daemon at the end (table only)
 };
 

@@ -24,5 +24,9 @@ int run_monitor_scaling(const Options& options);
 /// Added CPU per message with 2, 4 and 8 competing connections (constraints, priority), and the
 /// switch time back to a stream once a competitor's hold ends.
 int run_arbitration(const Options& options);
+/// One-hop latency and throughput without --http and with the web endpoint busy (idle connections
+/// and a stream reader), alternated; then plexusd's CPU per second for the live stream with the
+/// fetch robot running (web_scenario.cpp).
+int run_web(const Options& options);
 
 }  // namespace plexus::bench

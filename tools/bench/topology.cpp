@@ -44,7 +44,8 @@ std::string start_when_ready(std::vector<std::unique_ptr<ChildProcess>>& process
 
 std::string Topology::start(const std::vector<std::string>& argv, const std::string& ready_file,
                             const std::string& log) {
-    return start_when_ready(processes_, argv, ready_file, log, argv.front());
+    readies_.push_back(start_when_ready(processes_, argv, ready_file, log, argv.front()));
+    return readies_.back();
 }
 
 std::unique_ptr<Topology> Topology::plexus(const TempDir& dir, const std::string& plexusd, int hops,

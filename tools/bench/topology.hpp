@@ -4,6 +4,7 @@
 
 #include <sys/types.h>
 
+#include <cstddef>
 #include <memory>
 #include <string>
 #include <vector>
@@ -36,6 +37,8 @@ public:
     const std::string& far_socket() const { return sockets_.back(); }
     /// The broker processes (daemons or relays), whose CPU time is the cost being measured.
     std::vector<pid_t> pids() const;
+    /// The ready file (JSON text) of the hop-th process started, first (near) to last (far).
+    const std::string& ready(std::size_t hop) const { return readies_.at(hop); }
 
 private:
     Topology() = default;
@@ -46,6 +49,7 @@ private:
     std::vector<std::unique_ptr<ChildProcess>> processes_;
     std::vector<pid_t> existing_pids_;  ///< processes of existing(), not stopped here
     std::vector<std::string> sockets_;
+    std::vector<std::string> readies_;  ///< ready files of the processes started, in order
 };
 
 }  // namespace plexus::bench
