@@ -229,12 +229,9 @@ Task<void> Daemon::announce_ready() {
     if (stopping_)
         co_return;
     // Write then rename: whoever polls for the file never reads half of it.
-    const nlohmann::json ready{{"node", config_.node},
-                               {"address", address()},
-                               {"socket", config_.socket_path},
-                               {"names", config_.names.text()},
-                               {"http", http_address()},
-                               {"pid", static_cast<long>(::getpid())}};
+    const nlohmann::json ready{{"node", config_.node},          {"address", address()},
+                               {"socket", config_.socket_path}, {"names", config_.names.text()},
+                               {"http", http_address()},        {"pid", static_cast<long>(::getpid())}};
     const std::string temporary = config_.ready_file + ".tmp";
     {
         std::ofstream out(temporary, std::ios::trunc);

@@ -91,7 +91,8 @@ void SystemView::learn_daemons(const nlohmann::json& names) {
     // last part, so that the map holds no more than the daemons there are.
     std::erase_if(remotes_, [&](const auto& entry) {
         const auto& remote = *entry.second;
-        if (listed.contains(entry.first) || remote.asking_part || remote.asking_arbitration || remote.connecting)
+        if (listed.contains(entry.first) || remote.asking_part || remote.asking_arbitration ||
+            remote.connecting)
             return false;
         if (remote.link)
             remote.link->close_when_drained();
@@ -121,8 +122,8 @@ Task<void> SystemView::ask(std::shared_ptr<Remote> remote, bool only_arbitration
         }
         remote->connecting = false;
         if (!connected) {
-            note_failure(*remote,
-                         "cannot reach the daemon of node '" + remote->node + "': " + connected.error().message);
+            note_failure(*remote, "cannot reach the daemon of node '" + remote->node +
+                                      "': " + connected.error().message);
             asking = false;
             co_return;
         }
@@ -138,13 +139,15 @@ Task<void> SystemView::ask(std::shared_ptr<Remote> remote, bool only_arbitration
     asking = false;
     if (!reply || reply->code != proto::ReplyCode::ok) {
         note_failure(*remote, "the daemon of node '" + remote->node + "' did not answer: " +
-                                  (!reply ? reply.error().message : reply->body.value("error", std::string("refused"))));
+                                  (!reply ? reply.error().message
+                                          : reply->body.value("error", std::string("refused"))));
         remote->link_broken = true;
         co_return;
     }
     auto part = proto::InspectReply::decode(reply->body);
     if (!part || !part->document.value("arbitration", nlohmann::json()).is_array()) {
-        note_failure(*remote, "the daemon of node '" + remote->node + "' answered inspect with something else");
+        note_failure(*remote,
+                     "the daemon of node '" + remote->node + "' answered inspect with something else");
         co_return;
     }
     remote->error.clear();

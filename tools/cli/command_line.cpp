@@ -116,8 +116,9 @@ void CommandLine::add_inspect_commands() {
     stats_cmd->callback([this] { status_ = stats(common_, port_, json_); });
 
     auto* web_cmd = app_.add_subcommand(
-        "web", "print the address of the local daemon's web page (plexusd --http): the graph of the "
-               "whole system and arbitration, live; opens nothing by itself");
+        "web",
+        "print the address of the local daemon's web page (plexusd --http): the graph of the "
+        "whole system and arbitration, live; opens nothing by itself");
     web_cmd->add_flag("--token", web_token_,
                       "print instead the web token a browser beyond loopback enters once (needs the "
                       "deployment secret: --secret-file or PLEXUS_SECRET_FILE)");

@@ -218,10 +218,10 @@ struct NodeRequest {
 };
 /// The answer to `node`.
 struct NodeReply {
-    std::string node;                                             ///< the daemon's node name (may be empty)
-    std::string address;                                          ///< its TCP address
-    std::string names;                                            ///< its name server's address
-    std::string http;  ///< its web endpoint's HOST:PORT (plexusd --http); empty when it serves none
+    std::string node;     ///< the daemon's node name (may be empty)
+    std::string address;  ///< its TCP address
+    std::string names;    ///< its name server's address
+    std::string http;     ///< its web endpoint's HOST:PORT (plexusd --http); empty when it serves none
     nlohmann::json encode() const;                                ///< the reply body
     static Result<NodeReply> decode(const nlohmann::json& body);  ///< from a reply body
 };
@@ -236,8 +236,8 @@ struct InspectRequest {
 /// The answer to `inspect`: {"node", "address", "stats", "arbitration"} (or {"node",
 /// "arbitration"}), carried whole for the reason StatsReply is; inspect/node_view.cpp writes it.
 struct InspectReply {
-    nlohmann::json document = nlohmann::json::object();               ///< as docs/WEB.md shows
-    nlohmann::json encode() const;                                    ///< the reply body
+    nlohmann::json document = nlohmann::json::object();              ///< as docs/WEB.md shows
+    nlohmann::json encode() const;                                   ///< the reply body
     static Result<InspectReply> decode(const nlohmann::json& body);  ///< from a reply body
 };
 
