@@ -3,6 +3,7 @@
 #include "batch.hpp"
 #include "plexus/proto/control.hpp"
 #include "plexus/proto/message.hpp"
+#include "wall_clock.hpp"
 
 namespace plexus::daemon {
 
@@ -15,10 +16,6 @@ void replace_blobs(nlohmann::json& value) {
         for (auto& item : value)
             replace_blobs(item);
     }
-}
-
-double wall_seconds() {
-    return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 #include <boost/beast/core.hpp>
 
 #include "core/message_sampler.hpp"
+#include "core/wall_clock.hpp"
 #include "routes.hpp"
 #include "system_view.hpp"
 
@@ -18,10 +19,6 @@ namespace {
 
 /// The kernel's send buffer of a stream client's socket: some 20 s of events at the usual rate.
 constexpr int stream_socket_buffer = 64 * 1024;
-
-double wall_seconds() {
-    return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
 
 /// An events document of a port reduced to what the plot needs 20 times a second.
 nlohmann::json compact_arbitration(const nlohmann::json& port) {

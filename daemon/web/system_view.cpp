@@ -4,6 +4,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "core/wall_clock.hpp"
 #include "inspect/node_view.hpp"
 #include "names/name_client.hpp"
 #include "net/peer.hpp"
@@ -24,9 +25,6 @@ void note_failure(Remote& remote, std::string why) {
     remote.error = std::move(why);
 }
 
-double wall_clock_now() {
-    return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
 }  // namespace
 
 struct SystemView::Remote {
@@ -190,7 +188,7 @@ Task<nlohmann::json> SystemView::system(std::chrono::milliseconds wait) {
             part["arbitration"] = nlohmann::json::array();
         nodes.push_back(std::move(part));
     }
-    co_return nlohmann::json{{"t", wall_clock_now()},
+    co_return nlohmann::json{{"t", wall_seconds()},
                              {"node", host_.config().node},
                              {"names", std::move(names_view)},
                              {"nodes", nodes}};
