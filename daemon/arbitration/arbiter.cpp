@@ -14,20 +14,18 @@ Member::~Member() {
     arbiter_->leave(*this);
 }
 
-bool Arbiter::constraint_value(const Member& member) const {
+bool Arbiter::constraint_value(const Member& member, double now) const {
     if (!member.constraint)
         return true;
-    const double now = clock_.now();
     return member.constraint->evaluate([&](const std::string& name) { return events_.has(name, now); });
 }
 
-Arbiter::Verdict Arbiter::admit(Member& member) {
-    if (!constraint_value(member)) {
+Arbiter::Verdict Arbiter::admit(Member& member, double now) {
+    if (!constraint_value(member, now)) {
         ++member.dropped_by_constraint;
         return Verdict::constraint;
     }
     if (member.stimulus) {
-        const double now = clock_.now();
         member.stimulus->stimulate(now);
         if (member.aux)
             return Verdict::auxiliary;  // it stimulated; the others' selections will see it

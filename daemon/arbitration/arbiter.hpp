@@ -7,6 +7,7 @@
 // (a Member) the constraint, the auxiliary flag and the stimulation state that decide whether a
 // message that passed the monitors' accept is delivered.
 
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -80,14 +81,22 @@ public:
 
     enum class Verdict { deliver, constraint, priority, auxiliary };
     /// For a message from `member` that passed accept: its constraint, then the stimulation
-    /// selection. Counts the drops on the member.
-    Verdict admit(Member& member);
+    /// selection, both at one instant `now` (a recording keeps it, so that a replay decides the
+    /// same). Counts the drops on the member.
+    Verdict admit(Member& member, double now);
+    Verdict admit(Member& member) { return admit(member, clock_.now()); }
+
+    /// While someone records the port's decisions (a tap), the monitors' stages note the time of
+    /// each step. Read without the lock, on every message: an atomic flag, nothing more.
+    bool watched() const { return watched_.load(std::memory_order_relaxed); }
+    void set_watched(bool watched) { watched_.store(watched, std::memory_order_relaxed); }
 
     double now() const { return clock_.now(); }
     EventContainer& events() { return events_; }
     bool has_event(const std::string& name) const { return events_.has(name, clock_.now()); }
-    /// The member's constraint now; true without one.
-    bool constraint_value(const Member& member) const;
+    /// The member's constraint now (or at `now`); true without one.
+    bool constraint_value(const Member& member) const { return constraint_value(member, clock_.now()); }
+    bool constraint_value(const Member& member, double now) const;
     PriorityState priority_state() const;
 
     /// Before a member joins: the weights must give a solvable system for every set of active
@@ -115,6 +124,7 @@ private:
 
     mutable std::mutex mutex_;
     const Clock& clock_;
+    std::atomic<bool> watched_{false};
     EventContainer events_;
     std::vector<Member*> members_;  ///< in connection order: ties go to the earliest
     // Cached for the per-message selection; rebuilt when members join or leave.

@@ -15,6 +15,8 @@ void EventContainer::set(const std::string& name, std::uint64_t owner, const std
     std::optional<double> expires;
     if (lifetime && *lifetime > 0)
         expires = now + *lifetime;
+    if (observer_)
+        observer_->event_set(name, owner_label, lifetime, now);
     for (auto& entry : entries_) {
         if (entry.owner == owner && entry.name == name) {
             entry.expires = expires;
@@ -26,7 +28,13 @@ void EventContainer::set(const std::string& name, std::uint64_t owner, const std
 }
 
 void EventContainer::unset(const std::string& name, std::uint64_t owner) {
-    std::erase_if(entries_, [&](const Entry& entry) { return entry.owner == owner && entry.name == name; });
+    std::erase_if(entries_, [&](const Entry& entry) {
+        if (entry.owner != owner || entry.name != name)
+            return false;
+        if (observer_)
+            observer_->event_unset(entry.name, entry.owner_label);
+        return true;
+    });
 }
 
 bool EventContainer::has(const std::string& name, double now) const {
@@ -35,7 +43,13 @@ bool EventContainer::has(const std::string& name, double now) const {
 }
 
 void EventContainer::remove_owner(std::uint64_t owner) {
-    std::erase_if(entries_, [&](const Entry& entry) { return entry.owner == owner; });
+    std::erase_if(entries_, [&](const Entry& entry) {
+        if (entry.owner != owner)
+            return false;
+        if (observer_)
+            observer_->event_unset(entry.name, entry.owner_label);
+        return true;
+    });
 }
 
 const std::vector<EventContainer::Entry>& EventContainer::entries(double now) {

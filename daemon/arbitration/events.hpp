@@ -8,6 +8,17 @@
 
 namespace plexus::daemon::arbitration {
 
+/// Told of every change a monitor makes to an event container (a recording keeps them). Called
+/// with the arbiter's lock held: it must only note the change (take a leaf lock at most), never
+/// call back into the arbitration.
+class EventObserver {
+public:
+    virtual ~EventObserver() = default;
+    virtual void event_set(const std::string& name, const std::string& owner_label,
+                           std::optional<double> lifetime, double now) = 0;
+    virtual void event_unset(const std::string& name, const std::string& owner_label) = 0;
+};
+
 /// The event container of one input port, shared by the monitors of every connection into it.
 /// Each monitor owns its own entries: an event exists while any live entry of that name exists,
 /// so one monitor's unsetEvent or expiry never hides another's. Lifetimes are checked against
@@ -32,10 +43,13 @@ public:
     void remove_owner(std::uint64_t owner);
     /// The live entries at `now`, in the order they were set; expired ones are forgotten.
     const std::vector<Entry>& entries(double now);
+    /// Who is told of changes; null (the default) costs one test per change.
+    void set_observer(EventObserver* observer) { observer_ = observer; }
 
 private:
     void forget_expired(double now);
     std::vector<Entry> entries_;  ///< few: a handful of monitors, each with a few events
+    EventObserver* observer_ = nullptr;
 };
 
 }  // namespace plexus::daemon::arbitration

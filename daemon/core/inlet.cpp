@@ -6,53 +6,95 @@
 
 namespace plexus::daemon {
 
+namespace {
+TapDecision::Outcome outcome_of(arbitration::Arbiter::Verdict verdict) {
+    switch (verdict) {
+        case arbitration::Arbiter::Verdict::constraint:
+            return TapDecision::Outcome::constraint;
+        case arbitration::Arbiter::Verdict::priority:
+            return TapDecision::Outcome::priority;
+        case arbitration::Arbiter::Verdict::auxiliary:
+            return TapDecision::Outcome::auxiliary;
+        case arbitration::Arbiter::Verdict::deliver:
+            break;
+    }
+    return TapDecision::Outcome::delivered;
+}
+}  // namespace
+
 void Inlet::deliver(const Message& message) {
     if (message.batch != 0) {
         deliver_batch(message);
         return;
     }
     ++received;
+    PortTap* tap = port_->tap.get();
+    if (tap)
+        tap->arrived(*this, message);
     if (monitors) {
         monitors->submit(message);
         return;
     }
     ++accepted;
+    TapDecision decision;
     if (!member_->trivial()) {
         // The arbiter is shared with the monitors of the port's other connections, on their threads.
-        std::lock_guard lock(member_->arbiter().mutex());
-        if (member_->arbiter().admit(*member_) != arbitration::Arbiter::Verdict::deliver)
-            return;  // counted by the arbiter (constraint, priority) or an auxiliary connection
+        auto& arbiter = member_->arbiter();
+        std::lock_guard lock(arbiter.mutex());
+        const double now = arbiter.now();
+        const auto verdict = arbiter.admit(*member_, now);
+        decision.monitor_time = decision.decision_time = now;
+        if (verdict != arbitration::Arbiter::Verdict::deliver) {
+            // counted by the arbiter (constraint, priority) or an auxiliary connection
+            if (tap) {
+                decision.outcome = outcome_of(verdict);
+                tap->decided(*this, message, decision);
+            }
+            return;
+        }
+    } else if (tap) {
+        decision.monitor_time = decision.decision_time = member_->arbiter().now();
     }
-    enqueue(message);
+    decision.queue_dropped = enqueue(message);
+    if (tap)
+        tap->decided(*this, message, decision);
 }
 
 void Inlet::filtered(std::vector<Filtered>& results) {
+    PortTap* tap = port_->tap.get();
     for (auto& result : results) {
+        TapDecision decision{TapDecision::Outcome::delivered, result.monitor_time, result.decision_time};
         switch (result.verdict) {
             case FilterVerdict::dropped:
                 ++dropped_by_accept;
+                decision.outcome = TapDecision::Outcome::accept;
                 break;
             case FilterVerdict::refused:
                 ++accepted;  // the arbiter counted why
+                decision.outcome = outcome_of(result.arbitration);
                 break;
             case FilterVerdict::pass:
                 accepted += result.message.count();
-                enqueue(result.message);
+                decision.queue_dropped = enqueue(result.message);
                 break;
         }
+        if (tap)
+            tap->decided(*this, result.message, decision);
     }
 }
 
-void Inlet::enqueue(const Message& message) {
+std::uint64_t Inlet::enqueue(const Message& message) {
     const auto dropped_before = port_->queue().dropped();
     delivered += message.count();
     port_->deliver(message);
-    dropped_by_queue += port_->queue().dropped() - dropped_before;
+    const std::uint64_t dropped = port_->queue().dropped() - dropped_before;
+    dropped_by_queue += dropped;
+    return dropped;
 }
 
 void Inlet::deliver_batch(const Message& batch) {
-    if (!member_->trivial() || port_->queue().policy() != QueuePolicy::strict) {
-        // Arbitration and latest queues decide message by message.
+    if (!member_->trivial() || port_->queue().policy() != QueuePolicy::strict || port_->tap) {
+        // Arbitration and latest queues decide message by message, and a tap sees each.
         for_each_record(batch, [this](const Message& single) { deliver(single); });
         return;
     }

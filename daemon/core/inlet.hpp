@@ -64,8 +64,8 @@ public:
 private:
     /// A batch passes whole when nothing here looks at single messages; else record by record.
     void deliver_batch(const Message& batch);
-    /// To the port's reader queue, counted.
-    void enqueue(const Message& message);
+    /// To the port's reader queue, counted; returns how many older messages a latest queue let go.
+    std::uint64_t enqueue(const Message& message);
 
     std::shared_ptr<Port> port_;
     std::string source_;

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "../arbitration/arbiter.hpp"
 #include "message.hpp"
 
 namespace plexus::daemon {
@@ -24,6 +25,13 @@ enum class FilterVerdict : std::uint8_t {
 struct Filtered {
     Message message;  ///< a batch only for a run of records passed unchanged
     FilterVerdict verdict = FilterVerdict::pass;
+    /// With `refused`: why the arbitration refused it.
+    arbitration::Arbiter::Verdict arbitration = arbitration::Arbiter::Verdict::deliver;
+    /// Only while the port's decisions are watched (Arbiter::watched), else 0: the arbitration
+    /// clock when the monitors began on the message and when it was decided, so that a replay can
+    /// run both steps at the same instants (`plexus what-if`).
+    double monitor_time = 0;
+    double decision_time = 0;
 };
 
 /// The end of the connection the filter reports to, on the daemon's thread.

@@ -10,6 +10,7 @@
 #include "../arbitration/arbiter.hpp"
 #include "connection.hpp"
 #include "message_sampler.hpp"
+#include "port_tap.hpp"
 #include "reader_queue.hpp"
 
 namespace plexus::daemon {
@@ -54,6 +55,9 @@ public:
     std::uint64_t delivered = 0;    ///< messages handed to its client's socket
     /// Set while someone watches the port's last messages (the web endpoint); null otherwise.
     std::unique_ptr<MessageSampler> sampler;
+    /// Set while someone records what reaches the port and what became of it; null otherwise.
+    /// Whoever sets it also sets the arbiter watched (Arbiter::set_watched).
+    std::shared_ptr<PortTap> tap;
 
     void mark_closed();
 

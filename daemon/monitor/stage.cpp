@@ -216,8 +216,8 @@ void MonitorStage::process_batch(const Message& batch, std::vector<Filtered>& re
         auto verdict = process(single);
         const bool unchanged = verdict.message.record.data() == record->data() &&
                                verdict.message.record.size() == record->size();
-        if (verdict.verdict != FilterVerdict::pass || !unchanged) {
-            end_run();  // dropped, refused or rewritten: a message of its own
+        if (verdict.verdict != FilterVerdict::pass || !unchanged || verdict.decision_time != 0) {
+            end_run();  // dropped, refused, rewritten or timed for a tap: a message of its own
             results.push_back(std::move(verdict));
             continue;
         }
@@ -235,18 +235,32 @@ Filtered MonitorStage::process(const Message& message) {
         out.verdict = FilterVerdict::dropped;  // nobody takes it any more
         return out;
     }
+    // A tap records the instants of both steps (one clock reading each), only while it listens.
+    const bool timed = member_ && member_->arbiter().watched();
+    if (timed)
+        out.monitor_time = member_->arbiter().now();
     t_publish_depth = message.publish_depth;
     const bool passed = chain_->process(out.message);
     t_publish_depth = 0;
     if (!passed) {
         out.verdict = FilterVerdict::dropped;
+        if (timed)
+            out.decision_time = member_->arbiter().now();
         return out;
     }
     if (member_) {
-        std::lock_guard lock(member_->arbiter().mutex());
-        if (!member_->trivial() &&
-            member_->arbiter().admit(*member_) != arbitration::Arbiter::Verdict::deliver)
-            out.verdict = FilterVerdict::refused;
+        auto& arbiter = member_->arbiter();
+        std::lock_guard lock(arbiter.mutex());
+        if (!member_->trivial()) {
+            const double now = arbiter.now();
+            out.arbitration = arbiter.admit(*member_, now);
+            if (out.arbitration != arbitration::Arbiter::Verdict::deliver)
+                out.verdict = FilterVerdict::refused;
+            if (timed)
+                out.decision_time = now;
+        } else if (timed) {
+            out.decision_time = arbiter.now();
+        }
     }
     return out;
 }

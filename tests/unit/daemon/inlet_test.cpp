@@ -183,3 +183,65 @@ TEST_F(Inlet_test, MessagesKeepTheirOrderWhileTheMonitorsMoveBetweenTheLoopAndAW
 
 }  // namespace
 }  // namespace plexus::daemon
+
+namespace plexus::daemon {
+namespace {
+
+/// Keeps what a tap is told: the seq of each arrival, and each decision with its seqs.
+struct KeepingTap : PortTap {
+    std::vector<std::uint64_t> arrivals;
+    std::vector<std::pair<std::vector<std::uint64_t>, TapDecision>> decisions;
+    void arrived(const Inlet&, const Message& message) override {
+        arrivals.push_back(proto::decode_record(message.record)->seq);
+    }
+    void decided(const Inlet&, const Message& message, const TapDecision& decision) override {
+        decisions.emplace_back(seqs_of(message), decision);
+    }
+};
+
+TEST_F(Inlet_test, ATapSeesEveryRecordOfABatchAndWhatTheMonitorsAndTheArbitrationDecided) {
+    auto tap = std::make_shared<KeepingTap>();
+    port->tap = tap;
+    arbiter->set_watched(true);
+    clock.set(50);
+    auto inlet = inlet_with("PortMonitor.accept = function(msg) return msg.seq % 3 ~= 0 end");
+    inlet->deliver(batch_of(4));
+    wait_for_verdicts(*inlet);
+    EXPECT_EQ(tap->arrivals, (std::vector<std::uint64_t>{1, 2, 3, 4}));
+    ASSERT_EQ(tap->decisions.size(), 4u) << "one decision per record while tapped, no runs";
+    using Outcome = TapDecision::Outcome;
+    const std::vector<Outcome> outcomes{Outcome::delivered, Outcome::delivered, Outcome::accept,
+                                        Outcome::delivered};
+    for (std::size_t i = 0; i < 4; ++i) {
+        EXPECT_EQ(tap->decisions[i].first, (std::vector<std::uint64_t>{i + 1}));
+        EXPECT_EQ(tap->decisions[i].second.outcome, outcomes[i]) << "seq " << i + 1;
+        EXPECT_EQ(tap->decisions[i].second.monitor_time, 50) << "the arbitration clock, noted";
+        EXPECT_EQ(tap->decisions[i].second.decision_time, 50);
+    }
+    EXPECT_EQ(port->queue().depth(), 3u);
+}
+
+TEST_F(Inlet_test, WithoutMonitorsATapSeesTheArbitrationsReasonForARefusal) {
+    auto tap = std::make_shared<KeepingTap>();
+    port->tap = tap;
+    auto member = std::make_shared<arbitration::Member>(arbiter, "/a");
+    member->constraint = *arbitration::Constraint::parse("e_seen");
+    auto inlet = std::make_shared<Inlet>(port, "/a", "local", member);
+    clock.set(7);
+    inlet->deliver(test::batch_of(1, "/a", [](std::uint32_t seq) { return nlohmann::json::to_cbor(seq); }));
+    ASSERT_EQ(tap->decisions.size(), 1u);
+    EXPECT_EQ(tap->decisions[0].second.outcome, TapDecision::Outcome::constraint);
+    EXPECT_EQ(tap->decisions[0].second.decision_time, 7);
+    EXPECT_EQ(port->queue().depth(), 0u);
+}
+
+TEST_F(Inlet_test, WithoutATapABatchStillPassesWhole) {
+    auto member = std::make_shared<arbitration::Member>(arbiter, "/a");
+    auto inlet = std::make_shared<Inlet>(port, "/a", "local", member);
+    inlet->deliver(batch_of(5));
+    ASSERT_EQ(port->queue().depth(), 5u);
+    EXPECT_EQ(queued(), (std::vector<std::vector<std::uint64_t>>{{1, 2, 3, 4, 5}}));
+}
+
+}  // namespace
+}  // namespace plexus::daemon
