@@ -29,6 +29,9 @@ const ControlPlane::Operation ControlPlane::operations_[] = {
     {Op::lookup, Callers::any, &ControlPlane::lookup},
     {Op::list, Callers::any, &ControlPlane::list},
     {Op::inspect, Callers::any, &ControlPlane::inspect},
+    {Op::record_start, Callers::any, &ControlPlane::record_start},
+    {Op::record_status, Callers::any, &ControlPlane::record_status},
+    {Op::record_stop, Callers::any, &ControlPlane::record_stop},
 };
 
 const ControlPlane::Operation* ControlPlane::find_operation(Op op, const std::string& role) {

@@ -3,6 +3,7 @@
 
 #include <chrono>
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -19,6 +20,7 @@
 #include "plexus/proto/name_operations.hpp"
 #include "plexus/proto/operations.hpp"
 #include "plexus/proto/ops.hpp"
+#include "record/recorder.hpp"
 
 namespace plexus::daemon {
 
@@ -37,6 +39,7 @@ struct MonitorChain;
 class ControlPlane {
 public:
     ControlPlane(asio::any_io_executor executor, ControlHost& host);
+    ~ControlPlane();  ///< stops the recordings and waits for their files to close
 
     /// Answers one request of `session`. An op the session's role may not send is answered as
     /// an unknown one.
@@ -127,6 +130,18 @@ private:
     /// This daemon's part of the whole system's view, for a web endpoint (never forwarded).
     Task<proto::Reply> inspect(std::shared_ptr<Session> session, const proto::Request& request);
 
+    // record.cpp: recordings of this daemon's ports (docs/RECORDING.md).
+    Task<proto::Reply> record_start(std::shared_ptr<Session> session, const proto::Request& request);
+    Task<proto::Reply> record_status(std::shared_ptr<Session> session, const proto::Request& request);
+    Task<proto::Reply> record_stop(std::shared_ptr<Session> session, const proto::Request& request);
+    /// Stops recordings whose client went away or that cannot go on; runs while there are some.
+    Task<void> sweep_recordings(std::weak_ptr<void> alive);
+    struct Recording {
+        std::weak_ptr<Session> owner;  ///< the session that asked: the recording ends with it
+        std::unique_ptr<record::Recorder> recorder;
+        bool stopped = false;
+    };
+
     // GCC 12 miscompiles braced temporaries and lambdas inside co_await expressions: build them
     // in these plain functions instead.
     proto::Hello our_hello(const char* role) const;
@@ -139,6 +154,10 @@ private:
     ControlHost& host_;
     std::shared_ptr<ShmUsage> shm_usage_ = std::make_shared<ShmUsage>();
     std::uint64_t next_region_ = 1;
+    std::map<std::uint64_t, Recording> recordings_;
+    std::uint64_t next_recording_ = 1;
+    /// Expires with the control plane: a sweep that wakes after it knows not to touch it.
+    std::shared_ptr<void> alive_ = std::make_shared<int>(0);
 };
 
 }  // namespace plexus::daemon

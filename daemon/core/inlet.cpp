@@ -38,12 +38,16 @@ void Inlet::deliver(const Message& message) {
     ++accepted;
     TapDecision decision;
     if (!member_->trivial()) {
-        // The arbiter is shared with the monitors of the port's other connections, on their threads.
-        auto& arbiter = member_->arbiter();
-        std::lock_guard lock(arbiter.mutex());
-        const double now = arbiter.now();
-        const auto verdict = arbiter.admit(*member_, now);
-        decision.monitor_time = decision.decision_time = now;
+        auto verdict = arbitration::Arbiter::Verdict::deliver;
+        {
+            // The arbiter is shared with the monitors of the port's other connections, on their
+            // threads. The tap is told after the lock is let go: it may take it itself.
+            auto& arbiter = member_->arbiter();
+            std::lock_guard lock(arbiter.mutex());
+            const double now = arbiter.now();
+            verdict = arbiter.admit(*member_, now);
+            decision.monitor_time = decision.decision_time = now;
+        }
         if (verdict != arbitration::Arbiter::Verdict::deliver) {
             // counted by the arbiter (constraint, priority) or an auxiliary connection
             if (tap) {

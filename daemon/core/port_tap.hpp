@@ -1,5 +1,6 @@
 #pragma once
-// Threading: the daemon's one thread (the tap is called from Inlet, which runs there).
+// Threading: the daemon's one thread (the tap is called from Inlet, which runs there), never with
+// the port's arbiter lock held.
 
 #include <cstdint>
 

@@ -365,4 +365,62 @@ Result<InspectReply> InspectReply::decode(const json& body) {
     return Reader(body, reply_of(Op::inspect)).result(InspectReply{body});
 }
 
+// record_start, record_status, record_stop
+
+json RecordStartRequest::encode() const {
+    return request_with(op, {{"ports", ports},
+                             {"all", all},
+                             {"path", path},
+                             {"max_bytes", max_bytes},
+                             {"split_bytes", split_bytes}});
+}
+Result<RecordStartRequest> RecordStartRequest::decode(const json& body) {
+    RecordStartRequest out;
+    Reader in(body, request_of(op));
+    in.texts("ports", out.ports);
+    in.flag("all", out.all);
+    in.text("path", out.path);
+    in.whole("max_bytes", out.max_bytes);
+    in.whole("split_bytes", out.split_bytes);
+    return in.result(std::move(out));
+}
+
+json RecordStartReply::encode() const {
+    return {{"id", id}, {"ports", ports}};
+}
+Result<RecordStartReply> RecordStartReply::decode(const json& body) {
+    RecordStartReply out;
+    Reader in(body, reply_of(Op::record_start));
+    in.whole("id", out.id);
+    in.texts("ports", out.ports);
+    return in.result(std::move(out));
+}
+
+json RecordStatusRequest::encode() const {
+    return request_with(op, {{"id", id}});
+}
+Result<RecordStatusRequest> RecordStatusRequest::decode(const json& body) {
+    RecordStatusRequest out;
+    Reader in(body, request_of(op));
+    in.whole("id", out.id);
+    return in.result(std::move(out));
+}
+
+json RecordStopRequest::encode() const {
+    return request_with(op, {{"id", id}});
+}
+Result<RecordStopRequest> RecordStopRequest::decode(const json& body) {
+    RecordStopRequest out;
+    Reader in(body, request_of(op));
+    in.whole("id", out.id);
+    return in.result(std::move(out));
+}
+
+json RecordStatusReply::encode() const {
+    return document;
+}
+Result<RecordStatusReply> RecordStatusReply::decode(const json& body) {
+    return Reader(body, reply_of(Op::record_status)).result(RecordStatusReply{body});
+}
+
 }  // namespace plexus::proto

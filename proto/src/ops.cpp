@@ -7,7 +7,7 @@ namespace plexus::proto {
 
 namespace {
 // In the enum's order: op_name indexes it.
-constexpr std::array<std::pair<Op, std::string_view>, 22> names{{
+constexpr std::array<std::pair<Op, std::string_view>, 25> names{{
     {Op::open, "open"},
     {Op::close, "close"},
     {Op::shm, "shm"},
@@ -23,6 +23,9 @@ constexpr std::array<std::pair<Op, std::string_view>, 22> names{{
     {Op::lookup, "lookup"},
     {Op::list, "list"},
     {Op::inspect, "inspect"},
+    {Op::record_start, "record_start"},
+    {Op::record_status, "record_status"},
+    {Op::record_stop, "record_stop"},
     {Op::register_node, "register_node"},
     {Op::register_port, "register_port"},
     {Op::unregister_port, "unregister_port"},

@@ -241,4 +241,45 @@ struct InspectReply {
     static Result<InspectReply> decode(const nlohmann::json& body);  ///< from a reply body
 };
 
+// record_start, record_status, record_stop (docs/RECORDING.md)
+
+/// Records ports of this daemon into a new file at `path` (on this daemon's machine) until
+/// record_stop, until the session that asked closes, or until `max_bytes` are written.
+struct RecordStartRequest {
+    static constexpr Op op = Op::record_start;
+    std::vector<std::string> ports;
+    bool all = false;               ///< every port of this daemon (then `ports` may be empty)
+    std::string path;               ///< absolute; never overwritten
+    std::uint64_t max_bytes = 0;    ///< 0: no limit
+    std::uint64_t split_bytes = 0;  ///< 0: one file; else a new file past this size
+    nlohmann::json encode() const;
+    static Result<RecordStartRequest> decode(const nlohmann::json& body);
+};
+struct RecordStartReply {
+    std::uint64_t id = 0;
+    std::vector<std::string> ports;  ///< the ports recorded
+    nlohmann::json encode() const;
+    static Result<RecordStartReply> decode(const nlohmann::json& body);
+};
+/// record_status and record_stop ask about recording `id`.
+struct RecordStatusRequest {
+    static constexpr Op op = Op::record_status;
+    std::uint64_t id = 0;
+    nlohmann::json encode() const;
+    static Result<RecordStatusRequest> decode(const nlohmann::json& body);
+};
+struct RecordStopRequest {
+    static constexpr Op op = Op::record_stop;
+    std::uint64_t id = 0;
+    nlohmann::json encode() const;
+    static Result<RecordStopRequest> decode(const nlohmann::json& body);
+};
+/// The answer to both: {"id", "files", "messages", "decisions", "events", "bytes", "lost_messages",
+/// "lost_bytes", "done", "error"}, as record/recorder.cpp writes it; carried whole.
+struct RecordStatusReply {
+    nlohmann::json document = nlohmann::json::object();
+    nlohmann::json encode() const;
+    static Result<RecordStatusReply> decode(const nlohmann::json& body);
+};
+
 }  // namespace plexus::proto

@@ -28,6 +28,9 @@ enum class Op {
     lookup,      ///< where a port lives (also relayed by a daemon to the name server)
     list,        ///< every port and connection (also relayed)
     inspect,     ///< a daemon's part of the whole system's view (its stats and arbitration), for the web
+    record_start,   ///< `plexus record`: this daemon records ports into a file of its own
+    record_status,  ///< how a recording goes
+    record_stop,    ///< ends a recording; the answer says what it kept and lost
     // The name server's.
     register_node,
     register_port,

@@ -1,0 +1,77 @@
+#pragma once
+// Threading: the recorder's writer thread only.
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "plexus/mcap/writer.hpp"
+#include "plexus/proto/bytes.hpp"
+
+namespace plexus::daemon::record {
+
+/// A connection into a recorded port, as its channel in the file describes it.
+struct ConnectionInfo {
+    std::string port;
+    std::string source;
+    std::string carrier;
+    std::uint64_t order = 0;  ///< its place among the port's connections (ties go to the earliest)
+};
+
+/// The file (or, with a split size, the files) one recording writes: MCAP through mcap::Writer, laid
+/// out as plexus/mcap/recording_layout.hpp says. Channels are declared in each file before their
+/// first message, so every file of a split recording can be read alone.
+class RecordingFiles {
+public:
+    struct Options {
+        std::string path;               ///< the first file; later ones are PATH-STEM.N.mcap
+        std::uint64_t split_bytes = 0;  ///< 0: one file
+        std::string node;
+        nlohmann::json ports = nlohmann::json::array();
+        std::uint64_t started_unix_ns = 0;
+        double started_clock = 0;
+    };
+    /// Creates the first file (never replacing one).
+    static proto::Result<std::unique_ptr<RecordingFiles>> create(Options options);
+
+    void message(const ConnectionInfo& connection, std::uint64_t seq, std::uint64_t unix_ns,
+                 std::uint64_t sent_ns, proto::ByteView payload);
+    void decision(const std::string& port, std::uint64_t unix_ns, const nlohmann::json& entry);
+    void event(const std::string& port, std::uint64_t unix_ns, const nlohmann::json& entry);
+    /// Writes a short chunk so that an idle recording reaches the disk.
+    void flush();
+    /// Writes the end note and closes the current file.
+    void close(const nlohmann::json& end);
+
+    std::uint64_t bytes() const;  ///< over every file so far
+    const std::vector<std::string>& files() const { return files_; }
+    /// The first write that failed ("disk full at offset ..."); "" while all is well.
+    const std::string& error() const { return error_; }
+    std::uint64_t lost_messages() const;
+    std::uint64_t lost_bytes() const;
+
+private:
+    explicit RecordingFiles(Options options) : options_(std::move(options)) {}
+    proto::Status open_next();
+    void split_if_due();
+    std::uint16_t channel(const std::string& key, const std::string& topic, const std::string& encoding,
+                          mcap::StringMap metadata);
+    void write(std::uint16_t channel, std::uint32_t sequence, std::uint64_t log_time,
+               std::uint64_t publish_time, proto::ByteView data);
+    void note_failure();
+
+    Options options_;
+    std::unique_ptr<mcap::Writer> writer_;
+    std::map<std::string, std::uint16_t> channels_;  ///< of the current file, by key
+    std::vector<std::string> files_;
+    std::uint64_t closed_bytes_ = 0;  ///< of the files already closed
+    std::uint64_t closed_lost_messages_ = 0;
+    std::uint64_t closed_lost_bytes_ = 0;
+    std::string error_;
+};
+
+}  // namespace plexus::daemon::record
