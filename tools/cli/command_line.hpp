@@ -28,6 +28,7 @@ private:
     void add_port_commands();
     void add_inspect_commands();
     void add_app_commands();
+    void add_recording_commands();
 
     CLI::App app_;
     Common common_;
@@ -52,6 +53,8 @@ private:
     std::string app_file_;
     UpOptions up_options_;
     std::vector<std::string> node_sockets_;
+    RecordOptions record_options_;
+    PlayOptions play_options_;
 };
 
 }  // namespace plexus::cli
