@@ -163,7 +163,9 @@ proto::Status scan_data_section(const InputSource& source, std::uint64_t begin, 
         }
         offset = header->end();
     }
-    return proto::Ok{};
+    // Every writer ends the data section with DataEnd; a scan that misses it has been led off
+    // the records by a damaged length, and its CRC check would be skipped.
+    return proto::Error{at(end) + "the data section ends without a data end record"};
 }
 
 proto::Error truncation_error(const InputSource& source, std::uint64_t begin) {
