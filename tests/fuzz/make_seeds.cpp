@@ -11,6 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "plexus/mcap/writer.hpp"
 #include "plexus/proto/cbor.hpp"
 #include "plexus/proto/control.hpp"
 #include "plexus/proto/datagram.hpp"
@@ -43,6 +44,33 @@ proto::Bytes cbor(const json& value) {
 proto::Bytes fields_of(const proto::Bytes& frame) {
     const auto decoded = proto::FrameDecoder().decode(frame);
     return {decoded.fields.begin(), decoded.fields.end()};
+}
+
+/// Small recordings as plexus::mcap::Writer makes them: zstd and plain chunks, with and without
+/// summary, and an empty one.
+void mcap_seed(const std::string& name, const std::string& compression, bool summary, int messages) {
+    std::filesystem::create_directories(root / "mcap_reader");
+    const auto path = (root / "mcap_reader" / name).string();
+    std::filesystem::remove(path);  // the writer never replaces a file
+    plexus::mcap::WriterOptions options;
+    options.compression = compression;
+    options.write_summary = summary;
+    options.chunk_bytes = 256;  // several chunks even in a small seed
+    auto writer = plexus::mcap::Writer::create(path, options);
+    if (!writer) {
+        std::cerr << writer.error().message << "\n";
+        return;
+    }
+    const auto schema = (*writer)->add_schema("Pose", "jsonschema", proto::as_bytes(R"({"type":"object"})"));
+    const auto pose = (*writer)->add_channel("/robot/pose:o", "json", {{"carrier", "tcp"}}, schema);
+    const auto image = (*writer)->add_channel("/camera/image:o", "cbor", {});
+    (void)(*writer)->write_metadata("recording", {{"host", "robot"}});
+    for (int i = 0; i < messages; ++i) {
+        const std::string text = R"({"x":)" + std::to_string(i) + "}";
+        (void)(*writer)->write_message(i % 2 == 0 ? *pose : *image, static_cast<std::uint32_t>(i),
+                                       1000 + static_cast<std::uint64_t>(i), 999, proto::as_bytes(text));
+    }
+    (void)(*writer)->close();
 }
 
 }  // namespace
@@ -184,6 +212,10 @@ int main(int argc, char** argv) {
     }
     seed("name_request", "session", session);
     seed("name_request", "discover", proto::discovery_query());
+    mcap_seed("chunked_zstd", "zstd", true, 30);
+    mcap_seed("chunked_plain", "", true, 20);
+    mcap_seed("no_summary", "zstd", false, 20);
+    mcap_seed("empty", "zstd", true, 0);
     std::cout << "seeds written under " << root << "\n";
     return 0;
 }
