@@ -14,7 +14,9 @@ namespace proto = plexus::proto;
 
 namespace {
 
-bool names_an_offset(const std::string& message) { return message.rfind("offset ", 0) == 0; }
+bool names_an_offset(const std::string& message) {
+    return message.rfind("offset ", 0) == 0;
+}
 
 }  // namespace
 

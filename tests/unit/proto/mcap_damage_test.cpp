@@ -109,7 +109,8 @@ TEST(McapDamageTest, EverySingleByteChangeIsAnErrorOrChangesNothing) {
             }
             // Every byte is under some CRC, except in a file without summary the footer's summary
             // offset start and summary CRC (12 bytes), which a summary start of 0 makes meaningless.
-            EXPECT_EQ(accepted, summary ? 0u : 12u * 3) << compression << (summary ? " with" : " without") << " summary";
+            EXPECT_EQ(accepted, summary ? 0u : 12u * 3)
+                << compression << (summary ? " with" : " without") << " summary";
         }
     }
 }

@@ -22,7 +22,8 @@ struct Outcome {
     std::uint64_t written = 0;
 };
 
-Outcome record(const std::string& path, Fault fault, std::uint64_t capacity, const std::vector<Message>& messages) {
+Outcome record(const std::string& path, Fault fault, std::uint64_t capacity,
+               const std::vector<Message>& messages) {
     Outcome outcome;
     auto real = create_output_file(path);
     EXPECT_TRUE(real);
@@ -51,7 +52,8 @@ Outcome record(const std::string& path, Fault fault, std::uint64_t capacity, con
 
 /// The file holds exactly the messages not counted lost: the first ones, since nothing is
 /// written after the first failure.
-void expect_kept_all_but_lost(const std::string& path, const Outcome& outcome, const std::vector<Message>& messages) {
+void expect_kept_all_but_lost(const std::string& path, const Outcome& outcome,
+                              const std::vector<Message>& messages) {
     ASSERT_EQ(outcome.written + outcome.lost_messages, messages.size());
     auto reader = Reader::open(path);
     ASSERT_TRUE(reader) << reader.error().message;
@@ -74,8 +76,8 @@ const std::vector<Message>& messages() {
 }
 
 TEST(McapDiskFullTest, ReserveFailureLeavesAValidFileOfTheMessagesNotLost) {
-    for (const std::uint64_t capacity : {std::uint64_t{90'000}, std::uint64_t{150'000}, std::uint64_t{400'000},
-                                         std::uint64_t{700'000}}) {
+    for (const std::uint64_t capacity :
+         {std::uint64_t{90'000}, std::uint64_t{150'000}, std::uint64_t{400'000}, std::uint64_t{700'000}}) {
         testing::TempDir dir;
         const auto path = dir.file("full.mcap");
         const auto outcome = record(path, Fault::disk_full, capacity, messages());

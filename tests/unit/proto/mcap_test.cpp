@@ -11,17 +11,22 @@ using testing::Message;
 using testing::TempDir;
 
 /// Three channels (the first with a schema), `messages` written in order, and two metadata records.
-proto::Status write_file(const std::string& path, const std::vector<Message>& messages, WriterOptions options) {
+proto::Status write_file(const std::string& path, const std::vector<Message>& messages,
+                         WriterOptions options) {
     auto writer = Writer::create(path, std::move(options));
     if (!writer)
         return writer.error();
     const std::string schema_text = R"({"type":"object"})";
-    const std::uint16_t schema = (*writer)->add_schema("plexus.Pose", "jsonschema", proto::as_bytes(schema_text));
+    const std::uint16_t schema =
+        (*writer)->add_schema("plexus.Pose", "jsonschema", proto::as_bytes(schema_text));
     EXPECT_EQ(schema, 1);
-    EXPECT_EQ(*(*writer)->add_channel("/robot/pose:o", "json", {{"carrier", "tcp"}, {"port", "/robot/pose:o"}}, schema), 1);
+    EXPECT_EQ(*(*writer)->add_channel("/robot/pose:o", "json",
+                                      {{"carrier", "tcp"}, {"port", "/robot/pose:o"}}, schema),
+              1);
     EXPECT_EQ(*(*writer)->add_channel("/camera/image:o", "cbor", {}), 2);
     EXPECT_EQ(*(*writer)->add_channel("/empty:o", "", {{"", ""}}), 3);
-    if (auto status = (*writer)->write_metadata("recording", {{"started_by", "test"}, {"host", "here"}}); !status)
+    if (auto status = (*writer)->write_metadata("recording", {{"started_by", "test"}, {"host", "here"}});
+        !status)
         return status;
     for (const auto& message : messages) {
         if (auto status = (*writer)->write_message(message.channel_id, message.sequence, message.log_time,
@@ -214,7 +219,8 @@ TEST(McapTest, CreateRefusesAnExistingFile) {
     ASSERT_FALSE(writer);
     EXPECT_NE(writer.error().message.find(path), std::string::npos) << writer.error().message;
     EXPECT_NE(writer.error().message.find("exists"), std::string::npos) << writer.error().message;
-    EXPECT_EQ(testing::file_bytes(path), proto::Bytes(proto::as_bytes("precious").begin(), proto::as_bytes("precious").end()));
+    EXPECT_EQ(testing::file_bytes(path),
+              proto::Bytes(proto::as_bytes("precious").begin(), proto::as_bytes("precious").end()));
 }
 
 TEST(McapTest, WriterRejectsUnknownChannelsSchemasAndCompression) {

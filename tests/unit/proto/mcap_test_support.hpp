@@ -93,9 +93,9 @@ inline proto::Bytes file_bytes(const std::string& path) {
 
 /// How a FaultyFile fails.
 enum class Fault {
-    disk_full,      ///< reserving or writing past `capacity` fails with ENOSPC (writes stop at it)
-    no_fallocate,   ///< reserve answers EOPNOTSUPP; writes past `capacity` stop there with ENOSPC
-    write_error,    ///< the write number `capacity` (from 0) writes half its bytes and fails with EIO
+    disk_full,     ///< reserving or writing past `capacity` fails with ENOSPC (writes stop at it)
+    no_fallocate,  ///< reserve answers EOPNOTSUPP; writes past `capacity` stop there with ENOSPC
+    write_error,   ///< the write number `capacity` (from 0) writes half its bytes and fails with EIO
 };
 
 /// A real file that fails on purpose.
