@@ -73,6 +73,35 @@ void mcap_seed(const std::string& name, const std::string& compression, bool sum
     (void)(*writer)->close();
 }
 
+/// The same file with every CRC set to 0 ("not computed", which readers accept): without them
+/// nearly every mutation fails a CRC, and the fuzzer never reaches the parsers behind it.
+void mcap_seed_without_crcs(const std::string& name, const std::string& from) {
+    std::ifstream in(root / "mcap_reader" / from, std::ios::binary);
+    proto::Bytes bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+    const auto zero = [&](std::size_t at, std::size_t count) {
+        for (std::size_t i = 0; i < count && at + i < bytes.size(); ++i)
+            bytes[at + i] = 0;
+    };
+    // Walk the top-level records (opcode u8, length u64 little-endian; layout in proto/mcap/src/format.hpp).
+    std::size_t at = 8;
+    while (at + 9 <= bytes.size()) {
+        std::uint64_t length = 0;
+        for (std::size_t i = 0; i < 8; ++i)
+            length |= std::uint64_t{bytes[at + 1 + i]} << (8 * i);
+        const std::size_t content = at + 9;
+        if (bytes[at] == 0x06)  // chunk: start u64, end u64, uncompressed size u64, then the CRC
+            zero(content + 24, 4);
+        else if (bytes[at] == 0x0F)  // data end: the CRC
+            zero(content, 4);
+        else if (bytes[at] == 0x02)  // footer: summary start, summary offset start, then the CRC
+            zero(content + 16, 4);
+        if (bytes[at] == 0x02 || length > bytes.size() - content)
+            break;
+        at = content + static_cast<std::size_t>(length);
+    }
+    seed("mcap_reader", name, bytes);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -216,6 +245,9 @@ int main(int argc, char** argv) {
     mcap_seed("chunked_plain", "", true, 20);
     mcap_seed("no_summary", "zstd", false, 20);
     mcap_seed("empty", "zstd", true, 0);
+    mcap_seed_without_crcs("chunked_zstd_no_crcs", "chunked_zstd");
+    mcap_seed_without_crcs("chunked_plain_no_crcs", "chunked_plain");
+    mcap_seed_without_crcs("no_summary_no_crcs", "no_summary");
     std::cout << "seeds written under " << root << "\n";
     return 0;
 }
