@@ -249,3 +249,88 @@ TEST(McapTest, OpenNamesTheFileAndTheProblem) {
 
 }  // namespace
 }  // namespace plexus::mcap
+
+namespace plexus::mcap {
+namespace {
+
+/// Little-endian fields and records by hand, for files our writer does not make.
+struct HandMadeFile {
+    proto::Bytes bytes{0x89, 'M', 'C', 'A', 'P', '0', '\r', '\n'};
+    void u16(std::uint16_t value) { number(value, 2); }
+    void u32(std::uint32_t value) { number(value, 4); }
+    void u64(std::uint64_t value) { number(value, 8); }
+    void string(std::string_view text) {
+        u32(static_cast<std::uint32_t>(text.size()));
+        bytes.insert(bytes.end(), text.begin(), text.end());
+    }
+    void number(std::uint64_t value, int width) {
+        for (int i = 0; i < width; ++i)
+            bytes.push_back(static_cast<std::uint8_t>(value >> (8 * i)));
+    }
+    /// A record whose content `fill` appends.
+    template <typename Fill>
+    void record(std::uint8_t opcode, Fill fill) {
+        bytes.push_back(opcode);
+        const std::size_t length_at = bytes.size();
+        u64(0);
+        fill();
+        const std::uint64_t length = bytes.size() - length_at - 8;
+        for (int i = 0; i < 8; ++i)
+            bytes[length_at + i] = static_cast<std::uint8_t>(length >> (8 * i));
+    }
+};
+
+TEST(McapTest, ReadsMessagesOutsideChunksAndSkipsUnknownRecords) {
+    // As the spec allows: Channel and Message records straight in the data section, an
+    // application's own record (opcode 0x80), DataEnd without CRC, no summary.
+    HandMadeFile file;
+    file.record(0x01, [&] {
+        file.string("x-test");
+        file.string("by hand");
+    });
+    file.record(0x04, [&] {
+        file.u16(7);
+        file.u16(0);
+        file.string("/loose:o");
+        file.string("text");
+        file.u32(0);  // empty metadata map
+    });
+    for (std::uint32_t sequence = 0; sequence < 3; ++sequence) {
+        file.record(0x05, [&] {
+            file.u16(7);
+            file.u32(sequence);
+            file.u64(100 + sequence);
+            file.u64(90 + sequence);
+            file.string("payload");  // its u32 length prefix becomes part of the data: 11 bytes
+        });
+        file.record(0x80, [&] { file.u64(42); });
+    }
+    file.record(0x0F, [&] { file.u32(0); });
+    file.record(0x02, [&] {
+        file.u64(0);
+        file.u64(0);
+        file.u32(0);
+    });
+    file.bytes.insert(file.bytes.end(), {0x89, 'M', 'C', 'A', 'P', '0', '\r', '\n'});
+
+    auto reader = Reader::open_bytes(file.bytes);
+    ASSERT_TRUE(reader) << reader.error().message;
+    EXPECT_EQ(reader->profile(), "x-test");
+    ASSERT_EQ(reader->channels().count(7), 1u);
+    EXPECT_EQ(reader->channels().at(7).topic, "/loose:o");
+    EXPECT_EQ(reader->statistics().message_count, 3u);
+    EXPECT_EQ(reader->statistics().message_start_time, 100u);
+    EXPECT_EQ(reader->statistics().message_end_time, 102u);
+    EXPECT_EQ(reader->chunk_count(), 0u);
+    auto read = testing::read_all(*reader);
+    ASSERT_TRUE(read) << read.error().message;
+    ASSERT_EQ(read->size(), 3u);
+    for (std::uint32_t i = 0; i < 3; ++i) {
+        EXPECT_EQ((*read)[i].sequence, i);
+        EXPECT_EQ((*read)[i].publish_time, 90 + i);
+        EXPECT_EQ((*read)[i].data.size(), 11u);
+    }
+}
+
+}  // namespace
+}  // namespace plexus::mcap
