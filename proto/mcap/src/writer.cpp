@@ -309,11 +309,11 @@ proto::Status Writer::close() {
         return proto::Error{error_ + " (the file has no footer; readers will report it truncated)"};
     }
     end_ = data_end + tail.size();
-    if (written_high_ > end_) {
-        if (const int error_number = file_->truncate(end_); error_number != 0) {
-            fail("cannot cut the file at offset " + std::to_string(end_), error_number);
-            return proto::Error{error_};
-        }
+    // Cutting the file at its end also gives back the reserved blocks past it. It matters only
+    // when a failed write left bytes beyond the footer; otherwise a failure costs nothing.
+    if (const int error_number = file_->truncate(end_); error_number != 0 && written_high_ > end_) {
+        fail("cannot cut the file at offset " + std::to_string(end_), error_number);
+        return proto::Error{error_};
     }
     if (const int error_number = file_->sync(); error_number != 0) {
         fail("cannot sync the file", error_number);
