@@ -42,8 +42,8 @@ struct ScanVisitor {
     std::function<bool(std::uint64_t)> want_chunk;
 };
 
-/// Scans [begin, end) of the data section. When every byte was read, checks the DataEnd
-/// record's CRC of [0, DataEnd).
+/// Scans [begin, end) of the data section up to its DataEnd record, whose absence is an error.
+/// When every byte was read (no chunk skipped), checks DataEnd's CRC of [0, DataEnd).
 proto::Status scan_data_section(const InputSource& source, std::uint64_t begin, std::uint64_t end,
                                 const ScanVisitor& visitor);
 
