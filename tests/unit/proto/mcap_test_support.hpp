@@ -123,7 +123,6 @@ public:
             return EOPNOTSUPP;
         if (fault_ == Fault::disk_full && offset + length > capacity_)
             return ENOSPC;
-        ++reserves_;
         return 0;  // the real file's space is not taken: the test only checks the writer's logic
     }
     int truncate(std::uint64_t length) override { return real_->truncate(length); }
@@ -135,7 +134,6 @@ private:
     Fault fault_;
     std::uint64_t capacity_;
     std::uint64_t writes_ = 0;
-    std::uint64_t reserves_ = 0;
 };
 
 }  // namespace plexus::mcap::testing
