@@ -19,8 +19,9 @@ namespace plexus::mcap {
 
 /// How the writer lays out the file.
 struct WriterOptions {
-    std::uint64_t chunk_bytes = 4 * 1024 * 1024;  ///< uncompressed bytes per chunk (a larger message gets its own)
-    std::string compression = "zstd";             ///< "zstd" or "" (none)
+    std::uint64_t chunk_bytes =
+        4 * 1024 * 1024;               ///< uncompressed bytes per chunk (a larger message gets its own)
+    std::string compression = "zstd";  ///< "zstd" or "" (none)
     int zstd_level = 1;
     bool write_summary = true;  ///< false: a footer without summary (readers then scan the file)
     std::string profile;        ///< the Header's profile; "" for Plexus recordings
