@@ -39,8 +39,8 @@ public:
     }
     void start_detectors() {
         face_ = std::make_unique<Process>(
-            std::vector<std::string>{detector_path(), "/demo/face/out", "--kind", "face", "--seen", "9", "--gone",
-                                     "4", "--seed", "1"},
+            std::vector<std::string>{detector_path(), "/demo/face/out", "--kind", "face", "--seen", "9",
+                                     "--gone", "4", "--seed", "1"},
             daemon_.env(), dir_.file("face"));
         object_ = std::make_unique<Process>(
             std::vector<std::string>{detector_path(), "/demo/object/out", "--kind", "object", "--seen", "4",
@@ -50,9 +50,13 @@ public:
             ASSERT_TRUE(wait_port(dir_, daemon_, port)) << port;
     }
     void connect() {
-        ASSERT_EQ(run_cli(dir_, daemon_, {"connect", "/demo/face/out", "/gaze/in", face_carrier, "--persist"}).status, 0);
-        ASSERT_EQ(run_cli(dir_, daemon_, {"connect", "/demo/object/out", "/gaze/in", object_carrier, "--persist"}).status,
+        ASSERT_EQ(run_cli(dir_, daemon_, {"connect", "/demo/face/out", "/gaze/in", face_carrier, "--persist"})
+                      .status,
                   0);
+        ASSERT_EQ(
+            run_cli(dir_, daemon_, {"connect", "/demo/object/out", "/gaze/in", object_carrier, "--persist"})
+                .status,
+            0);
     }
     void stop_detectors() {
         face_.reset();
@@ -73,7 +77,8 @@ CliResult record_for(const TempDir& dir, Daemon& daemon, std::vector<std::string
     args.insert(args.begin(), "record");
     args.push_back("--duration");
     args.push_back(std::to_string(seconds));
-    auto result = run_cli(dir, daemon, args, "", std::chrono::milliseconds(static_cast<long>(seconds * 1000)) + 60s);
+    auto result =
+        run_cli(dir, daemon, args, "", std::chrono::milliseconds(static_cast<long>(seconds * 1000)) + 60s);
     EXPECT_EQ(result.status, 0) << result.out << result.err;
     return result;
 }
@@ -93,7 +98,8 @@ std::string last_line(const std::string& text) {
 /// bias 1, an active connection's output is 1 plus the inhibition of the other active ones, and
 /// the largest output wins (ties: the earlier connection, the face's). `object_inhibits_face`
 /// is the weight ex./demo/face/out on the object's connection (-1 as recorded, 0 for the what-if).
-std::vector<std::string> predicted(const std::vector<RecordedDecision>& recorded, double object_inhibits_face) {
+std::vector<std::string> predicted(const std::vector<RecordedDecision>& recorded,
+                                   double object_inhibits_face) {
     std::map<std::string, double> last;  // the last stimulation of each source
     std::vector<std::string> out;
     auto active = [&](const std::string& source, double t) {
@@ -161,10 +167,11 @@ TEST(Record_test, TheGazeDemoRecordedReadsBackByteIdenticalAndWhatIfReproducesAn
             const auto m = nlohmann::json::parse(line);
             if (m["metadata"].value("plexus.kind", "") != "messages")
                 continue;
-            theirs.push_back(m["topic"].get<std::string>() + " " + m["metadata"]["plexus.source"].get<std::string>() +
-                             " " + std::to_string(m["sequence"].get<std::uint64_t>()) + " " +
-                             m["logTime"].get<std::string>() + " " + m["publishTime"].get<std::string>() + " " +
-                             m["sha256"].get<std::string>());
+            theirs.push_back(m["topic"].get<std::string>() + " " +
+                             m["metadata"]["plexus.source"].get<std::string>() + " " +
+                             std::to_string(m["sequence"].get<std::uint64_t>()) + " " +
+                             m["logTime"].get<std::string>() + " " + m["publishTime"].get<std::string>() +
+                             " " + m["sha256"].get<std::string>());
         }
         EXPECT_EQ(theirs, ours);
     }
@@ -191,11 +198,13 @@ TEST(Record_test, TheGazeDemoRecordedReadsBackByteIdenticalAndWhatIfReproducesAn
     std::size_t expected_changes = 0;
     for (std::size_t i = 0; i < recorded.size(); ++i)
         expected_changes += without[i] != recorded[i].outcome ? 1 : 0;
-    EXPECT_GT(expected_changes, 0u) << "the demo's detectors overlap in view: some messages must change hands";
+    EXPECT_GT(expected_changes, 0u)
+        << "the demo's detectors overlap in view: some messages must change hands";
     const std::string no_inhibition =
         "local+" + certainty + "+event.e_object_seen+recv.priority+tc.0.5+ex./demo/face/out:0";
-    auto changed = run_cli(dir, demo.daemon(),
-                           {"what-if", file, "/gaze/in", "--carrier", "/demo/object/out=" + no_inhibition, "--json"});
+    auto changed =
+        run_cli(dir, demo.daemon(),
+                {"what-if", file, "/gaze/in", "--carrier", "/demo/object/out=" + no_inhibition, "--json"});
     ASSERT_EQ(changed.status, 0) << changed.err;
     const auto totals = nlohmann::json::parse(last_line(changed.out));
     EXPECT_EQ(totals["changed"], expected_changes) << changed.out;
@@ -203,8 +212,8 @@ TEST(Record_test, TheGazeDemoRecordedReadsBackByteIdenticalAndWhatIfReproducesAn
 
     // The SVG timeline is written.
     auto svg = run_cli(dir, demo.daemon(),
-                       {"what-if", file, "/gaze/in", "--carrier", "/demo/object/out=" + no_inhibition, "--svg",
-                        dir.file("timeline.svg")});
+                       {"what-if", file, "/gaze/in", "--carrier", "/demo/object/out=" + no_inhibition,
+                        "--svg", dir.file("timeline.svg")});
     EXPECT_EQ(svg.status, 0) << svg.err;
     EXPECT_TRUE(std::filesystem::file_size(dir.file("timeline.svg")) > 1000);
 
@@ -250,7 +259,7 @@ TEST(Record_test, ARecordingWhoseClientIsKilledIsClosedValidByTheDaemon) {
     ASSERT_TRUE(wait_port(dir, daemon, "/r"));
     const std::string file = dir.file("orphan.mcap");
     auto recorder = start_cli(dir, daemon, {"record", "/r", "-o", file}, "recorder");
-    ASSERT_TRUE(eventually([&] { return std::filesystem::exists(file); }));
+    ASSERT_TRUE(eventually([&] { return std::filesystem::exists(file); })) << recorder->err();
     writer.send("1\n2\n3\n");
     recorder->signal(SIGKILL);
     recorder->wait(10s);
@@ -273,7 +282,7 @@ TEST(Record_test, AFileThatIsNotARecordingIsAClearErrorNamingTheOffsetNeverACras
     ASSERT_TRUE(wait_port(dir, daemon, "/r"));
     const std::string file = dir.file("good.mcap");
     auto recorder = start_cli(dir, daemon, {"record", "/r", "-o", file}, "recorder");
-    ASSERT_TRUE(eventually([&] { return std::filesystem::exists(file); }));
+    ASSERT_TRUE(eventually([&] { return std::filesystem::exists(file); })) << recorder->err();
     for (int i = 0; i < 50; ++i)
         writer.send("{\"n\": " + std::to_string(i) + "}\n");
     ASSERT_TRUE(eventually([&] {
@@ -296,18 +305,20 @@ TEST(Record_test, AFileThatIsNotARecordingIsAClearErrorNamingTheOffsetNeverACras
         write_file("truncated.mcap", bytes.substr(0, bytes.size() / 2)),
         write_file("garbage.mcap", std::string(4096, 'x')),
         write_file("empty.mcap", ""),
-        write_file("flipped.mcap", [&] {
-            std::string copy = bytes;
-            copy[copy.size() / 3] ^= 0x5a;
-            return copy;
-        }()),
+        write_file("flipped.mcap",
+                   [&] {
+                       std::string copy = bytes;
+                       copy[copy.size() / 3] ^= 0x5a;
+                       return copy;
+                   }()),
     };
     for (const auto& path : broken) {
         for (const auto& args : std::vector<std::vector<std::string>>{
                  {"record", "--info", path}, {"play", path}, {"what-if", path, "/r"}}) {
             auto result = run_cli(dir, daemon, args);
             const std::string what = args[0] + " " + path;
-            EXPECT_TRUE(result.status == 2 || result.status == 4) << what << ": " << result.status << result.err;
+            EXPECT_TRUE(result.status == 2 || result.status == 4)
+                << what << ": " << result.status << result.err;
             EXPECT_LT(result.status, 128) << what << " crashed";
             EXPECT_NE(result.err.find("offset"), std::string::npos) << what << ": " << result.err;
         }

@@ -289,7 +289,7 @@ void Writer::lose_open_chunk() {
     chunk_ = std::make_unique<OpenChunk>();
 }
 
-proto::Status Writer::close() {
+proto::Status Writer::close(const Metadata* closing_note) {
     if (closed_)
         return file_valid_ ? proto::Status(proto::Ok{})
                            : proto::Status(proto::Error{"already closed: " + error_});
@@ -301,14 +301,32 @@ proto::Status Writer::close() {
 
     // After a failed write the bytes past end_ are garbage: the end of the file is written over
     // them from end_, in the space reserved for it. (Truncating first, as one might, would also
-    // free that reserved space: file systems drop preallocated blocks past the new end.)
-    const std::uint64_t data_end = end_;
-    const proto::Bytes tail = finalization(data_end);
-    if (const int error_number = file_->write_at(data_end, tail); error_number != 0) {
-        fail("cannot finish the file at offset " + std::to_string(data_end), error_number);
+    // free that reserved space: file systems drop preallocated blocks past the new end.) A closing
+    // note goes first, in the same reserve (its margin holds a small one), so that even a file
+    // whose disk filled says why it ended.
+    proto::Bytes note_block;
+    if (closing_note) {
+        append_metadata(note_block, *closing_note);
+        MetadataIndexEntry index;
+        index.offset = end_;
+        index.length = note_block.size();
+        index.name = closing_note->name;
+        metadata_indexes_.push_back(std::move(index));
+        index_bytes_ += metadata_index_record_size(closing_note->name.size());
+        ++statistics_.metadata_count;
+        Crc32 crc(data_crc_);
+        crc.update(note_block);
+        data_crc_ = crc.value();
+    }
+    const std::uint64_t data_end = end_ + note_block.size();
+    proto::Bytes tail = note_block;
+    const proto::Bytes finish = finalization(data_end);
+    tail.insert(tail.end(), finish.begin(), finish.end());
+    if (const int error_number = file_->write_at(end_, tail); error_number != 0) {
+        fail("cannot finish the file at offset " + std::to_string(end_), error_number);
         return proto::Error{error_ + " (the file has no footer; readers will report it truncated)"};
     }
-    end_ = data_end + tail.size();
+    end_ = data_end + finish.size();
     // Cutting the file at its end also gives back the reserved blocks past it. It matters only
     // when a failed write left bytes beyond the footer; otherwise a failure costs nothing.
     if (const int error_number = file_->truncate(end_); error_number != 0 && written_high_ > end_) {
