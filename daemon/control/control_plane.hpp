@@ -5,6 +5,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -140,6 +141,8 @@ private:
         std::weak_ptr<Session> owner;  ///< the session that asked: the recording ends with it
         std::unique_ptr<record::Recorder> recorder;
         bool stopped = false;
+        /// For a recording another daemon asked for: the last time it asked (see record.cpp).
+        std::optional<std::chrono::steady_clock::time_point> lease;
     };
 
     // GCC 12 miscompiles braced temporaries and lambdas inside co_await expressions: build them

@@ -17,6 +17,9 @@ namespace {
 using proto::ReplyCode;
 /// How often recordings are looked at: a dead client's or an ended one is stopped within this.
 constexpr auto sweep_period = std::chrono::milliseconds(250);
+/// A recording asked for through another daemon ends when nobody asked about it for this long
+/// (plexus record asks twice a second).
+constexpr auto lease_period = std::chrono::seconds(5);
 }  // namespace
 
 ControlPlane::~ControlPlane() = default;
@@ -36,12 +39,17 @@ Task<proto::Reply> ControlPlane::record_start(std::shared_ptr<Session> session,
         if (ports.empty())
             co_return refuse("node '" + host_.config().node + "' hosts no port to record");
     }
+    // Each daemon records its own ports, into a file on its own machine: ports that all live on
+    // another daemon are its to record (plexus record asks once per node).
+    if (!asked->all && !asked->ports.empty() &&
+        std::none_of(asked->ports.begin(), asked->ports.end(),
+                     [&](const std::string& name) { return router.find(name) != nullptr; }))
+        co_return co_await forward(request, asked->forwarded, asked->ports.front());
     for (const auto& name : asked->ports) {
         auto port = router.find(name);
         if (!port) {
             co_return refuse("port " + name + " is not on node '" + host_.config().node +
-                             "': each daemon records its own ports (run plexus record on the "
-                             "port's machine, or see docs/RECORDING.md for several nodes)");
+                             "': ask for the ports of each node apart (plexus record does)");
         }
         if (std::find(ports.begin(), ports.end(), port) == ports.end())
             ports.push_back(std::move(port));
@@ -57,7 +65,13 @@ Task<proto::Reply> ControlPlane::record_start(std::shared_ptr<Session> session,
     if (!started)
         co_return refuse("cannot record: " + started.error().message);
     const std::uint64_t id = next_recording_++;
-    recordings_.emplace(id, Recording{session, std::move(*started)});
+    Recording recording{session, std::move(*started)};
+    if (asked->forwarded) {
+        // Asked by another daemon for its client: alive while that client keeps asking.
+        recording.owner.reset();
+        recording.lease = std::chrono::steady_clock::now();
+    }
+    recordings_.emplace(id, std::move(recording));
     if (recordings_.size() == 1)
         asio::co_spawn(executor_, sweep_recordings(alive_), asio::detached);
     proto::RecordStartReply answer;
@@ -71,7 +85,11 @@ Task<proto::Reply> ControlPlane::record_status(std::shared_ptr<Session>, const p
     const auto asked = proto::RecordStatusRequest::decode(request.body);
     if (!asked)
         co_return malformed(asked.error());
+    if (!asked->port.empty() && !host_.router().find(asked->port))
+        co_return co_await forward(request, asked->forwarded, asked->port);
     auto found = recordings_.find(asked->id);
+    if (found != recordings_.end() && found->second.lease)
+        found->second.lease = std::chrono::steady_clock::now();
     if (found == recordings_.end())
         co_return refuse("no recording " + std::to_string(asked->id) + " on this daemon", ReplyCode::no);
     auto document = found->second.recorder->status();
@@ -84,6 +102,8 @@ Task<proto::Reply> ControlPlane::record_stop(std::shared_ptr<Session>, const pro
     const auto asked = proto::RecordStopRequest::decode(request.body);
     if (!asked)
         co_return malformed(asked.error());
+    if (!asked->port.empty() && !host_.router().find(asked->port))
+        co_return co_await forward(request, asked->forwarded, asked->port);
     auto found = recordings_.find(asked->id);
     if (found == recordings_.end())
         co_return refuse("no recording " + std::to_string(asked->id) + " on this daemon", ReplyCode::no);
@@ -114,7 +134,11 @@ Task<void> ControlPlane::sweep_recordings(std::weak_ptr<void> alive) {
             co_return;  // the control plane is gone
         for (auto it = recordings_.begin(); it != recordings_.end();) {
             auto& recording = it->second;
-            const bool orphan = recording.owner.expired();
+            // A local client's recording ends with its session; another daemon's client's when
+            // it stops asking how it goes.
+            const bool orphan = recording.lease
+                                    ? std::chrono::steady_clock::now() - *recording.lease > lease_period
+                                    : recording.owner.expired();
             if (!recording.stopped && (orphan || recording.recorder->ended())) {
                 recording.recorder->stop(orphan ? "its client went away" : "");
                 recording.stopped = true;

@@ -368,11 +368,13 @@ Result<InspectReply> InspectReply::decode(const json& body) {
 // record_start, record_status, record_stop
 
 json RecordStartRequest::encode() const {
-    return request_with(op, {{"ports", ports},
-                             {"all", all},
-                             {"path", path},
-                             {"max_bytes", max_bytes},
-                             {"split_bytes", split_bytes}});
+    return request_with(op,
+                        {{"ports", ports},
+                         {"all", all},
+                         {"path", path},
+                         {"max_bytes", max_bytes},
+                         {"split_bytes", split_bytes}},
+                        forwarded);
 }
 Result<RecordStartRequest> RecordStartRequest::decode(const json& body) {
     RecordStartRequest out;
@@ -382,6 +384,7 @@ Result<RecordStartRequest> RecordStartRequest::decode(const json& body) {
     in.text("path", out.path);
     in.whole("max_bytes", out.max_bytes);
     in.whole("split_bytes", out.split_bytes);
+    in.flag("forwarded", out.forwarded);
     return in.result(std::move(out));
 }
 
@@ -397,22 +400,26 @@ Result<RecordStartReply> RecordStartReply::decode(const json& body) {
 }
 
 json RecordStatusRequest::encode() const {
-    return request_with(op, {{"id", id}});
+    return request_with(op, {{"id", id}, {"port", port}}, forwarded);
 }
 Result<RecordStatusRequest> RecordStatusRequest::decode(const json& body) {
     RecordStatusRequest out;
     Reader in(body, request_of(op));
     in.whole("id", out.id);
+    in.text("port", out.port);
+    in.flag("forwarded", out.forwarded);
     return in.result(std::move(out));
 }
 
 json RecordStopRequest::encode() const {
-    return request_with(op, {{"id", id}});
+    return request_with(op, {{"id", id}, {"port", port}}, forwarded);
 }
 Result<RecordStopRequest> RecordStopRequest::decode(const json& body) {
     RecordStopRequest out;
     Reader in(body, request_of(op));
     in.whole("id", out.id);
+    in.text("port", out.port);
+    in.flag("forwarded", out.forwarded);
     return in.result(std::move(out));
 }
 

@@ -2,12 +2,14 @@
 // daemon writes it: no payload passes through this process), shows progress, and stops the
 // recording on Ctrl-C, after --duration, or when the daemon ends it (size limit, full disk).
 // `plexus record --info FILE`: what a recording holds.
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <csignal>
 #include <filesystem>
 #include <iostream>
 #include <thread>
+#include <vector>
 
 #include "commands.hpp"
 #include "plexus/proto/operations.hpp"
@@ -61,6 +63,48 @@ void print_summary(const Value& status, bool json) {
                   << " messages were in a writer's shared memory and are not in the file\n";
 }
 
+/// One daemon's part of a recording: the ports it hosts and the file it writes.
+struct NodeRecording {
+    std::string node;
+    std::vector<std::string> ports;
+    std::string path;
+    std::uint64_t id = 0;
+    std::string route;  ///< a port of it: status and stop go to the daemon that hosts it
+};
+
+/// PATH for the local node's ports; PATH-STEM.NODE.mcap for another node's (written there).
+std::string path_for(const std::string& path, const std::string& node, bool local) {
+    if (local)
+        return path;
+    std::string stem = path;
+    if (stem.size() > 5 && stem.ends_with(".mcap"))
+        stem.resize(stem.size() - 5);
+    return stem + "." + node + ".mcap";
+}
+
+/// The ports grouped by the node that hosts them (the daemon there records them).
+std::vector<NodeRecording> plan(Client& client, const RecordOptions& options, const std::string& output) {
+    const auto local = read_as<proto::NodeReply>(client.request(proto::NodeRequest{}.encode())).node;
+    std::vector<NodeRecording> parts;
+    if (options.all)
+        parts.push_back({local, {}, output, 0, ""});
+    for (const auto& port : options.ports) {
+        proto::PingRequest asked;
+        asked.port = port;
+        const auto where = read_as<proto::PingReply>(client.request(asked.encode()));
+        auto part =
+            std::find_if(parts.begin(), parts.end(), [&](const auto& p) { return p.node == where.node; });
+        if (part == parts.end()) {
+            parts.push_back({where.node, {}, path_for(output, where.node, where.node == local), 0, port});
+            part = std::prev(parts.end());
+        }
+        part->ports.push_back(port);
+        if (part->route.empty() && where.node != local)
+            part->route = port;
+    }
+    return parts;
+}
+
 }  // namespace
 
 int record(const Common& common, const RecordOptions& options) {
@@ -70,51 +114,68 @@ int record(const Common& common, const RecordOptions& options) {
         throw Error(ErrorCode::usage, "record needs -o FILE.mcap (or --info FILE)");
     if (options.ports.empty() && !options.all)
         throw Error(ErrorCode::usage, "record needs at least one PORT, or --all");
-    proto::RecordStartRequest asked;
-    asked.ports = options.ports;
-    asked.all = options.all;
-    // The daemon writes the file: it gets the path as this shell means it.
-    asked.path = std::filesystem::absolute(options.output).lexically_normal().string();
-    asked.max_bytes = options.max_bytes;
-    asked.split_bytes = options.split_bytes;
+    // The daemons write the files: they get the path as this shell means it.
+    const std::string output = std::filesystem::absolute(options.output).lexically_normal().string();
     auto client = plexus::Client({common.socket});
     catch_interrupts();
-    const auto started = read_as<proto::RecordStartReply>(client.request(asked.encode()));
-    std::cerr << "recording";
-    for (const auto& port : started.ports)
-        std::cerr << ' ' << port;
-    std::cerr << " into " << asked.path << " (Ctrl-C stops)\n";
+    auto parts = plan(client, options, output);
+    for (auto& part : parts) {
+        proto::RecordStartRequest asked;
+        asked.ports = part.ports;
+        asked.all = options.all && part.route.empty() && part.ports.empty();
+        asked.path = part.path;
+        asked.max_bytes = options.max_bytes;
+        asked.split_bytes = options.split_bytes;
+        const auto started = read_as<proto::RecordStartReply>(client.request(asked.encode()));
+        part.id = started.id;
+        part.ports = started.ports;
+        std::cerr << "recording";
+        for (const auto& port : started.ports)
+            std::cerr << ' ' << port;
+        std::cerr << " into " << part.path << (part.route.empty() ? "" : " on node '" + part.node + "'")
+                  << (parts.size() > 1 ? "" : " (Ctrl-C stops)") << '\n';
+    }
+    if (parts.size() > 1)
+        std::cerr << "each node's daemon writes its own file on its own machine (Ctrl-C stops)\n";
 
     const auto begun = std::chrono::steady_clock::now();
     auto next_look = begun;
     std::string ended_by;
-    while (!interrupted.load()) {
+    while (!interrupted.load() && ended_by.empty()) {
         const auto now = std::chrono::steady_clock::now();
         if (options.duration && now - begun >= std::chrono::duration<double>(*options.duration))
             break;
         if (now >= next_look) {
-            const auto status = read_as<proto::RecordStatusReply>(
-                client.request(proto::RecordStatusRequest{started.id}.encode()));
-            if (status.document.value("ended", false)) {
-                ended_by = text(status.document, "reason");
-                break;
+            // Asking also keeps another node's recording alive: it ends if nobody asks for 5 s.
+            for (const auto& part : parts) {
+                proto::RecordStatusRequest asked;
+                asked.id = part.id;
+                asked.port = part.route;
+                const auto status = read_as<proto::RecordStatusReply>(client.request(asked.encode()));
+                if (status.document.value("ended", false))
+                    ended_by = text(status.document, "reason");
             }
             next_look = now + std::chrono::milliseconds(500);
         }
         std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
-    const auto stopped =
-        read_as<proto::RecordStatusReply>(client.request(proto::RecordStopRequest{started.id}.encode()));
-    print_summary(stopped.document, options.json);
-    const std::string error = text(stopped.document, "error");
-    if (!error.empty()) {
-        std::cerr << "plexus: the recording stopped early: " << error
-                  << " (the file holds what was written before, and is complete)\n";
-        return 1;
+    int status = 0;
+    for (const auto& part : parts) {
+        proto::RecordStopRequest asked;
+        asked.id = part.id;
+        asked.port = part.route;
+        const auto stopped = read_as<proto::RecordStatusReply>(client.request(asked.encode()));
+        print_summary(stopped.document, options.json);
+        const std::string error = text(stopped.document, "error");
+        if (!error.empty()) {
+            std::cerr << "plexus: the recording stopped early: " << error
+                      << " (the file holds what was written before, and is complete)\n";
+            status = 1;
+        }
     }
-    if (!ended_by.empty())
+    if (!ended_by.empty() && status == 0)
         std::cerr << "plexus: the recording ended: " << ended_by << '\n';
-    return 0;
+    return status;
 }
 
 }  // namespace plexus::cli

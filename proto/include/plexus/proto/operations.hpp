@@ -252,6 +252,9 @@ struct RecordStartRequest {
     std::string path;               ///< absolute; never overwritten
     std::uint64_t max_bytes = 0;    ///< 0: no limit
     std::uint64_t split_bytes = 0;  ///< 0: one file; else a new file past this size
+    /// Sent on by a daemon that hosts none of the ports: the recording then lives while someone
+    /// asks record_status about it (a lease), not while a session does.
+    bool forwarded = false;
     nlohmann::json encode() const;
     static Result<RecordStartRequest> decode(const nlohmann::json& body);
 };
@@ -265,12 +268,16 @@ struct RecordStartReply {
 struct RecordStatusRequest {
     static constexpr Op op = Op::record_status;
     std::uint64_t id = 0;
+    std::string port;  ///< a recorded port: the request goes to the daemon that hosts it
+    bool forwarded = false;
     nlohmann::json encode() const;
     static Result<RecordStatusRequest> decode(const nlohmann::json& body);
 };
 struct RecordStopRequest {
     static constexpr Op op = Op::record_stop;
     std::uint64_t id = 0;
+    std::string port;  ///< as in record_status
+    bool forwarded = false;
     nlohmann::json encode() const;
     static Result<RecordStopRequest> decode(const nlohmann::json& body);
 };
