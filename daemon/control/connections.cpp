@@ -6,9 +6,10 @@
 #include "control_plane.hpp"
 #include "core/router.hpp"
 #include "names/name_client.hpp"
-#include "net/link.hpp"
+#include "net/carriers/mcast.hpp"
+#include "net/carriers/tcp.hpp"
+#include "net/carriers/udp.hpp"
 #include "net/session.hpp"
-#include "net/udp_carrier.hpp"
 #include "plexus/proto/carrier.hpp"
 #include "plexus/proto/port_name.hpp"
 #include "request_fields.hpp"
@@ -86,8 +87,8 @@ proto::Result<std::shared_ptr<MessageSink>> ControlPlane::udp_sending_end(std::s
             " gave no usable udp port and stream for this connection (udp needs IP addresses)"};
     }
     asio::ip::udp::endpoint to(address, static_cast<std::uint16_t>(port));
-    std::shared_ptr<MessageSink> sink =
-        std::make_shared<UdpLink>(host_.udp(), to, stream, std::move(link), std::move(description), dscp);
+    std::shared_ptr<MessageSink> sink = std::make_shared<carriers::UdpLink>(
+        host_.udp(), to, stream, std::move(link), std::move(description), dscp);
     return sink;
 }
 
@@ -195,7 +196,7 @@ Task<proto::Reply> ControlPlane::connect_remote(proto::ConnectRequest asked, std
     connection->priority = qos_of(carrier).prio.value_or(0);
     connection->persistent = asked.persist;
     connection->sink = end.sink;
-    if (auto* mcast = dynamic_cast<McastLink*>(end.sink.get())) {
+    if (auto* mcast = dynamic_cast<carriers::McastLink*>(end.sink.get())) {
         // The send-side monitors of mcast run once per message, for the port's one sender, not
         // once per connection: all mcast connections of a port share them, on one stage.
         const auto& sender = mcast->shared_sender();
@@ -289,7 +290,7 @@ Task<ControlPlane::SendingEnd> ControlPlane::open_sending_end(std::shared_ptr<Po
         if (qos.dscp)
             sender->mark(*qos.dscp);
         end.peer = link_peer;
-        end.sink = std::make_shared<McastLink>(std::move(sender), link_peer);
+        end.sink = std::make_shared<carriers::McastLink>(std::move(sender), link_peer);
         co_return end;
     }
     if (has_base(carrier, "udp")) {
@@ -318,8 +319,8 @@ Task<ControlPlane::SendingEnd> ControlPlane::open_sending_end(std::shared_ptr<Po
     constexpr int latest_send_buffer = 64 * 1024;
     if (latest)
         link_peer->limit_send_buffer(latest_send_buffer);
-    auto link = std::make_shared<Link>(link_peer, capacity, host_.config().queue_bytes,
-                                       latest ? QueuePolicy::latest : QueuePolicy::strict);
+    auto link = std::make_shared<carriers::TcpLink>(link_peer, capacity, host_.config().queue_bytes,
+                                                    latest ? QueuePolicy::latest : QueuePolicy::strict);
     end.peer = link_peer;
     end.sink = link;
     end.queue = link->queue();
@@ -392,9 +393,9 @@ Task<proto::Reply> ControlPlane::attach(std::shared_ptr<Session> session, const 
         if (!sender)
             co_return refuse("the udp carrier needs a link over TCP (an IP address to take datagrams from)");
         auto stream = host_.udp().open_stream(wired->inlet, *sender);
-        wired->inlet->datagrams = UdpCarrier::datagrams(*stream);
+        wired->inlet->datagrams = UdpSocket::datagrams(*stream);
         answer.udp_port = host_.udp().port();
-        answer.stream = UdpCarrier::id(*stream);
+        answer.stream = UdpSocket::id(*stream);
         session->hold_while_linked(stream);
     }
     // tcp: the link session itself feeds the inlet, with the data frames the sending daemon writes.
@@ -413,7 +414,7 @@ Task<proto::Reply> ControlPlane::attach(std::shared_ptr<Session> session, const 
         auto joined = host_.udp().join_group(*group, wired->inlet, *sender);
         if (!joined)
             co_return refuse(joined.error().message);
-        wired->inlet->datagrams = UdpCarrier::datagrams(**joined);
+        wired->inlet->datagrams = UdpSocket::datagrams(**joined);
         session->hold_while_linked(*joined);
     }
     if (carrier->qos.dscp) {

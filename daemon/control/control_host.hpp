@@ -16,7 +16,7 @@ class Peer;
 class Port;
 class Router;
 class ScriptHost;
-class UdpCarrier;
+class UdpSocket;
 namespace names {
 class NameClient;
 }
@@ -39,7 +39,7 @@ public:
     virtual names::NameClient& names() = 0;
     virtual ScriptHost& scripts() = 0;
     /// The daemon's UDP socket, for connections with the udp carrier.
-    virtual UdpCarrier& udp() = 0;
+    virtual UdpSocket& udp() = 0;
     /// Where arbitration reads the time (event lifetimes, stimulation decay).
     virtual const arbitration::Clock& clock() const = 0;
     virtual DaemonCounters& counters() = 0;
