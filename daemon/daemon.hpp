@@ -67,6 +67,9 @@ public:
     names::NameClient& names() override { return *names_; }
     ScriptHost& scripts() override { return *scripts_; }
     UdpSocket& udp() override { return udp_; }
+    Task<proto::Result<std::string>> mcast_group(std::string source) override {
+        return names_->mcast_group(std::move(source));
+    }
     const arbitration::Clock& clock() const override { return clock_; }
     DaemonCounters& counters() override { return counters_; }
     std::size_t session_count() const override { return sessions_.size(); }

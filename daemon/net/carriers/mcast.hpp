@@ -7,6 +7,7 @@
 
 #include "../../core/connection.hpp"
 #include "../peer.hpp"
+#include "carrier.hpp"
 #include "mcast_sender.hpp"
 
 namespace plexus::daemon::carriers {
@@ -31,6 +32,20 @@ public:
 private:
     std::shared_ptr<McastSender> sender_;
     std::shared_ptr<Peer> control_;
+};
+
+/// mcast: best effort, each message of a source port sent once to the port's multicast group,
+/// whatever the number of receiving daemons. The name server gives each source port its group;
+/// every receiving daemon checks the group with it and joins. All mcast connections of a port
+/// share one sender (McastSender) and so its send-side monitors.
+class McastCarrier final : public Carrier {
+public:
+    std::string_view name() const override { return "mcast"; }
+    Task<proto::Result<proto::AttachRequest>> prepare_attach(CarrierHost& host,
+                                                             proto::AttachRequest request) const override;
+    proto::Result<SendingEnd> make_sending_end(const SendingContext& context) const override;
+    Task<proto::Result<proto::AttachReply>> attach_receiving_end(ReceivingContext context,
+                                                                 proto::AttachReply answer) const override;
 };
 
 }  // namespace plexus::daemon::carriers

@@ -8,6 +8,7 @@
 #include "../../core/connection.hpp"
 #include "../../core/reader_queue.hpp"
 #include "../peer.hpp"
+#include "carrier.hpp"
 
 namespace plexus::daemon::carriers {
 
@@ -47,6 +48,15 @@ public:
 private:
     std::shared_ptr<Peer> peer_;
     std::shared_ptr<ReaderQueue> queue_;
+};
+
+/// tcp: reliable and ordered, the carrier between daemons when a connect names none. Messages
+/// leave through a TcpLink on the link that attached the connection, and the link session at the
+/// receiving daemon feeds the inlet with them (the default receiving end).
+class TcpCarrier final : public Carrier {
+public:
+    std::string_view name() const override { return "tcp"; }
+    proto::Result<SendingEnd> make_sending_end(const SendingContext& context) const override;
 };
 
 }  // namespace plexus::daemon::carriers

@@ -13,6 +13,7 @@
 #include "../packet_marks.hpp"
 #include "../peer.hpp"
 #include "../udp_socket.hpp"
+#include "carrier.hpp"
 
 namespace plexus::daemon::carriers {
 
@@ -47,6 +48,17 @@ private:
     std::uint64_t next_message_ = 0;
     UdpSendCounters counters_;
     std::optional<DatagramMarks> marks_;  ///< qos.dscp: the shared socket marks each datagram
+};
+
+/// udp: best effort, every message at once as datagrams on the daemon's UDP socket; losses are
+/// counted at the receiver from sequence gaps. The receiving daemon opens a stream of its own for
+/// the connection, fed only by datagrams from the link's address; the link stays open beside it.
+class UdpCarrier final : public Carrier {
+public:
+    std::string_view name() const override { return "udp"; }
+    proto::Result<SendingEnd> make_sending_end(const SendingContext& context) const override;
+    Task<proto::Result<proto::AttachReply>> attach_receiving_end(ReceivingContext context,
+                                                                 proto::AttachReply answer) const override;
 };
 
 }  // namespace plexus::daemon::carriers
