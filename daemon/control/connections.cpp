@@ -80,14 +80,17 @@ Task<proto::Reply> ControlPlane::connect(std::shared_ptr<Session>, const proto::
         co_return refuse(send_chain.error().message);
 
     auto local_destination = router.find(destination);
-    // No carrier named: in the daemon when both ports are here, else tcp. A carrier between
-    // daemons named explicitly goes through the network even between ports of this daemon (over
-    // loopback); only a carrier within the daemon (`local`), or none, stays in it.
-    const std::string base = automatic ? (local_destination ? "local" : "tcp") : carrier.base;
-    auto found = carriers::find_carrier(base);
-    if (!found)
-        co_return refuse(found.error().message);
-    const carriers::Carrier* chosen = *found;
+    // No carrier named: the table's choice (local when both ports are here, else tcp). A carrier
+    // between daemons named explicitly goes through the network even between ports of this daemon
+    // (over loopback); only a carrier within the daemon (`local`), or none, stays in it.
+    const carriers::Carrier* chosen = &carriers::automatic_carrier(local_destination != nullptr);
+    if (!automatic) {
+        auto found = carriers::find_carrier(carrier.base);
+        if (!found)
+            co_return refuse(found.error().message);
+        chosen = *found;
+    }
+    const std::string base(chosen->name());
     if (chosen->within_daemon()) {
         if (!local_destination) {
             co_return refuse("carrier '" + std::string(chosen->name()) +

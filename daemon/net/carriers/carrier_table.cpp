@@ -19,7 +19,6 @@ const UdpCarrier udp{};
 const McastCarrier mcast{};
 const LocalCarrier local{};
 
-// tcp first: the carrier between daemons when the connect names none.
 const Carrier* const table[] = {&tcp, &udp, &mcast, &local};
 
 }  // namespace
@@ -33,6 +32,13 @@ proto::Result<const Carrier*> find_carrier(std::string_view base) {
     for (const Carrier* carrier : table)
         known += (known.empty() ? "" : ", ") + std::string(carrier->name());
     return proto::Error{"unknown carrier '" + std::string(base) + "' (this daemon knows " + known + ")"};
+}
+
+const Carrier& automatic_carrier(bool both_ports_here) {
+    // In the daemon when it can be (no copy, no socket); else the reliable, ordered one.
+    if (both_ports_here)
+        return local;
+    return tcp;
 }
 
 std::vector<std::string_view> carrier_names() {

@@ -18,6 +18,9 @@ namespace plexus::daemon::carriers {
 /// the carriers there are when there is none.
 proto::Result<const Carrier*> find_carrier(std::string_view base);
 
+/// The carrier of a connect that names none: `local` when both ports are on this daemon, else `tcp`.
+const Carrier& automatic_carrier(bool both_ports_here);
+
 /// The base names of every carrier in the table, in table order.
 std::vector<std::string_view> carrier_names();
 

@@ -64,6 +64,11 @@ TEST(CarrierTable_test, OnlyLocalStaysWithinTheDaemon) {
         EXPECT_EQ((*find_carrier(name))->within_daemon(), name == "local") << name;
 }
 
+TEST(CarrierTable_test, AConnectNamingNoCarrierStaysInTheDaemonWhenItCanElseTakesTcp) {
+    EXPECT_EQ(automatic_carrier(true).name(), "local");
+    EXPECT_EQ(automatic_carrier(false).name(), "tcp");
+}
+
 TEST(CarrierTable_test, LocalSendingEndIsTheDestinationsInletAndReportsNothing) {
     TestHost host;
     arbitration::ManualClock clock;
