@@ -56,7 +56,7 @@ using SendStageMaker =
 struct SendingContext {
     CarrierHost& host;
     proto::AttachRequest request;  ///< source, destination, carrier text, and what prepare_attach added
-    proto::Carrier carrier;        ///< the carrier parsed (qos); empty base when chosen automatically
+    proto::Carrier carrier;        ///< the carrier parsed (qos); empty base for a local connect naming none
     std::shared_ptr<Peer> link;    ///< across daemons: the link that attached the connection
     proto::Endpoint endpoint;      ///< across daemons: where the receiving daemon listens
     proto::AttachReply attached;   ///< across daemons: its answer to attach
