@@ -22,7 +22,7 @@
 #include "net/asio.hpp"
 #include "net/session_host.hpp"
 #include "net/signal.hpp"
-#include "net/udp_carrier.hpp"
+#include "net/udp_socket.hpp"
 #include "plexus/proto/control.hpp"
 #include "web/http_server.hpp"
 
@@ -66,7 +66,10 @@ public:
     Router& router() override { return router_; }
     names::NameClient& names() override { return *names_; }
     ScriptHost& scripts() override { return *scripts_; }
-    UdpCarrier& udp() override { return udp_; }
+    UdpSocket& udp() override { return udp_; }
+    Task<proto::Result<std::string>> mcast_group(std::string source) override {
+        return names_->mcast_group(std::move(source));
+    }
     const arbitration::Clock& clock() const override { return clock_; }
     DaemonCounters& counters() override { return counters_; }
     std::size_t session_count() const override { return sessions_.size(); }
@@ -103,7 +106,7 @@ private:
     std::unique_ptr<names::NameClient> names_;
     asio::ip::tcp::acceptor tcp_acceptor_;
     asio::local::stream_protocol::acceptor unix_acceptor_;
-    UdpCarrier udp_;
+    UdpSocket udp_;
     asio::signal_set signals_;
     std::map<std::uint64_t, std::weak_ptr<Session>> sessions_;
     std::vector<std::weak_ptr<Peer>> links_;  ///< sending ends of tcp connections, flushed at shutdown

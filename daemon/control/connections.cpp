@@ -1,14 +1,16 @@
 // Connections between ports: `connect` (both ends here, or the sending end of one to another
 // daemon), `attach` (the receiving end of one from another daemon), `disconnect`, and the
-// connections the name server remembers.
+// connections the name server remembers. What differs from carrier to carrier is the carrier's
+// (net/carriers/): here a carrier is looked up in the table and asked for its ends.
+#include <utility>
+
 #include <spdlog/spdlog.h>
 
 #include "control_plane.hpp"
 #include "core/router.hpp"
 #include "names/name_client.hpp"
-#include "net/link.hpp"
+#include "net/carriers/carrier_table.hpp"
 #include "net/session.hpp"
-#include "net/udp_carrier.hpp"
 #include "plexus/proto/carrier.hpp"
 #include "plexus/proto/port_name.hpp"
 #include "request_fields.hpp"
@@ -20,75 +22,28 @@ namespace plexus::daemon {
 namespace {
 using proto::ReplyCode;
 
-/// True when the carrier text's base is `base` ("udp", "mcast").
-bool has_base(const std::string& carrier_text, const std::string& base) {
-    return carrier_text == base || carrier_text.rfind(base + "+", 0) == 0;
-}
-
-/// The send-side clauses of a carrier, as text ("" when none): what mcast connections of one port
-/// must agree on.
-std::string send_clauses(const std::string& carrier_text) {
+/// The carrier's parsed text (empty when it does not parse: it was checked before).
+proto::Carrier parsed_or_empty(const std::string& carrier_text) {
     auto parsed = proto::parse_carrier(carrier_text);
-    if (!parsed)
-        return {};
-    proto::Carrier sends;
-    sends.base = parsed->base;
-    for (const auto& clause : parsed->clauses) {
-        if (clause.side == proto::Side::send)
-            sends.clauses.push_back(clause);
-    }
-    return sends.clauses.empty() ? std::string{} : sends.text();
-}
-
-/// The carrier's qos settings (none when the text does not parse: it was checked before).
-proto::Qos qos_of(const std::string& carrier_text) {
-    auto parsed = proto::parse_carrier(carrier_text);
-    return parsed ? parsed->qos : proto::Qos{};
-}
-
-/// "A.B.C.D:PORT" as a multicast endpoint; nullopt when it is not one.
-std::optional<asio::ip::udp::endpoint> group_endpoint(const std::string& text) {
-    auto parsed = proto::parse_endpoint(text);
-    if (!parsed)
-        return std::nullopt;
-    boost::system::error_code ec;
-    const auto address = asio::ip::make_address(parsed->host, ec);
-    if (ec || !address.is_multicast() || parsed->port == 0)
-        return std::nullopt;
-    return asio::ip::udp::endpoint(address, parsed->port);
-}
-/// The send-side monitors of a connection on a worker of their own, in front of its sink; null
-/// without monitors. A sink that never holds the writer back (latest, datagrams) makes the
-/// monitors drop their oldest waiting message when they fall behind, rather than hold it back.
-std::shared_ptr<MessageFilter> send_stage(ScriptHost& scripts, std::shared_ptr<monitor::MonitorChain> chain,
-                                          const std::shared_ptr<Connection>& connection) {
-    if (!chain)
-        return nullptr;
-    monitor::MonitorStage::Options options;
-    options.drop_oldest = connection->sink->room() >= (std::size_t{1} << 30);
-    return scripts.make_stage(std::move(chain), nullptr, options, connection);
+    return parsed ? *parsed : proto::Carrier{};
 }
 
 }  // namespace
 
-proto::Result<std::shared_ptr<MessageSink>> ControlPlane::udp_sending_end(std::shared_ptr<Peer> link,
-                                                                          const proto::Endpoint& endpoint,
-                                                                          const proto::AttachReply& attached,
-                                                                          std::string description,
-                                                                          std::optional<int> dscp) {
-    const std::uint64_t port = attached.udp_port.value_or(0);
-    const std::uint64_t stream = attached.stream;
-    boost::system::error_code ec;
-    const auto address = asio::ip::make_address(endpoint.host, ec);
-    if (port == 0 || port > 65535 || stream == 0 || ec) {
-        return proto::Error{
-            "the daemon at " + endpoint.text() +
-            " gave no usable udp port and stream for this connection (udp needs IP addresses)"};
-    }
-    asio::ip::udp::endpoint to(address, static_cast<std::uint16_t>(port));
-    std::shared_ptr<MessageSink> sink =
-        std::make_shared<UdpLink>(host_.udp(), to, stream, std::move(link), std::move(description), dscp);
-    return sink;
+carriers::SendStageMaker ControlPlane::send_stage_maker(std::shared_ptr<monitor::MonitorChain> chain) {
+    if (!chain)
+        return {};
+    // The chain moves into the one stage made: from then on its monitors belong to that stage's
+    // worker (which lets them go there), not to whoever still holds this function.
+    return
+        [&scripts = host_.scripts(), chain = std::move(chain)](
+            std::weak_ptr<FilterClient> client, bool drop_oldest) mutable -> std::shared_ptr<MessageFilter> {
+            if (!chain)
+                return nullptr;
+            monitor::MonitorStage::Options options;
+            options.drop_oldest = drop_oldest;
+            return scripts.make_stage(std::exchange(chain, nullptr), nullptr, options, std::move(client));
+        };
 }
 
 Task<proto::Reply> ControlPlane::connect(std::shared_ptr<Session>, const proto::Request& request) {
@@ -125,22 +80,50 @@ Task<proto::Reply> ControlPlane::connect(std::shared_ptr<Session>, const proto::
         co_return refuse(send_chain.error().message);
 
     auto local_destination = router.find(destination);
-    // A network carrier named explicitly goes through the network even between ports of this
-    // daemon (over loopback); only `local`, or no carrier, stays in the daemon.
-    const bool wants_network = !automatic && carrier.base != "local";
-    const bool wants_local = !automatic && carrier.base == "local";
-    if (local_destination && !wants_network) {
+    // No carrier named: the table's choice (local when both ports are here, else tcp). A carrier
+    // between daemons named explicitly goes through the network even between ports of this daemon
+    // (over loopback); only a carrier within the daemon (`local`), or none, stays in it.
+    const carriers::Carrier* chosen = &carriers::automatic_carrier(local_destination != nullptr);
+    if (!automatic) {
+        auto found = carriers::find_carrier(carrier.base);
+        if (!found)
+            co_return refuse(found.error().message);
+        chosen = *found;
+    }
+    const std::string base(chosen->name());
+    if (chosen->within_daemon()) {
+        if (!local_destination) {
+            co_return refuse("carrier '" + std::string(chosen->name()) +
+                             "' needs both ports on one daemon, and " + destination + " is not on this one");
+        }
         auto connection = std::make_shared<Connection>();
         connection->source = source;
         connection->destination = destination;
-        connection->carrier = automatic ? "local" : carrier_text;
+        connection->carrier = automatic ? base : carrier_text;
         connection->priority = carrier.qos.prio.value_or(0);
         const InletSpec spec{local_destination, source, carrier, connection->carrier, asked.strict};
-        // The connection takes the inlet before the inlet joins its port: a pair already
-        // connected is refused with nothing joined.
-        const InletHandOver hand_over = [&](const std::shared_ptr<Inlet>& inlet) {
-            connection->sink = inlet;
-            connection->send_monitors = send_stage(host_.scripts(), std::move(*send_chain), connection);
+        carriers::SendingContext context{.host = host_,
+                                         .request = {},
+                                         .carrier = carrier,
+                                         .link = nullptr,
+                                         .endpoint = {},
+                                         .attached = {},
+                                         .inlet = nullptr,
+                                         .connection = connection,
+                                         .make_send_stage = send_stage_maker(std::move(*send_chain))};
+        context.request.source = source;
+        context.request.destination = destination;
+        context.request.carrier = connection->carrier;
+        context.request.strict = asked.strict;
+        // The connection takes its sending end (the inlet) before the inlet joins its port: a pair
+        // already connected is refused with nothing joined.
+        const InletHandOver hand_over = [&](const std::shared_ptr<Inlet>& inlet) -> proto::Status {
+            context.inlet = inlet;
+            auto end = chosen->make_sending_end(context);
+            if (!end)
+                return end.error();
+            connection->sink = end->sink;
+            connection->send_monitors = end->send_monitors;
             return router.add(port, connection);
         };
         auto wired = wire_inlet(host_.scripts(), host_.clock(), spec, hand_over);
@@ -152,28 +135,25 @@ Task<proto::Reply> ControlPlane::connect(std::shared_ptr<Session>, const proto::
         spdlog::info("connected {} -> {} ({})", source, destination, connection->carrier);
         co_return ok(proto::ConnectReply{connection->carrier, wired->warnings});
     }
-    if (wants_local) {
-        co_return refuse("carrier 'local' needs both ports on one daemon, and " + destination +
-                         " is not on this one");
-    }
     std::string where;
     if (local_destination) {
         where = host_.address();
     } else {
-        auto found = co_await host_.names().lookup(destination);
-        if (!found)
-            co_return refuse(found.error().message);
-        where = found->address;
+        auto looked_up = co_await host_.names().lookup(destination);
+        if (!looked_up)
+            co_return refuse(looked_up.error().message);
+        where = looked_up->address;
     }
-    std::string chosen = carrier_text;
+    std::string chosen_text = carrier_text;
     if (automatic)
-        chosen = "tcp";
+        chosen_text = base;
     std::shared_ptr<monitor::MonitorChain> chain = std::move(*send_chain);
-    co_return co_await connect_remote(asked, port, chosen, where, chain);
+    co_return co_await connect_remote(asked, port, chosen_text, chosen, where, chain);
 }
 
 Task<proto::Reply> ControlPlane::connect_remote(proto::ConnectRequest asked, std::shared_ptr<Port> port,
-                                                std::string carrier, std::string address,
+                                                std::string carrier, const carriers::Carrier* chosen,
+                                                std::string address,
                                                 std::shared_ptr<monitor::MonitorChain> send_chain) {
     const std::string source = port->name();
     const std::string destination = asked.destination;
@@ -184,63 +164,64 @@ Task<proto::Reply> ControlPlane::connect_remote(proto::ConnectRequest asked, std
     auto endpoint = proto::parse_endpoint(address);
     if (!endpoint)
         co_return refuse("the name server gave a bad address for " + destination + ": " + address);
-    auto end = co_await open_sending_end(port, destination, carrier, *endpoint, asked.strict);
-    if (!end.peer)
-        co_return end.answer;
+    auto link = co_await open_link(port, chosen, destination, carrier, *endpoint, asked.strict);
+    if (!link.peer)
+        co_return link.answer;
+    const proto::Carrier parsed = parsed_or_empty(carrier);
     auto connection = std::make_shared<Connection>();
     connection->source = source;
     connection->destination = destination;
     connection->carrier = carrier;
     connection->remote = true;
-    connection->priority = qos_of(carrier).prio.value_or(0);
+    connection->priority = parsed.qos.prio.value_or(0);
     connection->persistent = asked.persist;
-    connection->sink = end.sink;
-    if (auto* mcast = dynamic_cast<McastLink*>(end.sink.get())) {
-        // The send-side monitors of mcast run once per message, for the port's one sender, not
-        // once per connection: all mcast connections of a port share them, on one stage.
-        const auto& sender = mcast->shared_sender();
-        auto first = sender->share_send_clauses(send_clauses(carrier));
-        if (!first) {
-            end.peer->close("send monitors differ");
-            co_return refuse(first.error().message);
-        }
-        if (*first && send_chain) {
-            monitor::MonitorStage::Options options;
-            options.drop_oldest = true;  // datagrams never hold the writer back
-            sender->attach_send_stage(
-                host_.scripts().make_stage(std::move(send_chain), nullptr, options, sender));
-        }
-    } else {
-        connection->send_monitors = send_stage(host_.scripts(), std::move(send_chain), connection);
+    carriers::SendingContext context{.host = host_,
+                                     .request = link.request,
+                                     .carrier = parsed,
+                                     .link = link.peer,
+                                     .endpoint = *endpoint,
+                                     .attached = link.attached,
+                                     .inlet = nullptr,
+                                     .connection = connection,
+                                     .make_send_stage = send_stage_maker(std::move(send_chain))};
+    auto end = chosen->make_sending_end(context);
+    if (!end) {
+        link.peer->close("no sending end");
+        co_return refuse(end.error().message);
     }
+    connection->sink = end->sink;
+    connection->send_monitors = end->send_monitors;
     if (auto added = host_.router().add(port, connection); !added) {
-        end.peer->close("duplicate");
+        link.peer->close("duplicate");
         co_return refuse(added.error().message);
     }
-    host_.keep_link(end.peer);
-    watch_link(end, connection);
+    host_.keep_link(link.peer);
+    watch_link(link.peer, end->queue, connection);
     names::ConnectionEntry entry{source, destination, carrier, connection->persistent};
     co_await host_.names().add_connection(std::move(entry));
     spdlog::info("connected {} -> {} ({} to {})", source, destination, carrier, address);
-    co_return ok(proto::ConnectReply{carrier, end.attached.warnings});
+    co_return ok(proto::ConnectReply{carrier, link.attached.warnings});
 }
 
-Task<ControlPlane::SendingEnd> ControlPlane::open_sending_end(std::shared_ptr<Port> port,
-                                                              std::string destination, std::string carrier,
-                                                              proto::Endpoint endpoint, bool strict) {
+Task<ControlPlane::AttachedLink> ControlPlane::open_link(std::shared_ptr<Port> port,
+                                                         const carriers::Carrier* chosen,
+                                                         std::string destination, std::string carrier,
+                                                         proto::Endpoint endpoint, bool strict) {
     const std::string source = port->name();
-    SendingEnd end;
-    std::string group;
-    if (has_base(carrier, "mcast")) {
-        // One group per source port, given out by the name server: every daemon with a reader
-        // joins it, and this daemon sends each message there once.
-        auto given = co_await host_.names().mcast_group(source);
-        if (!given) {
-            end.answer = refuse("no multicast group for " + source + ": " + given.error().message);
-            co_return end;
-        }
-        group = *given;
+    AttachedLink end;
+    proto::AttachRequest request;
+    request.source = source;
+    request.destination = destination;
+    request.carrier = carrier;
+    request.strict = strict;
+    // What the carrier adds to the attach request (mcast: the port's group) it may have to ask
+    // for; a refusal here opens no link.
+    auto prepared = co_await chosen->prepare_attach(host_, request);
+    if (!prepared) {
+        end.answer = refuse(prepared.error().message);
+        co_return end;
     }
+    end.request = std::move(*prepared);
     const proto::Hello hello = our_hello("link");
     const auto secret = host_.config().secret;
     auto peer = co_await Peer::connect(executor_, endpoint, hello, host_.config().max_frame, peer_timeout,
@@ -252,8 +233,8 @@ Task<ControlPlane::SendingEnd> ControlPlane::open_sending_end(std::shared_ptr<Po
     auto link_peer = *peer;
     link_peer->set_description("link " + source + " -> " + destination);
     // qos.dscp marks the link's socket: every connection has a link socket of its own, so the
-    // mark is this connection's alone (udp and mcast mark their datagrams below).
-    const proto::Qos qos = qos_of(carrier);
+    // mark is this connection's alone (udp and mcast mark their datagrams themselves).
+    const proto::Qos qos = parsed_or_empty(carrier).qos;
     if (qos.dscp) {
         if (auto marked = link_peer->mark_packets(*qos.dscp); !marked) {
             link_peer->close("cannot mark packets");
@@ -262,8 +243,7 @@ Task<ControlPlane::SendingEnd> ControlPlane::open_sending_end(std::shared_ptr<Po
         }
     }
     // The receiving daemon wires its end (monitors, arbitration) while it answers attach.
-    const nlohmann::json attach_body =
-        proto::AttachRequest{source, destination, carrier, strict, group}.encode();
+    const nlohmann::json attach_body = end.request.encode();
     auto replied = co_await link_peer->request(attach_body, peer_timeout);
     if (!replied || replied->code != ReplyCode::ok) {
         link_peer->close("attach refused");
@@ -283,55 +263,17 @@ Task<ControlPlane::SendingEnd> ControlPlane::open_sending_end(std::shared_ptr<Po
     }
     end.answer = *replied;
     end.attached = *attached;
-    if (!group.empty()) {
-        // mcast: every message goes once to the source port's group, whatever the connections.
-        auto sender = host_.udp().mcast_sender(source, *group_endpoint(group));
-        if (qos.dscp)
-            sender->mark(*qos.dscp);
-        end.peer = link_peer;
-        end.sink = std::make_shared<McastLink>(std::move(sender), link_peer);
-        co_return end;
-    }
-    if (has_base(carrier, "udp")) {
-        // udp: every message leaves at once as datagrams to the stream the receiver opened; the
-        // link stays open beside it, and its closing ends the connection.
-        auto sink = udp_sending_end(link_peer, endpoint, *attached,
-                                    "connection " + source + " -> " + destination, qos.dscp);
-        if (!sink) {
-            link_peer->close("bad attach answer");
-            end.answer = refuse(sink.error().message);
-            co_return end;
-        }
-        end.peer = link_peer;
-        end.sink = *sink;
-        co_return end;
-    }
-    // tcp: messages wait in the link's queue and leave on its socket. Into a latest port the link
-    // keeps only the newest few and a small socket buffer, so a slow network adds little delay
-    // (the kernel's buffer would otherwise hold seconds of data at 10 Mbit/s); into a strict port
-    // it holds the writer back.
-    const bool latest = attached->policy == "latest";
-    const std::size_t capacity = latest
-                                     ? std::min<std::size_t>(host_.config().link_capacity,
-                                                             std::max<std::uint64_t>(1, attached->capacity))
-                                     : host_.config().link_capacity;
-    constexpr int latest_send_buffer = 64 * 1024;
-    if (latest)
-        link_peer->limit_send_buffer(latest_send_buffer);
-    auto link = std::make_shared<Link>(link_peer, capacity, host_.config().queue_bytes,
-                                       latest ? QueuePolicy::latest : QueuePolicy::strict);
     end.peer = link_peer;
-    end.sink = link;
-    end.queue = link->queue();
     co_return end;
 }
 
-void ControlPlane::watch_link(const SendingEnd& end, const std::shared_ptr<Connection>& connection) {
+void ControlPlane::watch_link(std::shared_ptr<Peer> link, std::shared_ptr<const ReaderQueue> queue,
+                              const std::shared_ptr<Connection>& connection) {
     std::weak_ptr<Connection> weak = connection;
     // The queue is held here, not reached through the connection: after a disconnect the
     // connection is gone while the link still drains, and what it could not send must be counted.
-    end.peer->closed_handler = [&host = host_, weak, queue = end.queue, source = connection->source,
-                                destination = connection->destination](const std::string& reason) {
+    link->closed_handler = [&host = host_, weak, queue = std::move(queue), source = connection->source,
+                            destination = connection->destination](const std::string& reason) {
         if (queue && queue->depth() > 0) {
             host.counters().dropped_link_down += queue->depth();
             spdlog::warn("connection {} -> {} lost {} queued messages: {}", source, destination,
@@ -367,6 +309,10 @@ Task<proto::Reply> ControlPlane::attach(std::shared_ptr<Session> session, const 
         co_return refuse("bad carrier: " + carrier.error().message);
     if (auto valid = proto::validate_carrier(*carrier); !valid)
         co_return refuse(valid.error().message);
+    auto found = carriers::find_carrier(carrier->base);
+    if (!found)
+        co_return refuse(found.error().message);
+    const carriers::Carrier* chosen = *found;
     // A link carries only a source that lives on its own node (the node its hello named, which the
     // deployment secret vouches for): no daemon feeds another's port under a third one's name.
     const std::string link_node = session->peer_hello().node;
@@ -386,36 +332,13 @@ Task<proto::Reply> ControlPlane::attach(std::shared_ptr<Session> session, const 
     answer.warnings = wired->warnings;
     answer.policy = queue_policy_name(port->queue().policy());
     answer.capacity = port->queue().capacity();
-    if (carrier->base == "udp") {
-        // udp: datagrams from the link's address, for a stream of its own, feed the inlet.
-        const auto sender = session->remote_ip();
-        if (!sender)
-            co_return refuse("the udp carrier needs a link over TCP (an IP address to take datagrams from)");
-        auto stream = host_.udp().open_stream(wired->inlet, *sender);
-        wired->inlet->datagrams = UdpCarrier::datagrams(*stream);
-        answer.udp_port = host_.udp().port();
-        answer.stream = UdpCarrier::id(*stream);
-        session->hold_while_linked(stream);
-    }
-    // tcp: the link session itself feeds the inlet, with the data frames the sending daemon writes.
-    if (carrier->base == "mcast") {
-        // mcast: join the source port's group, which the name server (not the sender) vouches for.
-        const std::string& claimed = asked->group;
-        auto given = co_await host_.names().mcast_group(source);
-        if (!given)
-            co_return refuse("no multicast group for " + source + ": " + given.error().message);
-        const auto group = group_endpoint(*given);
-        if (!group || claimed != *given)
-            co_return refuse("the group " + claimed + " is not the one the name server gives " + source);
-        const auto sender = session->remote_ip();
-        if (!sender)
-            co_return refuse("the mcast carrier needs a link over TCP");
-        auto joined = host_.udp().join_group(*group, wired->inlet, *sender);
-        if (!joined)
-            co_return refuse(joined.error().message);
-        wired->inlet->datagrams = UdpCarrier::datagrams(**joined);
-        session->hold_while_linked(*joined);
-    }
+    // What feeds the inlet besides the link session's own data frames is the carrier's.
+    const carriers::ReceivingContext context{
+        .host = host_, .session = session, .request = *asked, .carrier = *carrier, .inlet = wired->inlet};
+    auto received = co_await chosen->attach_receiving_end(context, answer);
+    if (!received)
+        co_return refuse(received.error().message);
+    answer = std::move(*received);
     if (carrier->qos.dscp) {
         // This end sends the acknowledgements and replies of the connection's link: same mark.
         if (auto marked = session->mark_packets(*carrier->qos.dscp); !marked)

@@ -9,6 +9,7 @@
 
 #include "arbitration/clock.hpp"
 #include "daemon_config.hpp"
+#include "net/carriers/carrier.hpp"
 
 namespace plexus::daemon {
 
@@ -16,19 +17,19 @@ class Peer;
 class Port;
 class Router;
 class ScriptHost;
-class UdpCarrier;
 namespace names {
 class NameClient;
 }
 
 /// What the control plane needs of the daemon, which implements it: the state the request handlers
 /// read and the few things they ask the daemon to do. Narrow on purpose (like monitor::MonitorHost):
-/// the handlers never see the daemon's listeners, its session table or its shutdown.
-class ControlHost {
+/// the handlers never see the daemon's listeners, its session table or its shutdown. It includes
+/// what the carriers need (config(), udp(), mcast_group()), so the control plane hands it down
+/// to them as their host (CarrierHost).
+class ControlHost : public carriers::CarrierHost {
 public:
     virtual ~ControlHost() = default;
 
-    virtual const DaemonConfig& config() const = 0;
     /// HOST:PORT of the daemon's TCP listener: where other daemons and the CLI reach it.
     virtual std::string address() const = 0;
     /// HOST:PORT of the web endpoint (--http); "" when it serves none.
@@ -38,8 +39,6 @@ public:
     virtual Router& router() = 0;
     virtual names::NameClient& names() = 0;
     virtual ScriptHost& scripts() = 0;
-    /// The daemon's UDP socket, for connections with the udp carrier.
-    virtual UdpCarrier& udp() = 0;
     /// Where arbitration reads the time (event lifetimes, stimulation decay).
     virtual const arbitration::Clock& clock() const = 0;
     virtual DaemonCounters& counters() = 0;

@@ -14,6 +14,7 @@
 #include "control_host.hpp"
 #include "names/name_protocol.hpp"
 #include "net/asio.hpp"
+#include "net/carriers/carrier.hpp"
 #include "net/shm_region.hpp"
 #include "plexus/proto/control.hpp"
 #include "plexus/proto/endpoint.hpp"
@@ -68,13 +69,12 @@ private:
     /// The row of `op` if a session whose hello said `role` may send it; else null.
     static const Operation* find_operation(proto::Op op, const std::string& role);
 
-    /// The sending end of a connection to another daemon, once that daemon has accepted it.
-    struct SendingEnd {
-        std::shared_ptr<Peer> peer;                ///< the link to the receiving daemon; null if refused
-        std::shared_ptr<MessageSink> sink;         ///< what the router hands messages to
-        std::shared_ptr<const ReaderQueue> queue;  ///< what waits to leave, counted if the link dies
-        proto::Reply answer;          ///< the receiving daemon's answer to attach, or why there is no end
-        proto::AttachReply attached;  ///< that answer decoded, when it was one
+    /// The link of a connection to another daemon, once that daemon has attached its end.
+    struct AttachedLink {
+        std::shared_ptr<Peer> peer;    ///< the link to the receiving daemon; null if refused
+        proto::AttachRequest request;  ///< what it was asked, with what the carrier added
+        proto::Reply answer;           ///< the receiving daemon's answer to attach, or why there is no link
+        proto::AttachReply attached;   ///< that answer decoded, when it was one
     };
 
     // ports.cpp: a client's own ports.
@@ -86,23 +86,23 @@ private:
     // connections.cpp
     /// Needs no session: restore_persistent calls it with none.
     Task<proto::Reply> connect(std::shared_ptr<Session> session, const proto::Request& request);
+    /// The connection to another daemon (`address`) with carrier `carrier` (its text, and its
+    /// entry in the carrier table, `chosen`).
     Task<proto::Reply> connect_remote(proto::ConnectRequest asked, std::shared_ptr<Port> source,
-                                      std::string carrier, std::string address,
-                                      std::shared_ptr<monitor::MonitorChain> send_chain);
-    /// Connects to the daemon at `endpoint`, asks it to attach `destination` for this connection,
-    /// and makes the queue the router will hand messages to. The one place a carrier's sending end
-    /// across daemons is built.
-    Task<SendingEnd> open_sending_end(std::shared_ptr<Port> source, std::string destination,
-                                      std::string carrier, proto::Endpoint endpoint, bool strict);
-    /// The sink of a udp connection: datagrams to the stream the receiving daemon opened in its
-    /// answer to attach (`udp_port`, `stream`).
-    proto::Result<std::shared_ptr<MessageSink>> udp_sending_end(std::shared_ptr<Peer> link,
-                                                                const proto::Endpoint& endpoint,
-                                                                const proto::AttachReply& attached,
-                                                                std::string description,
-                                                                std::optional<int> dscp = {});
-    /// When the link of `connection` closes: counts what it could not send, removes the connection.
-    void watch_link(const SendingEnd& end, const std::shared_ptr<Connection>& connection);
+                                      std::string carrier, const carriers::Carrier* chosen,
+                                      std::string address, std::shared_ptr<monitor::MonitorChain> send_chain);
+    /// Connects to the daemon at `endpoint` and asks it to attach `destination` for this
+    /// connection, with what carrier `chosen` adds to the request. The carrier then makes the
+    /// sending end on this link (connect_remote).
+    Task<AttachedLink> open_link(std::shared_ptr<Port> source, const carriers::Carrier* chosen,
+                                 std::string destination, std::string carrier, proto::Endpoint endpoint,
+                                 bool strict);
+    /// What makes the stage of a connection's send-side monitors, for its carrier to call (null
+    /// without monitors). The control plane owns the scripts; the carrier chooses where they report.
+    carriers::SendStageMaker send_stage_maker(std::shared_ptr<monitor::MonitorChain> chain);
+    /// When `link` closes: counts what its `queue` could not send, removes the connection.
+    void watch_link(std::shared_ptr<Peer> link, std::shared_ptr<const ReaderQueue> queue,
+                    const std::shared_ptr<Connection>& connection);
     /// The receiving end of a connection from another daemon: the link session feeds an inlet.
     Task<proto::Reply> attach(std::shared_ptr<Session> session, const proto::Request& request);
     Task<proto::Reply> disconnect(std::shared_ptr<Session> session, const proto::Request& request);

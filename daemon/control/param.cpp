@@ -13,7 +13,6 @@
 #include "core/router.hpp"
 #include "monitor/stage.hpp"
 #include "names/name_client.hpp"
-#include "net/udp_carrier.hpp"
 #include "plexus/proto/carrier.hpp"
 #include "request_fields.hpp"
 
@@ -172,8 +171,8 @@ Task<proto::Reply> ControlPlane::param(std::shared_ptr<Session>, const proto::Re
     Takers recv_took;
     // An mcast connection's send-side monitors are its port's, shared by all its mcast connections.
     std::shared_ptr<MessageFilter> send_side = connection->send_monitors;
-    if (const auto* mcast = dynamic_cast<const McastLink*>(connection->sink.get()))
-        send_side = mcast->sender().send_stage();
+    if (auto shared = connection->sink->shared_send_stage())
+        send_side = std::move(shared);
     auto applied = co_await apply_on_worker(send_side, asked, results, any_setparam, send_took);
     if (!applied)
         co_return proto::make_refusal(0, ReplyCode::refused, applied.error().message);

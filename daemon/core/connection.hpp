@@ -5,10 +5,16 @@
 #include <memory>
 #include <string>
 
+#include <nlohmann/json_fwd.hpp>
+
 #include "message.hpp"
 #include "message_filter.hpp"
 
 namespace plexus::daemon {
+
+/// The room of a sink that is never full (a datagram sender): large enough never to cut a batch,
+/// small enough that sums of it cannot overflow.
+inline constexpr std::size_t never_full_room = std::size_t{1} << 30;
 
 /// Where a connection delivers: a port of this daemon, or a link to another daemon.
 class MessageSink {
@@ -21,6 +27,13 @@ public:
     virtual void deliver(const Message& message) = 0;
     /// The connection is going away: send what is queued, then let go.
     virtual void close_after_flush() {}
+    /// Adds what this sink counts itself to its connection's entry in `plexus stats` (a tcp link's
+    /// queue, a datagram sender's counters). The views ask the sink rather than cast it to each
+    /// carrier's type, so that a new carrier's sending end reports itself. Nothing by default.
+    virtual void report_stats(nlohmann::json& entry) const { (void)entry; }
+    /// The send-side monitors when the sink runs them itself, for every connection it serves (mcast:
+    /// once per source port); null when each connection runs its own (Connection::send_monitors).
+    virtual std::shared_ptr<MessageFilter> shared_send_stage() const { return nullptr; }
 };
 
 /// A directed connection out of a port of this daemon.

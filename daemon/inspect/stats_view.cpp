@@ -3,8 +3,7 @@
 #include "core/router.hpp"
 #include "inlet_counters.hpp"
 #include "monitor/stage.hpp"
-#include "net/link.hpp"
-#include "net/udp_carrier.hpp"
+#include "net/udp_socket.hpp"
 #include "script_host.hpp"
 
 namespace plexus::daemon::inspect {
@@ -33,30 +32,11 @@ nlohmann::json stats_view(ControlHost& host, const ShmUsage& shm, const std::str
                                  {"carrier", c->carrier},
                                  {"sent", c->sent},
                                  {"dropped_by_monitor", c->dropped_by_monitor}};
-            if (const auto* link = dynamic_cast<const Link*>(c->sink.get())) {
-                entry["queued"] = link->queued();
-                entry["dropped_latest"] = link->dropped();  // a link into a latest port keeps the newest
-            }
-            if (const auto* mcast = dynamic_cast<const McastLink*>(c->sink.get())) {
-                // The port's one sending end: every mcast connection of the port shows the same.
-                const auto& sent = mcast->sender().counters();
-                entry["mcast"] = {{"group", mcast->sender().group().address().to_string() + ":" +
-                                                std::to_string(mcast->sender().group().port())},
-                                  {"messages_sent_once", sent.messages},
-                                  {"datagrams", sent.datagrams},
-                                  {"dropped_too_large", sent.dropped_too_large},
-                                  {"dropped_send", sent.dropped_send},
-                                  {"dropped_by_monitor", sent.dropped_by_monitor}};
-                if (const auto* stage = monitor::stage_of(mcast->sender().send_stage()))
-                    entry["monitors"] = stage->chain().stats();
-            }
-            if (const auto* udp = dynamic_cast<const UdpLink*>(c->sink.get())) {
-                const auto& sent = udp->counters();
-                entry["udp"] = {{"messages", sent.messages},
-                                {"datagrams", sent.datagrams},
-                                {"dropped_too_large", sent.dropped_too_large},
-                                {"dropped_send", sent.dropped_send}};
-            }
+            // What the carrier's sending end counts itself (a tcp link's queue, udp's or mcast's
+            // datagrams), and the monitors it runs for the whole port (mcast's shared ones).
+            c->sink->report_stats(entry);
+            if (const auto* stage = monitor::stage_of(c->sink->shared_send_stage()))
+                entry["monitors"] = stage->chain().stats();
             if (const auto* stage = monitor::stage_of(c->send_monitors)) {
                 add_stage_counters(entry, *stage);
             }

@@ -27,7 +27,7 @@ namespace {
 constexpr auto stall_timeout = 10s;
 // A lossy stream is over once nothing has arrived for this long (as for Plexus).
 constexpr auto idle_timeout = 500ms;
-// plexusd's UdpConfig::fragment_bytes, datagrams_per_call and socket buffers (udp_carrier.cpp).
+// plexusd's UdpConfig::fragment_bytes, datagrams_per_call and socket buffers (udp_socket.cpp).
 constexpr std::size_t fragment_bytes = 1400;
 constexpr std::size_t datagrams_per_call = 64;
 constexpr int socket_buffer_bytes = 8 * 1024 * 1024;

@@ -1,4 +1,4 @@
-#include "udp_carrier.hpp"
+#include "udp_socket.hpp"
 
 #include <sys/socket.h>
 
@@ -8,7 +8,7 @@
 
 #include <spdlog/spdlog.h>
 
-#include "../core/batch.hpp"
+#include "carriers/mcast_sender.hpp"
 #include "plexus/proto/datagram.hpp"
 #include "plexus/proto/message.hpp"
 
@@ -23,23 +23,23 @@ constexpr std::size_t datagrams_per_call = 64;
 constexpr int socket_buffer_bytes = 8 * 1024 * 1024;
 }  // namespace
 
-struct UdpCarrier::Group {
+struct UdpSocket::Group {
     explicit Group(asio::io_context& io) : socket(io) {}
     asio::ip::udp::socket socket;
     std::weak_ptr<Stream> stream;
     std::string key;
 };
 
-struct UdpCarrier::Stream {
+struct UdpSocket::Stream {
     std::uint64_t id = 0;                      ///< 0 for a multicast group's stream
     std::vector<std::weak_ptr<Inlet>> inlets;  ///< one for udp; every connection of the group for mcast
     asio::ip::address sender;
     std::shared_ptr<DatagramStream> datagrams;
-    UdpCarrier* carrier = nullptr;
+    UdpSocket* owner = nullptr;    ///< null once the socket is gone
     std::shared_ptr<Group> group;  ///< mcast: the joined group, left with the last handle
     ~Stream() {
-        if (carrier && id != 0)
-            carrier->streams_.erase(id);
+        if (owner && id != 0)
+            owner->streams_.erase(id);
         if (group) {
             boost::system::error_code ignored;
             group->socket.close(ignored);  // ends its loop; closing leaves the group
@@ -47,7 +47,7 @@ struct UdpCarrier::Stream {
     }
 };
 
-UdpCarrier::UdpCarrier(asio::io_context& io, UdpConfig config, std::optional<proto::Secret> secret)
+UdpSocket::UdpSocket(asio::io_context& io, UdpConfig config, std::optional<proto::Secret> secret)
     : io_(io),
       config_(config),
       secret_(std::move(secret)),
@@ -56,21 +56,21 @@ UdpCarrier::UdpCarrier(asio::io_context& io, UdpConfig config, std::optional<pro
     budget_->max_bytes = config_.reassembly_bytes;
 }
 
-UdpCarrier::~UdpCarrier() {
-    // Streams may outlive the carrier in sessions still being torn down: they must not reach back.
+UdpSocket::~UdpSocket() {
+    // Streams may outlive the socket in sessions still being torn down: they must not reach back.
     for (auto& [id, weak] : streams_) {
         if (auto stream = weak.lock())
-            stream->carrier = nullptr;
+            stream->owner = nullptr;
     }
     for (auto& [key, weak] : groups_) {
         if (auto group = weak.lock()) {
             if (auto stream = group->stream.lock())
-                stream->carrier = nullptr;
+                stream->owner = nullptr;
         }
     }
 }
 
-proto::Status UdpCarrier::bind(const asio::ip::address& address, std::uint16_t port) {
+proto::Status UdpSocket::bind(const asio::ip::address& address, std::uint16_t port) {
     boost::system::error_code ec;
     const asio::ip::udp::endpoint endpoint(address, port);
     socket_.open(endpoint.protocol(), ec);
@@ -92,12 +92,12 @@ proto::Status UdpCarrier::bind(const asio::ip::address& address, std::uint16_t p
     return proto::Ok{};
 }
 
-void UdpCarrier::start() {
+void UdpSocket::start() {
     asio::co_spawn(io_, receive_loop(), asio::detached);
     asio::co_spawn(io_, expire_loop(), asio::detached);
 }
 
-void UdpCarrier::stop() {
+void UdpSocket::stop() {
     stopped_ = true;
     boost::system::error_code ignored;
     socket_.close(ignored);
@@ -107,14 +107,14 @@ void UdpCarrier::stop() {
     }
 }
 
-std::uint16_t UdpCarrier::port() const {
+std::uint16_t UdpSocket::port() const {
     boost::system::error_code ec;
     const auto local = socket_.local_endpoint(ec);
     return ec ? 0 : local.port();
 }
 
-std::shared_ptr<UdpCarrier::Stream> UdpCarrier::open_stream(std::weak_ptr<Inlet> inlet,
-                                                            asio::ip::address sender) {
+std::shared_ptr<UdpSocket::Stream> UdpSocket::open_stream(std::weak_ptr<Inlet> inlet,
+                                                          asio::ip::address sender) {
     auto stream = std::make_shared<Stream>();
     stream->id = next_stream_++;
     stream->inlets.push_back(std::move(inlet));
@@ -122,13 +122,14 @@ std::shared_ptr<UdpCarrier::Stream> UdpCarrier::open_stream(std::weak_ptr<Inlet>
     DatagramStream::Limits limits;
     limits.timeout = config_.reassembly_timeout;
     stream->datagrams = std::make_shared<DatagramStream>(budget_, limits);
-    stream->carrier = this;
+    stream->owner = this;
     streams_[stream->id] = stream;
     return stream;
 }
 
-proto::Result<std::shared_ptr<UdpCarrier::Stream>> UdpCarrier::join_group(
-    const asio::ip::udp::endpoint& group, std::weak_ptr<Inlet> inlet, asio::ip::address sender) {
+proto::Result<std::shared_ptr<UdpSocket::Stream>> UdpSocket::join_group(const asio::ip::udp::endpoint& group,
+                                                                        std::weak_ptr<Inlet> inlet,
+                                                                        asio::ip::address sender) {
     using Outcome = proto::Result<std::shared_ptr<Stream>>;
     const std::string key = group.address().to_string() + ":" + std::to_string(group.port());
     if (auto known = groups_.find(key); known != groups_.end()) {
@@ -172,7 +173,7 @@ proto::Result<std::shared_ptr<UdpCarrier::Stream>> UdpCarrier::join_group(
     limits.timeout = config_.reassembly_timeout;
     limits.start_anywhere = true;  // a group may have sent long before this daemon joined
     stream->datagrams = std::make_shared<DatagramStream>(budget_, limits);
-    stream->carrier = this;
+    stream->owner = this;
     stream->group = joined;
     joined->stream = stream;
     groups_[key] = joined;
@@ -181,26 +182,26 @@ proto::Result<std::shared_ptr<UdpCarrier::Stream>> UdpCarrier::join_group(
     return Outcome(stream);
 }
 
-std::shared_ptr<McastSender> UdpCarrier::mcast_sender(const std::string& source,
-                                                      const asio::ip::udp::endpoint& group) {
+std::shared_ptr<carriers::McastSender> UdpSocket::mcast_sender(const std::string& source,
+                                                               const asio::ip::udp::endpoint& group) {
     if (auto known = senders_.find(source); known != senders_.end()) {
         if (auto sender = known->second.lock(); sender && sender->group() == group)
             return sender;
     }
-    auto sender = std::make_shared<McastSender>(*this, group, source);
+    auto sender = std::make_shared<carriers::McastSender>(*this, group, source);
     senders_[source] = sender;
     return sender;
 }
 
-std::uint64_t UdpCarrier::id(const Stream& stream) {
+std::uint64_t UdpSocket::id(const Stream& stream) {
     return stream.id;
 }
 
-std::shared_ptr<const DatagramStream> UdpCarrier::datagrams(const Stream& stream) {
+std::shared_ptr<const DatagramStream> UdpSocket::datagrams(const Stream& stream) {
     return stream.datagrams;
 }
 
-DatagramMarks UdpCarrier::marks_for(int dscp) const {
+DatagramMarks UdpSocket::marks_for(int dscp) const {
     boost::system::error_code ec;
     const auto local = socket_.local_endpoint(ec);
     DatagramMarks marks(!ec && local.address().is_v6() ? AF_INET6 : AF_INET, dscp);
@@ -209,8 +210,8 @@ DatagramMarks UdpCarrier::marks_for(int dscp) const {
     return marks;
 }
 
-bool UdpCarrier::send(const asio::ip::udp::endpoint& to, std::uint64_t stream, std::uint64_t message,
-                      proto::ByteView record, DatagramMarks* marks) {
+bool UdpSocket::send(const asio::ip::udp::endpoint& to, std::uint64_t stream, std::uint64_t message,
+                     proto::ByteView record, DatagramMarks* marks) {
     const std::size_t fragment = config_.fragment_bytes;
     const auto count = proto::fragment_count(record.size(), fragment);
     const bool signing = secret_.has_value();
@@ -275,9 +276,9 @@ bool UdpCarrier::send(const asio::ip::udp::endpoint& to, std::uint64_t stream, s
     return true;
 }
 
-void UdpCarrier::send_counted(const asio::ip::udp::endpoint& to, std::uint64_t stream,
-                              std::uint64_t& next_message, proto::ByteView record, UdpSendCounters& counters,
-                              const std::string& description, DatagramMarks* marks) {
+void UdpSocket::send_counted(const asio::ip::udp::endpoint& to, std::uint64_t stream,
+                             std::uint64_t& next_message, proto::ByteView record, UdpSendCounters& counters,
+                             const std::string& description, DatagramMarks* marks) {
     if (record.size() > config_.max_message) {
         // Never numbered: the receiver sees no gap for it; the sender's counter says it.
         if (counters.dropped_too_large++ == 0) {
@@ -297,7 +298,7 @@ void UdpCarrier::send_counted(const asio::ip::udp::endpoint& to, std::uint64_t s
     counters.datagrams += proto::fragment_count(record.size(), config_.fragment_bytes);
 }
 
-Task<void> UdpCarrier::receive_loop() {
+Task<void> UdpSocket::receive_loop() {
     while (!stopped_) {
         auto [ec] = co_await socket_.async_wait(asio::socket_base::wait_read, use_nothrow);
         if (ec) {
@@ -309,7 +310,7 @@ Task<void> UdpCarrier::receive_loop() {
     }
 }
 
-Task<void> UdpCarrier::group_loop(std::shared_ptr<Group> group) {
+Task<void> UdpSocket::group_loop(std::shared_ptr<Group> group) {
     while (!stopped_ && group->socket.is_open()) {
         auto [ec] = co_await group->socket.async_wait(asio::socket_base::wait_read, use_nothrow);
         if (ec)
@@ -321,7 +322,7 @@ Task<void> UdpCarrier::group_loop(std::shared_ptr<Group> group) {
     }
 }
 
-void UdpCarrier::drain(asio::ip::udp::socket& socket, Stream* fixed) {
+void UdpSocket::drain(asio::ip::udp::socket& socket, Stream* fixed) {
     // Take everything that is waiting before going back to the event loop: a 1 MiB message
     // arrives as hundreds of datagrams.
     thread_local std::vector<std::uint8_t> buffer(largest_datagram);
@@ -336,7 +337,7 @@ void UdpCarrier::drain(asio::ip::udp::socket& socket, Stream* fixed) {
     }
 }
 
-void UdpCarrier::take(proto::ByteView bytes, const asio::ip::udp::endpoint& from, Stream* fixed) {
+void UdpSocket::take(proto::ByteView bytes, const asio::ip::udp::endpoint& from, Stream* fixed) {
     auto decoded = proto::decode_datagram(bytes, config_.max_message);
     if (!decoded) {
         ++counters_.bad_datagrams;
@@ -387,7 +388,7 @@ void UdpCarrier::take(proto::ByteView bytes, const asio::ip::udp::endpoint& from
     }
 }
 
-Task<void> UdpCarrier::expire_loop() {
+Task<void> UdpSocket::expire_loop() {
     asio::steady_timer tick(io_);
     while (!stopped_) {
         // At least a millisecond: a tiny timeout must not make this loop spin.
@@ -409,69 +410,6 @@ Task<void> UdpCarrier::expire_loop() {
             }
         }
     }
-}
-
-McastSender::~McastSender() {
-    if (stage_)
-        stage_->close();  // the monitors go on their worker; nothing more comes back
-}
-
-proto::Result<bool> McastSender::share_send_clauses(const std::string& clauses) {
-    if (!clauses_) {
-        clauses_ = clauses;
-        return true;
-    }
-    if (*clauses_ != clauses) {
-        return proto::Error{"mcast connections of " + source_ +
-                            " share one stream and so its send-side monitors: "
-                            "they are '" +
-                            *clauses_ + "', not '" + clauses + "'"};
-    }
-    return false;  // the new connection's own monitors go: the shared ones serve it
-}
-
-void McastSender::deliver(const Message& message) {
-    // Every mcast connection of the port hands over the same unit, one after the other: send it
-    // for the first only.
-    if (last_.storage == message.storage && last_.record.data() == message.record.data() &&
-        last_.record.size() == message.record.size() && message.storage) {
-        return;
-    }
-    last_ = message;
-    if (stage_)
-        stage_->submit(message);  // what the monitors pass comes back through filtered()
-    else
-        send(message);
-}
-
-void McastSender::filtered(std::vector<Filtered>& results) {
-    for (const auto& result : results) {
-        if (result.verdict == FilterVerdict::pass)
-            send(result.message);
-        else
-            counters_.dropped_by_monitor += result.message.count();
-    }
-}
-
-void McastSender::send(const Message& message) {
-    for_each_record(message, [this](const Message& single) {
-        carrier_.send_counted(group_, 0, next_message_, single.record, counters_, "mcast " + source_,
-                              marks_ ? &*marks_ : nullptr);
-    });
-}
-
-void McastSender::mark(int dscp) {
-    if (dscp_ && *dscp_ >= dscp)
-        return;
-    dscp_ = dscp;
-    marks_ = carrier_.marks_for(dscp);
-}
-
-void UdpLink::deliver(const Message& message) {
-    for_each_record(message, [this](const Message& single) {
-        carrier_.send_counted(to_, stream_, next_message_, single.record, counters_, description_,
-                              marks_ ? &*marks_ : nullptr);
-    });
 }
 
 }  // namespace plexus::daemon
