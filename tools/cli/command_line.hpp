@@ -28,6 +28,7 @@ private:
     void add_port_commands();
     void add_inspect_commands();
     void add_app_commands();
+    void add_what_if_command();
 
     CLI::App app_;
     Common common_;
@@ -52,6 +53,7 @@ private:
     std::string app_file_;
     UpOptions up_options_;
     std::vector<std::string> node_sockets_;
+    WhatIfArgs what_if_args_;
 };
 
 }  // namespace plexus::cli
