@@ -10,7 +10,7 @@
 //  - or after a quiet spell longer than tc + tr since the recording's start or since the
 //    connection's last stimulation: S has decayed to 0 and any rest is over.
 // The events a monitor set before the recording, and a script's own state, are not covered (the
-// recording does not hold them); see docs/RECORDING.md.
+// recording does not hold them); see docs/WHAT_IF.md.
 
 #include <string>
 #include <vector>
