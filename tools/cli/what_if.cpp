@@ -106,8 +106,8 @@ int what_if(const WhatIfArgs& args) {
     options.monitor_lib_dirs = args.monitor_lib_dirs;
 
     auto reader = mcap::Reader::open(args.file);
-    if (!reader)
-        throw Error(ErrorCode::refused, args.file + ": " + reader.error().message);
+    if (!reader)  // the reader's message names the file and the offset
+        throw Error(ErrorCode::refused, reader.error().message);
     const auto ports = record::recorded_ports(*reader);
     if (std::find(ports.begin(), ports.end(), args.port) == ports.end()) {
         std::string known;
