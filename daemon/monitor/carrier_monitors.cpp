@@ -17,7 +17,8 @@ proto::Result<MonitorSpec> spec_of_clause(const proto::Clause& clause, const pro
         const std::string value = param.value.value_or("");
         if (param.key == "type") {
             if (value != "lua" && value != "so")
-                return proto::Error{"portmonitor type '" + value + "' is not supported (type.lua or type.so)"};
+                return proto::Error{"portmonitor type '" + value +
+                                    "' is not supported (type.lua or type.so)"};
             spec.type = value == "so" ? MonitorType::plugin : MonitorType::lua;
         } else if (param.key == "file") {
             file = value;
@@ -41,8 +42,9 @@ proto::Result<MonitorSpec> spec_of_clause(const proto::Clause& clause, const pro
 }
 
 proto::Result<std::shared_ptr<MonitorChain>> build_carrier_chain(
-    const proto::Carrier& carrier, proto::Side side, const std::string& source, const std::string& destination,
-    const std::shared_ptr<arbitration::Member>& member, const ChainPlaces& places, MonitorHost& host) {
+    const proto::Carrier& carrier, proto::Side side, const std::string& source,
+    const std::string& destination, const std::shared_ptr<arbitration::Member>& member,
+    const ChainPlaces& places, MonitorHost& host) {
     auto chain = std::make_shared<MonitorChain>();
     for (const auto& clause : carrier.clauses) {
         if (clause.side != side || clause.modifier != "portmonitor" || arbitration::arbitration_only(clause))
@@ -50,8 +52,9 @@ proto::Result<std::shared_ptr<MonitorChain>> build_carrier_chain(
         auto spec = spec_of_clause(clause, carrier, source, destination);
         if (!spec)
             return spec.error();
-        auto script = spec->type == MonitorType::plugin ? find_plugin(spec->script.name, places.monitor_lib_dirs)
-                                                        : find_script(spec->script.name, places.script_dirs);
+        auto script = spec->type == MonitorType::plugin
+                          ? find_plugin(spec->script.name, places.monitor_lib_dirs)
+                          : find_script(spec->script.name, places.script_dirs);
         if (!script)
             return script.error();
         spec->script = std::move(*script);

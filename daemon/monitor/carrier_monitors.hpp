@@ -31,7 +31,8 @@ proto::Result<MonitorSpec> spec_of_clause(const proto::Clause& clause, const pro
 /// when a script is missing, does not load, or refuses; null when the side has none. Recv-side
 /// monitors take part in the arbitration through `member`.
 proto::Result<std::shared_ptr<MonitorChain>> build_carrier_chain(
-    const proto::Carrier& carrier, proto::Side side, const std::string& source, const std::string& destination,
-    const std::shared_ptr<arbitration::Member>& member, const ChainPlaces& places, MonitorHost& host);
+    const proto::Carrier& carrier, proto::Side side, const std::string& source,
+    const std::string& destination, const std::shared_ptr<arbitration::Member>& member,
+    const ChainPlaces& places, MonitorHost& host);
 
 }  // namespace plexus::daemon::monitor

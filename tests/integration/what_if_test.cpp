@@ -54,11 +54,12 @@ struct GazeDemo {
     Daemon daemon{dir, "one"};
     std::unique_ptr<Process> reader = start_cli(dir, daemon, {"read", "/gaze/in"}, "gaze");
     // Short cycles, so that a few seconds hold hand-overs both ways.
-    Process face{{detector_path(), "/demo/face/out", "--kind", "face", "--seen", "2", "--gone", "1", "--seed", "1"},
-                 daemon.env(),
-                 dir.file("face")};
-    Process object{{detector_path(), "/demo/object/out", "--kind", "object", "--seen", "1", "--gone", "1", "--offset",
-                    "0.5", "--seed", "2"},
+    Process face{
+        {detector_path(), "/demo/face/out", "--kind", "face", "--seen", "2", "--gone", "1", "--seed", "1"},
+        daemon.env(),
+        dir.file("face")};
+    Process object{{detector_path(), "/demo/object/out", "--kind", "object", "--seen", "1", "--gone", "1",
+                    "--offset", "0.5", "--seed", "2"},
                    daemon.env(),
                    dir.file("object")};
 
@@ -66,7 +67,8 @@ struct GazeDemo {
         for (const char* port : {"/gaze/in", "/demo/face/out", "/demo/object/out"})
             ASSERT_TRUE(wait_port(dir, daemon, port)) << port;
         ASSERT_EQ(run_cli(dir, daemon, {"connect", "/demo/face/out", "/gaze/in", face_carrier}).status, 0);
-        ASSERT_EQ(run_cli(dir, daemon, {"connect", "/demo/object/out", "/gaze/in", object_carrier}).status, 0);
+        ASSERT_EQ(run_cli(dir, daemon, {"connect", "/demo/object/out", "/gaze/in", object_carrier}).status,
+                  0);
     }
 };
 

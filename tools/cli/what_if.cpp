@@ -33,8 +33,9 @@ std::map<std::string, std::string> carriers_of(const std::vector<std::string>& g
     for (const auto& text : given) {
         const auto equals = text.find('=');
         if (equals == std::string::npos || equals == 0 || equals + 1 == text.size())
-            throw Error(ErrorCode::usage, "--carrier " + text + ": expected SOURCE=CARRIER, e.g. "
-                                          "--carrier /obj/out=local+recv.priority+tc.0.5+ex./face/out:0");
+            throw Error(ErrorCode::usage, "--carrier " + text +
+                                              ": expected SOURCE=CARRIER, e.g. "
+                                              "--carrier /obj/out=local+recv.priority+tc.0.5+ex./face/out:0");
         const std::string source = text.substr(0, equals);
         if (auto error = proto::port_name_error(source))
             throw Error(ErrorCode::usage, "--carrier " + text + ": " + *error);
@@ -47,16 +48,18 @@ std::map<std::string, std::string> carriers_of(const std::vector<std::string>& g
 void print_text(const record::RecordedPort& port, const record::WhatIfResult& result) {
     for (const auto& source : result.sources) {
         if (source.replaced)
-            std::cout << "what-if: " << source.source << " -> " << port.port << " over " << source.carrier << '\n';
+            std::cout << "what-if: " << source.source << " -> " << port.port << " over " << source.carrier
+                      << '\n';
     }
     for (const auto& decision : result.decisions) {
         if (decision.changed())
-            std::cout << seconds_text(decision.time) << " s  " << decision.source << " seq " << decision.seq << "  "
-                      << decision.recorded << " -> " << decision.what_if << '\n';
+            std::cout << seconds_text(decision.time) << " s  " << decision.source << " seq " << decision.seq
+                      << "  " << decision.recorded << " -> " << decision.what_if << '\n';
     }
     std::cout << "messages " << result.compared << ", changed " << result.changed;
     if (result.undecided + result.warm_up > 0) {
-        std::cout << " (not compared: " << result.undecided << " without a recorded decision, " << result.warm_up
+        std::cout << " (not compared: " << result.undecided << " without a recorded decision, "
+                  << result.warm_up
                   << " in the warm-up while stimulation from before the recording could count)";
     }
     std::cout << '\n';
@@ -70,7 +73,8 @@ void print_text(const record::RecordedPort& port, const record::WhatIfResult& re
     if (result.script_errors > 0)
         std::cout << "script errors in the re-run: " << result.script_errors << '\n';
     if (result.publishes_ignored > 0)
-        std::cout << "PortMonitor.publish calls not carried out offline: " << result.publishes_ignored << '\n';
+        std::cout << "PortMonitor.publish calls not carried out offline: " << result.publishes_ignored
+                  << '\n';
     if (result.trig_ignored)
         std::cout << "a monitor asked for trig(): it is not called offline (its timer is not recorded)\n";
 }
@@ -113,15 +117,17 @@ int what_if(const WhatIfArgs& args) {
         std::string known;
         for (const auto& name : ports)
             known += (known.empty() ? "" : ", ") + name;
-        throw Error(ErrorCode::usage, "port " + args.port + " is not in " + args.file +
-                                          (known.empty() ? " (it records no messages)" : " (it records " + known + ")"));
+        throw Error(ErrorCode::usage,
+                    "port " + args.port + " is not in " + args.file +
+                        (known.empty() ? " (it records no messages)" : " (it records " + known + ")"));
     }
     // Payloads are kept only for connections whose monitors will read them, recorded or what-if:
     // a port of camera images re-runs without holding every image.
     record::ReadOptions read;
     read.wants_payload = [&](const record::RecordedConnection& connection) {
         const auto replaced = options.carriers.find(connection.source);
-        return record::needs_payloads(replaced != options.carriers.end() ? replaced->second : connection.carrier);
+        return record::needs_payloads(replaced != options.carriers.end() ? replaced->second
+                                                                         : connection.carrier);
     };
     auto recorded = record::read_recorded_port(*reader, args.port, read);
     if (!recorded)

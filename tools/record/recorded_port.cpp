@@ -39,9 +39,11 @@ proto::Result<RecordingClock> clock_note(const mcap::Reader& reader) {
             continue;
         RecordingClock clock;
         const auto unix_ns = unsigned_of(value_of(metadata.values, "started_unix_ns"));
-        const auto started = nlohmann::json::parse(value_of(metadata.values, "started_clock"), nullptr, false);
+        const auto started =
+            nlohmann::json::parse(value_of(metadata.values, "started_clock"), nullptr, false);
         if (!unix_ns || !started.is_number())
-            return proto::Error{"the recording's clock note (metadata " + std::string(layout::recording_metadata) +
+            return proto::Error{"the recording's clock note (metadata " +
+                                std::string(layout::recording_metadata) +
                                 ") has no usable started_unix_ns / started_clock"};
         clock.started_unix_ns = *unix_ns;
         clock.started_clock = started.get<double>();
@@ -79,8 +81,8 @@ proto::Result<DecisionEntry> decision_of(proto::ByteView data, std::uint64_t ind
     entry.source = source->get<std::string>();
     entry.seq = seq->get<std::uint64_t>();
     entry.decision.outcome = outcome->get<std::string>();
-    if (std::find(std::begin(layout::outcome_names), std::end(layout::outcome_names), entry.decision.outcome) ==
-        std::end(layout::outcome_names))
+    if (std::find(std::begin(layout::outcome_names), std::end(layout::outcome_names),
+                  entry.decision.outcome) == std::end(layout::outcome_names))
         return bad("unknown outcome '" + entry.decision.outcome + "'");
     for (const auto& [key, target] : {std::pair{"monitor_time", &entry.decision.monitor_time},
                                       std::pair{"decision_time", &entry.decision.decision_time}}) {
@@ -123,9 +125,10 @@ proto::Result<RecordedPort> read_recorded_port(const mcap::Reader& reader, const
         if (value_of(channel.metadata, layout::port_key) != port)
             continue;
         if (kind == layout::messages_kind) {
-            RecordedConnection connection{value_of(channel.metadata, layout::source_key),
-                                          value_of(channel.metadata, layout::carrier_key),
-                                          unsigned_of(value_of(channel.metadata, layout::order_key)).value_or(0)};
+            RecordedConnection connection{
+                value_of(channel.metadata, layout::source_key),
+                value_of(channel.metadata, layout::carrier_key),
+                unsigned_of(value_of(channel.metadata, layout::order_key)).value_or(0)};
             found.emplace_back(std::move(connection), id);
         } else if (kind == layout::decisions_kind) {
             decisions_channel = id;
@@ -140,8 +143,9 @@ proto::Result<RecordedPort> read_recorded_port(const mcap::Reader& reader, const
         std::string known;
         for (const auto& name : recorded_ports(reader))
             known += (known.empty() ? "" : ", ") + name;
-        return proto::Error{"port " + port + " is not in the recording" +
-                            (known.empty() ? std::string(" (it holds no messages)") : " (it holds " + known + ")")};
+        return proto::Error{
+            "port " + port + " is not in the recording" +
+            (known.empty() ? std::string(" (it holds no messages)") : " (it holds " + known + ")")};
     }
     // Earliest connection first, as the arbiter's members; the source breaks equal orders (two
     // daemons' files merged) so that the order never depends on channel ids.

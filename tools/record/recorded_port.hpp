@@ -32,15 +32,15 @@ struct RecordingClock {
 /// A connection into the port, as the recording names it.
 struct RecordedConnection {
     std::string source;
-    std::string carrier;     ///< the full carrier text the connection was made with
+    std::string carrier;      ///< the full carrier text the connection was made with
     std::uint64_t order = 0;  ///< its place among the port's connections (ties go to the earliest)
 };
 
 /// What the daemon decided for one message.
 struct RecordedDecision {
-    std::string outcome;        ///< delivered, accept, constraint, priority or auxiliary
-    double monitor_time = 0;    ///< arbitration clock when the monitors began; 0 = unknown
-    double decision_time = 0;   ///< arbitration clock of Arbiter::admit; 0 = unknown
+    std::string outcome;       ///< delivered, accept, constraint, priority or auxiliary
+    double monitor_time = 0;   ///< arbitration clock when the monitors began; 0 = unknown
+    double decision_time = 0;  ///< arbitration clock of Arbiter::admit; 0 = unknown
 };
 
 /// One message that reached the port.

@@ -20,9 +20,8 @@ ReplayConnections::~ReplayConnections() {
     connections_.clear();
 }
 
-proto::Result<std::unique_ptr<ReplayConnections>> ReplayConnections::build(const RecordedPort& port,
-                                                                            const std::vector<std::string>& carriers,
-                                                                            const Places& places) {
+proto::Result<std::unique_ptr<ReplayConnections>> ReplayConnections::build(
+    const RecordedPort& port, const std::vector<std::string>& carriers, const Places& places) {
     std::unique_ptr<ReplayConnections> replay(new ReplayConnections(port));
     const monitor::ChainPlaces chain_places{places.script_dirs, places.monitor_lib_dirs, places.policy};
     for (std::size_t i = 0; i < port.connections.size(); ++i) {

@@ -22,7 +22,8 @@ namespace plexus::record {
 /// What the daemon gives monitors, offline: the recorded clock, and nothing that reaches outside.
 class ReplayHost final : public daemon::monitor::MonitorHost {
 public:
-    ReplayHost(const daemon::arbitration::ManualClock& clock, RecordingClock note) : clock_(clock), note_(note) {}
+    ReplayHost(const daemon::arbitration::ManualClock& clock, RecordingClock note)
+        : clock_(clock), note_(note) {}
     /// Nothing is published offline: counted, so the report can say so.
     proto::Status publish(daemon::monitor::Monitor&, const std::string&, const nlohmann::json&) override {
         ++publishes_;

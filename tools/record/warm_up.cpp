@@ -41,9 +41,9 @@ WarmUp::WarmUp(const RecordedPort& port, const std::vector<std::string>& carrier
         const auto recorded = priority_of(port.connections[c].carrier);
         const auto re_run = priority_of(carriers[c]);
         if (!recorded && !re_run)
-            continue;  // no stimulation: no past to forget
-        double quiet = 0;        // the longest tc + tr of the two
-        bool resets = true;      // every stimulation fixes the state (st >= 1, tr = 0)
+            continue;        // no stimulation: no past to forget
+        double quiet = 0;    // the longest tc + tr of the two
+        bool resets = true;  // every stimulation fixes the state (st >= 1, tr = 0)
         for (const auto& params : {recorded, re_run}) {
             if (!params)
                 continue;

@@ -23,7 +23,8 @@ class WarmUp {
 public:
     /// `carriers`: what each connection was re-run with; `stimulated`: per message, whether the
     /// re-run's message reached its connection's stimulation.
-    WarmUp(const RecordedPort& port, const std::vector<std::string>& carriers, const std::vector<char>& stimulated);
+    WarmUp(const RecordedPort& port, const std::vector<std::string>& carriers,
+           const std::vector<char>& stimulated);
 
     /// Whether a decision at `time` (arbitration clock) may still depend on the unrecorded past.
     bool unsettled(double time) const { return time < settled_at_; }

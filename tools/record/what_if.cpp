@@ -93,8 +93,8 @@ proto::Result<WhatIfResult> what_if(const RecordedPort& port, const WhatIfOption
             std::string sources;
             for (const auto& connection : port.connections)
                 sources += (sources.empty() ? "" : ", ") + connection.source;
-            return proto::Error{"--carrier " + source + "=...: the recording has no connection from " + source +
-                                " into " + port.port + " (it has " + sources + ")"};
+            return proto::Error{"--carrier " + source + "=...: the recording has no connection from " +
+                                source + " into " + port.port + " (it has " + sources + ")"};
         }
     }
     auto built = ReplayConnections::build(port, carriers,
@@ -115,7 +115,8 @@ proto::Result<WhatIfResult> what_if(const RecordedPort& port, const WhatIfOption
         steps.push_back({monitored, i, false});
         steps.push_back({decided, i, true});
     }
-    std::stable_sort(steps.begin(), steps.end(), [](const Step& a, const Step& b) { return a.time < b.time; });
+    std::stable_sort(steps.begin(), steps.end(),
+                     [](const Step& a, const Step& b) { return a.time < b.time; });
 
     std::vector<char> passed(n, 0);
     std::vector<std::string> outcomes(n);

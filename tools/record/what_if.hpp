@@ -52,9 +52,9 @@ struct MessageDecision {
 
 struct SourceSummary {
     std::string source;
-    std::string carrier;          ///< the what-if carrier (the recorded one unless replaced)
-    bool replaced = false;        ///< --carrier gave it another
-    std::uint64_t messages = 0;   ///< compared
+    std::string carrier;         ///< the what-if carrier (the recorded one unless replaced)
+    bool replaced = false;       ///< --carrier gave it another
+    std::uint64_t messages = 0;  ///< compared
     std::uint64_t changed = 0;
     std::uint64_t recorded_delivered = 0;
     std::uint64_t what_if_delivered = 0;
@@ -70,10 +70,10 @@ struct WhatIfResult {
     /// Times the delivering source switched among compared messages (in decision order).
     std::uint64_t recorded_winner_changes = 0;
     std::uint64_t what_if_winner_changes = 0;
-    double duration = 0;                ///< seconds from the start to the last decision
-    std::uint64_t script_errors = 0;    ///< failed callbacks of the re-run's monitors
+    double duration = 0;                  ///< seconds from the start to the last decision
+    std::uint64_t script_errors = 0;      ///< failed callbacks of the re-run's monitors
     std::uint64_t publishes_ignored = 0;  ///< PortMonitor.publish calls (nothing is published offline)
-    bool trig_ignored = false;          ///< a monitor asked for trig(): offline it is not called
+    bool trig_ignored = false;            ///< a monitor asked for trig(): offline it is not called
 };
 
 /// Re-runs `port`. Errors (a --carrier for a source not in the recording, a carrier that does not

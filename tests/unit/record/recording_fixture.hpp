@@ -68,19 +68,20 @@ public:
                                  {"ports", nlohmann::json::array({port_}).dump()},
                                  {"version", "1"}});
         const std::string decisions = layout::decisions_topic(port_);
-        decisions_ = *writer_->add_channel(decisions, std::string(layout::record_encoding),
-                                           {{std::string(layout::kind_key), std::string(layout::decisions_kind)},
-                                            {std::string(layout::port_key), port_}});
+        decisions_ =
+            *writer_->add_channel(decisions, std::string(layout::record_encoding),
+                                  {{std::string(layout::kind_key), std::string(layout::decisions_kind)},
+                                   {std::string(layout::port_key), port_}});
     }
 
     void connection(const std::string& source, const std::string& carrier, std::uint64_t order) {
-        channels_[source] = *writer_->add_channel(
-            port_, std::string(layout::message_encoding),
-            {{std::string(layout::kind_key), std::string(layout::messages_kind)},
-             {std::string(layout::port_key), port_},
-             {std::string(layout::source_key), source},
-             {std::string(layout::carrier_key), carrier},
-             {std::string(layout::order_key), std::to_string(order)}});
+        channels_[source] =
+            *writer_->add_channel(port_, std::string(layout::message_encoding),
+                                  {{std::string(layout::kind_key), std::string(layout::messages_kind)},
+                                   {std::string(layout::port_key), port_},
+                                   {std::string(layout::source_key), source},
+                                   {std::string(layout::carrier_key), carrier},
+                                   {std::string(layout::order_key), std::to_string(order)}});
     }
     /// A message that arrived at `clock` seconds on the arbitration clock.
     void message(const std::string& source, std::uint64_t seq, double clock, const proto::Bytes& payload) {
@@ -88,14 +89,15 @@ public:
         ASSERT_TRUE(writer_->write_message(channels_.at(source), static_cast<std::uint32_t>(seq), log_time,
                                            log_time - 1000, payload));
     }
-    void decision(const std::string& source, std::uint64_t seq, const std::string& outcome, double monitor_time,
-                  double decision_time) {
-        const std::string text = nlohmann::json{{"source", source},
-                                                {"seq", seq},
-                                                {"outcome", outcome},
-                                                {"monitor_time", monitor_time},
-                                                {"decision_time", decision_time}}
-                                     .dump();
+    void decision(const std::string& source, std::uint64_t seq, const std::string& outcome,
+                  double monitor_time, double decision_time) {
+        const std::string text = nlohmann::json{
+            {"source", source},
+            {"seq", seq},
+            {"outcome", outcome},
+            {"monitor_time", monitor_time},
+            {"decision_time",
+             decision_time}}.dump();
         const auto at = unix_ns(decision_time != 0 ? decision_time : started_clock);
         ASSERT_TRUE(writer_->write_message(decisions_, 0, at, at, proto::as_bytes(text)));
     }
@@ -139,7 +141,8 @@ public:
         std::string source;
         std::string carrier;
     };
-    LivePort(const std::string& port, const std::vector<Connection>& connections, const std::string& script_dir)
+    LivePort(const std::string& port, const std::vector<Connection>& connections,
+             const std::string& script_dir)
         : host_(clock_), arbiter_(std::make_shared<arbitration::Arbiter>(clock_)) {
         clock_.set(started_clock);
         policy_.limits.budget = std::chrono::milliseconds(200);
@@ -151,8 +154,8 @@ public:
             EXPECT_TRUE(carrier.ok());
             auto member = std::make_shared<arbitration::Member>(arbiter_, connection.source);
             EXPECT_TRUE(arbitration::configure_member(*member, *carrier).ok());
-            auto chain = monitor::build_carrier_chain(*carrier, proto::Side::recv, connection.source, port, member,
-                                                      places, host_);
+            auto chain = monitor::build_carrier_chain(*carrier, proto::Side::recv, connection.source, port,
+                                                      member, places, host_);
             EXPECT_TRUE(chain.ok()) << (chain.ok() ? "" : chain.error().message);
             arbiter_->join(*member);
             members_[connection.source] = {member, chain.ok() ? *chain : nullptr};
@@ -164,8 +167,8 @@ public:
     }
 
     /// The outcome of one message from `source`: monitors at `monitor_time`, arbitration at `decision_time`.
-    std::string decide(const std::string& source, std::uint64_t seq, const proto::Bytes& payload, double monitor_time,
-                       double decision_time) {
+    std::string decide(const std::string& source, std::uint64_t seq, const proto::Bytes& payload,
+                       double monitor_time, double decision_time) {
         auto& [member, chain] = members_.at(source);
         clock_.set(monitor_time);
         if (chain) {
@@ -198,7 +201,8 @@ private:
     LiveHost host_;
     monitor::MonitorPolicy policy_;
     std::shared_ptr<arbitration::Arbiter> arbiter_;
-    std::map<std::string, std::pair<std::shared_ptr<arbitration::Member>, std::shared_ptr<monitor::MonitorChain>>>
+    std::map<std::string,
+             std::pair<std::shared_ptr<arbitration::Member>, std::shared_ptr<monitor::MonitorChain>>>
         members_;
 };
 

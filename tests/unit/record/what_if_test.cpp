@@ -73,7 +73,8 @@ struct HandRecording {
             writer.message(m.source, m.seq, t, cbor(m.seq));
             const std::string outcome = live.decide(m.source, m.seq, cbor(m.seq), t, t);
             // The last one as a decision of a batch run: no times, so its arrival stands in.
-            writer.decision(m.source, m.seq, outcome, m.decided_with_times ? t : 0, m.decided_with_times ? t : 0);
+            writer.decision(m.source, m.seq, outcome, m.decided_with_times ? t : 0,
+                            m.decided_with_times ? t : 0);
         }
         // In flight when the recording stopped: a message with no decision.
         writer.message("/face/out", 4, started_clock + 1.6, cbor(4));
@@ -220,7 +221,8 @@ std::vector<Sent> twenty_seconds() {
 /// The monitors begin at the message's time and the arbitration decides this much later.
 constexpr double monitor_cost = 0.00003;
 
-std::vector<std::string> live_outcomes(const std::vector<Sent>& sent, const std::vector<LivePort::Connection>& carriers,
+std::vector<std::string> live_outcomes(const std::vector<Sent>& sent,
+                                       const std::vector<LivePort::Connection>& carriers,
                                        const std::string& script_dir) {
     LivePort live(port_name, carriers, script_dir);
     std::vector<std::string> outcomes;
@@ -279,7 +281,8 @@ TEST(WhatIf_test, AMonitorsEventsAndConstraintsComeOutAsRecordedAndAWeightChange
     std::uint64_t expected = 0;
     for (std::size_t i = 0; i < sent.size(); ++i) {
         ASSERT_EQ(changed.decisions[i].seq, sent[i].seq);
-        EXPECT_EQ(changed.decisions[i].what_if, expected_outcomes[i]) << sent[i].source << " seq " << sent[i].seq;
+        EXPECT_EQ(changed.decisions[i].what_if, expected_outcomes[i])
+            << sent[i].source << " seq " << sent[i].seq;
         if (changed.decisions[i].standing == Standing::compared && expected_outcomes[i] != outcomes[i])
             ++expected;
     }
