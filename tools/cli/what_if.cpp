@@ -114,6 +114,10 @@ int what_if(const WhatIfArgs& args) {
         throw Error(ErrorCode::refused, reader.error().message);
     const auto ports = record::recorded_ports(*reader);
     if (std::find(ports.begin(), ports.end(), args.port) == ports.end()) {
+        // A damaged file may have lost the port with its summary: read it through first, so that
+        // the damage (and its offset) is what the user hears about.
+        if (auto whole = reader->for_each_message([](const mcap::MessageView&) { return true; }); !whole)
+            throw Error(ErrorCode::refused, args.file + ": " + whole.error().message);
         std::string known;
         for (const auto& name : ports)
             known += (known.empty() ? "" : ", ") + name;

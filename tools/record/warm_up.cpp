@@ -82,6 +82,9 @@ WarmUp::WarmUp(const RecordedPort& port, const std::vector<std::string>& carrier
         if (settled == std::numeric_limits<double>::infinity())
             settled = previous + quiet;
         settled_at_ = std::max(settled_at_, settled);
+        // A connection with no message in the recording has no channel, so the re-run does not know
+        // it: it may have been stimulated just before the start. As long as the slowest known one.
+        settled_at_ = std::max(settled_at_, start + quiet);
     }
 }
 

@@ -3,12 +3,15 @@
 //
 // A recording starts while the port is running: a connection's stimulation (recv.priority) may
 // come from messages before the first one recorded, which the re-run never sees. Its decisions
-// are trusted only once that past cannot count any more, for every stimulated connection of the
-// port, in the recording and in the re-run alike:
+// may depend on that past until it cannot count any more, for every stimulated connection of the
+// port, in the recording and in the re-run alike (what_if.cpp leaves out of the comparison the
+// messages of that window that the recorded carriers' own re-run does not reproduce):
 //  - after a stimulation that fixes the state whatever came before: with st >= 1 and no resting
 //    (tr = 0), a message sets S to 1 and Ta to its time, whatever S was;
 //  - or after a quiet spell longer than tc + tr since the recording's start or since the
-//    connection's last stimulation: S has decayed to 0 and any rest is over.
+//    connection's last stimulation: S has decayed to 0 and any rest is over;
+//  - and never before the longest tc + tr from the start: a connection that sent nothing during
+//    the recording has no channel in it, and may have been stimulated just before the start.
 // The events a monitor set before the recording, and a script's own state, are not covered (the
 // recording does not hold them); see docs/WHAT_IF.md.
 

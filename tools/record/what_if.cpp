@@ -68,40 +68,24 @@ std::uint64_t switches(const std::vector<std::size_t>& delivered) {
     return count;
 }
 
-}  // namespace
+/// One re-run of the port with `carriers`: each decided message's outcome.
+struct Run {
+    std::vector<std::string> outcomes;        ///< per message; "" when it was not re-run
+    std::vector<char> stimulated;             ///< per message: it reached its connection's stimulation
+    std::vector<std::size_t> decision_order;  ///< messages in the order they were decided
+    std::uint64_t script_errors = 0;
+    std::uint64_t publishes = 0;
+    bool trig_asked = false;
+};
 
-bool needs_payloads(const std::string& carrier_text) {
-    auto carrier = proto::parse_carrier(carrier_text);
-    if (!carrier)
-        return true;  // the re-run reports the error; reading payloads changes nothing
-    return std::any_of(carrier->clauses.begin(), carrier->clauses.end(), [](const proto::Clause& clause) {
-        return clause.side == proto::Side::recv && clause.modifier == "portmonitor" && clause.find("file");
-    });
-}
-
-proto::Result<WhatIfResult> what_if(const RecordedPort& port, const WhatIfOptions& options) {
-    // Which carrier each connection runs with.
-    std::vector<std::string> carriers;
-    for (const auto& connection : port.connections) {
-        const auto replaced = options.carriers.find(connection.source);
-        carriers.push_back(replaced != options.carriers.end() ? replaced->second : connection.carrier);
-    }
-    for (const auto& [source, carrier] : options.carriers) {
-        const bool known = std::any_of(port.connections.begin(), port.connections.end(),
-                                       [&](const RecordedConnection& c) { return c.source == source; });
-        if (!known) {
-            std::string sources;
-            for (const auto& connection : port.connections)
-                sources += (sources.empty() ? "" : ", ") + connection.source;
-            return proto::Error{"--carrier " + source + "=...: the recording has no connection from " +
-                                source + " into " + port.port + " (it has " + sources + ")"};
-        }
-    }
+proto::Result<Run> run_port(const RecordedPort& port, const std::vector<std::string>& carriers,
+                            const WhatIfOptions& options) {
     auto built = ReplayConnections::build(port, carriers,
                                           {options.script_dirs, options.monitor_lib_dirs, options.policy});
     if (!built)
         return built.error();
     ReplayConnections& replay = **built;
+    Run run;
 
     // Every step of every decided message, in time order; ties keep file order, a message's
     // monitors before its arbitration.
@@ -119,9 +103,11 @@ proto::Result<WhatIfResult> what_if(const RecordedPort& port, const WhatIfOption
                      [](const Step& a, const Step& b) { return a.time < b.time; });
 
     std::vector<char> passed(n, 0);
-    std::vector<std::string> outcomes(n);
-    std::vector<char> stimulated(n, 0);
-    std::vector<std::size_t> decision_order;  // messages in the order they were decided
+    auto& outcomes = run.outcomes;
+    auto& stimulated = run.stimulated;
+    auto& decision_order = run.decision_order;
+    outcomes.resize(n);
+    stimulated.assign(n, 0);
     auto& clock = replay.clock();
     for (const Step& step : steps) {
         clock.set(std::max(clock.now(), step.time));  // the recorded clock never went backwards
@@ -153,9 +139,62 @@ proto::Result<WhatIfResult> what_if(const RecordedPort& port, const WhatIfOption
         stimulated[step.message] = constraint_holds && member.stimulus ? 1 : 0;
     }
 
-    // Which decisions could still depend on stimulation from before the recording began.
-    const WarmUp warm_up(port, carriers, stimulated);
+    run.script_errors = replay.script_errors();
+    run.publishes = replay.host().publishes();
+    run.trig_asked = replay.host().trig_asked();
+    return run;
+}
 
+}  // namespace
+
+bool needs_payloads(const std::string& carrier_text) {
+    auto carrier = proto::parse_carrier(carrier_text);
+    if (!carrier)
+        return true;  // the re-run reports the error; reading payloads changes nothing
+    return std::any_of(carrier->clauses.begin(), carrier->clauses.end(), [](const proto::Clause& clause) {
+        return clause.side == proto::Side::recv && clause.modifier == "portmonitor" && clause.find("file");
+    });
+}
+
+proto::Result<WhatIfResult> what_if(const RecordedPort& port, const WhatIfOptions& options) {
+    // Which carrier each connection runs with.
+    std::vector<std::string> carriers;
+    for (const auto& connection : port.connections) {
+        const auto replaced = options.carriers.find(connection.source);
+        carriers.push_back(replaced != options.carriers.end() ? replaced->second : connection.carrier);
+    }
+    for (const auto& [source, carrier] : options.carriers) {
+        const bool known = std::any_of(port.connections.begin(), port.connections.end(),
+                                       [&](const RecordedConnection& c) { return c.source == source; });
+        if (!known) {
+            std::string sources;
+            for (const auto& connection : port.connections)
+                sources += (sources.empty() ? "" : ", ") + connection.source;
+            return proto::Error{"--carrier " + source + "=...: the recording has no connection from " +
+                                source + " into " + port.port + " (it has " + sources + ")"};
+        }
+    }
+    auto run = run_port(port, carriers, options);
+    if (!run)
+        return run.error();
+    const auto& outcomes = run->outcomes;
+    // The recorded carriers' own re-run, when some were replaced: in the warm-up, a message that
+    // it does not reproduce was decided by the unrecorded past, and is not compared.
+    std::vector<std::string> recorded_carriers;
+    for (const auto& connection : port.connections)
+        recorded_carriers.push_back(connection.carrier);
+    std::optional<proto::Result<Run>> baseline_run;
+    if (recorded_carriers != carriers) {
+        baseline_run.emplace(run_port(port, recorded_carriers, options));
+        if (!*baseline_run)
+            return (*baseline_run).error();
+    }
+    const auto& baseline = baseline_run ? (**baseline_run).outcomes : outcomes;
+
+    // Which decisions could still depend on stimulation from before the recording began.
+    const WarmUp warm_up(port, carriers, run->stimulated);
+
+    const std::size_t n = port.messages.size();
     WhatIfResult result;
     result.decisions.resize(n);
     for (std::size_t i = 0; i < port.connections.size(); ++i) {
@@ -183,7 +222,7 @@ proto::Result<WhatIfResult> what_if(const RecordedPort& port, const WhatIfOption
         decision.time = decided - port.clock.started_clock;
         decision.recorded = recorded.decision->outcome;
         decision.what_if = outcomes[i];
-        if (warm_up.unsettled(decided)) {
+        if (warm_up.unsettled(decided) && baseline[i] != decision.recorded) {
             decision.standing = Standing::warm_up;
             ++result.warm_up;
             continue;
@@ -200,7 +239,7 @@ proto::Result<WhatIfResult> what_if(const RecordedPort& port, const WhatIfOption
     }
     std::vector<std::size_t> recorded_winners;
     std::vector<std::size_t> what_if_winners;
-    for (const std::size_t i : decision_order) {
+    for (const std::size_t i : run->decision_order) {
         const auto& decision = result.decisions[i];
         if (decision.standing != Standing::compared)
             continue;
@@ -212,9 +251,9 @@ proto::Result<WhatIfResult> what_if(const RecordedPort& port, const WhatIfOption
     result.recorded_winner_changes = switches(recorded_winners);
     result.what_if_winner_changes = switches(what_if_winners);
     result.duration = last - port.clock.started_clock;
-    result.script_errors = replay.script_errors();
-    result.publishes_ignored = replay.host().publishes();
-    result.trig_ignored = replay.host().trig_asked();
+    result.script_errors = run->script_errors;
+    result.publishes_ignored = run->publishes;
+    result.trig_ignored = run->trig_asked;
     return result;
 }
 

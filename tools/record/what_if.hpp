@@ -35,7 +35,9 @@ struct WhatIfOptions {
 enum class Standing {
     compared,   ///< recorded and re-run decisions both count
     undecided,  ///< no recorded decision (in flight when the recording ended, or dropped unjudged)
-    warm_up,    ///< decided while stimulation from before the recording may still have counted
+    /// decided while stimulation from before the recording may still have counted, and the
+    /// re-run with the recorded carriers does not reproduce it: the unrecorded past decided it
+    warm_up,
 };
 
 /// One message's two decisions.
