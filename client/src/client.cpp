@@ -108,6 +108,12 @@ void Port::write(const Value& value, bool flush) {
     send(next_seq_++, payload, {}, flush);
 }
 
+void Port::write_encoded(std::span<const std::uint8_t> cbor, bool flush) {
+    if (!link_)
+        throw Error(ErrorCode::usage, "port " + name_ + " is closed");
+    send(next_seq_++, cbor, {}, flush);
+}
+
 void Port::write_blob(std::span<const std::uint8_t> head, std::span<const std::uint8_t> body, bool flush) {
     if (!link_)
         throw Error(ErrorCode::usage, "port " + name_ + " is closed");

@@ -220,7 +220,8 @@ bool Session::passes_shm(const Port& port, const ShmRegion& region) const {
         if (connection->remote || connection->send_monitors)
             return false;
         const auto* inlet = dynamic_cast<const Inlet*>(connection->sink.get());
-        if (!inlet || inlet->monitors || !inlet->member().trivial())
+        // A recorded port's tap keeps the payload: it is copied out once, as for monitors.
+        if (!inlet || inlet->monitors || !inlet->member().trivial() || inlet->port()->tap)
             return false;
         const auto reader = daemon_.session(inlet->port()->owner());
         if (!reader || !reader->maps_shm())

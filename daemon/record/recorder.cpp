@@ -242,15 +242,7 @@ void Recorder::run() {
             files_->flush();
             last_flush = now;
         }
-        {
-            std::lock_guard lock(progress_mutex_);
-            bytes_ = files_->bytes();
-            lost_in_file_ = files_->lost_messages();
-            lost_bytes_in_file_ = files_->lost_bytes();
-            file_names_ = files_->files();
-            if (error_.empty() && !files_->error().empty())
-                error_ = files_->error();
-        }
+        note_progress(false);
         if (!ended_.load()) {
             if (!files_->error().empty())
                 end(files_->error());
@@ -263,34 +255,42 @@ void Recorder::run() {
                 break;
         }
     }
+    // What waits in the last chunk is written first, so that the end note counts it.
+    files_->flush();
+    note_progress(true);
     std::string reason;
     json end_note;
     {
-        std::lock_guard lock(queue_mutex_);
+        std::lock_guard queue_lock(queue_mutex_);
+        std::lock_guard lock(progress_mutex_);
         reason = reason_;
-        end_note = {{"lost_messages", std::to_string(lost_in_queue_ + files_->lost_messages())},
+        end_note = {{"messages", std::to_string(kept_)},
+                    {"lost_messages", std::to_string(lost_in_queue_ + lost_in_file_)},
                     {"lost_bytes", std::to_string(lost_bytes_in_queue_ + files_->lost_bytes())},
-                    {"not_recordable", std::to_string(not_recordable_)}};
+                    {"not_recordable", std::to_string(not_recordable_)},
+                    {"decisions", std::to_string(decisions_)},
+                    {"events", std::to_string(events_)},
+                    {"reason", reason}};
     }
-    {
-        std::lock_guard lock(progress_mutex_);
-        end_note["messages"] = std::to_string(messages_);
-        end_note["decisions"] = std::to_string(decisions_);
-        end_note["events"] = std::to_string(events_);
-    }
-    end_note["reason"] = reason;
     files_->close(end_note);
-    {
-        std::lock_guard lock(progress_mutex_);
-        bytes_ = files_->bytes();
-        lost_in_file_ = files_->lost_messages();
-        lost_bytes_in_file_ = files_->lost_bytes();
-        if (error_.empty() && !files_->error().empty())
-            error_ = files_->error();
-    }
-    spdlog::info("recording {} closed: {} messages, {} bytes ({})", file_names_.front(), messages_, bytes_,
+    note_progress(true);
+    spdlog::info("recording {} closed: {} messages, {} bytes ({})", file_names_.front(), kept_, bytes_,
                  reason);
     finished_.store(true);
+}
+
+void Recorder::note_progress(bool final) {
+    std::lock_guard lock(progress_mutex_);
+    bytes_ = files_->bytes();
+    kept_ = files_->kept_messages();
+    // Messages still in the open chunk are not lost: only after a failure, or at the end, is a
+    // message handed to the file but not in it lost.
+    const bool settled = final || !files_->error().empty();
+    lost_in_file_ = settled ? files_->handed_messages() - kept_ : 0;
+    lost_bytes_in_file_ = files_->lost_bytes();
+    file_names_ = files_->files();
+    if (error_.empty() && !files_->error().empty())
+        error_ = files_->error();
 }
 
 void Recorder::end(const std::string& reason) {
@@ -368,7 +368,7 @@ json Recorder::status() const {
     std::lock_guard lock(progress_mutex_);
     out["files"] = file_names_;
     out["ports"] = watch_names_;
-    out["messages"] = messages_;
+    out["messages"] = kept_;  // in the file: a chunk still being filled is not counted yet
     out["decisions"] = decisions_;
     out["events"] = events_;
     out["bytes"] = bytes_;

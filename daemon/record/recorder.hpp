@@ -69,6 +69,8 @@ private:
     void run();
     void write(Entry& entry);
     void end(const std::string& reason);
+    /// Copies the files' counts for status(); `final` once nothing more will be written.
+    void note_progress(bool final);
 
     RecorderOptions options_;
     const arbitration::Clock& clock_;
@@ -91,7 +93,8 @@ private:
 
     // Written by the thread, read by status() on the daemon's thread.
     mutable std::mutex progress_mutex_;
-    std::uint64_t messages_ = 0;
+    std::uint64_t messages_ = 0;  ///< handed to the files
+    std::uint64_t kept_ = 0;      ///< in the files
     std::uint64_t decisions_ = 0;
     std::uint64_t events_ = 0;
     std::uint64_t bytes_ = 0;

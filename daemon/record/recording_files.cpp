@@ -40,6 +40,7 @@ proto::Status RecordingFiles::open_next() {
         return created.error();
     writer_ = std::move(*created);
     channels_.clear();
+    message_channels_.clear();
     files_.push_back(path);
     mcap::StringMap note{{"node", options_.node},
                          {"started_unix_ns", std::to_string(options_.started_unix_ns)},
@@ -86,6 +87,8 @@ void RecordingFiles::message(const ConnectionInfo& connection, std::uint64_t seq
                                       {std::string(layout::source_key), connection.source},
                                       {std::string(layout::carrier_key), connection.carrier},
                                       {std::string(layout::order_key), std::to_string(connection.order)}});
+    message_channels_.insert(id);
+    ++handed_messages_;
     write(id, static_cast<std::uint32_t>(seq), unix_ns, sent_ns, payload);
 }
 
@@ -112,10 +115,7 @@ void RecordingFiles::split_if_due() {
         return;
     if (!writer_->close())
         note_failure();
-    closed_bytes_ += writer_->bytes_written();
-    closed_lost_messages_ += writer_->lost_messages();
-    closed_lost_bytes_ += writer_->lost_bytes();
-    writer_.reset();
+    let_go_of_writer();
     if (auto opened = open_next(); !opened) {
         error_ = "cannot open the next file of the recording: " + opened.error().message;
         spdlog::error("recording: {}", error_);
@@ -130,23 +130,42 @@ void RecordingFiles::flush() {
 void RecordingFiles::close(const json& end) {
     if (!writer_)
         return;
-    mcap::StringMap note;
+    mcap::Metadata note{std::string(layout::end_metadata), {}};
     for (const auto& [key, value] : end.items())
-        note.emplace(key, value.is_string() ? value.get<std::string>() : value.dump());
-    if (!writer_->write_metadata(std::string(layout::end_metadata), note))
+        note.values.emplace(key, value.is_string() ? value.get<std::string>() : value.dump());
+    if (!writer_->close(&note))
         note_failure();
-    if (!writer_->close())
-        note_failure();
+    let_go_of_writer();
+}
+
+void RecordingFiles::let_go_of_writer() {
     closed_bytes_ += writer_->bytes_written();
     closed_lost_messages_ += writer_->lost_messages();
     closed_lost_bytes_ += writer_->lost_bytes();
+    closed_kept_messages_ += kept_in_current();
     writer_.reset();
+}
+
+std::uint64_t RecordingFiles::kept_in_current() const {
+    if (!writer_)
+        return 0;
+    std::uint64_t kept = 0;
+    const auto& counts = writer_->statistics().channel_message_counts;
+    for (const auto id : message_channels_) {
+        if (auto found = counts.find(id); found != counts.end())
+            kept += found->second;
+    }
+    return kept;
+}
+
+std::uint64_t RecordingFiles::kept_messages() const {
+    return closed_kept_messages_ + kept_in_current();
 }
 
 std::uint64_t RecordingFiles::bytes() const {
     return closed_bytes_ + (writer_ ? writer_->bytes_written() : 0);
 }
-std::uint64_t RecordingFiles::lost_messages() const {
+std::uint64_t RecordingFiles::lost_records() const {
     return closed_lost_messages_ + (writer_ ? writer_->lost_messages() : 0);
 }
 std::uint64_t RecordingFiles::lost_bytes() const {

@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -51,8 +52,13 @@ public:
     const std::vector<std::string>& files() const { return files_; }
     /// The first write that failed ("disk full at offset ..."); "" while all is well.
     const std::string& error() const { return error_; }
-    std::uint64_t lost_messages() const;
+    /// Records of any kind (messages, decisions, events) a failed write lost.
+    std::uint64_t lost_records() const;
     std::uint64_t lost_bytes() const;
+    /// The recorded ports' messages handed to the files, and those in them once written (a
+    /// message handed but not kept was lost with a chunk the disk refused).
+    std::uint64_t handed_messages() const { return handed_messages_; }
+    std::uint64_t kept_messages() const;
 
 private:
     explicit RecordingFiles(Options options) : options_(std::move(options)) {}
@@ -63,10 +69,16 @@ private:
     void write(std::uint16_t channel, std::uint32_t sequence, std::uint64_t log_time,
                std::uint64_t publish_time, proto::ByteView data);
     void note_failure();
+    /// Counts what the current file holds and lost, and lets it go (closed).
+    void let_go_of_writer();
+    std::uint64_t kept_in_current() const;
 
     Options options_;
     std::unique_ptr<mcap::Writer> writer_;
     std::map<std::string, std::uint16_t> channels_;  ///< of the current file, by key
+    std::set<std::uint16_t> message_channels_;       ///< of the current file: the ports' messages
+    std::uint64_t handed_messages_ = 0;
+    std::uint64_t closed_kept_messages_ = 0;
     std::vector<std::string> files_;
     std::uint64_t closed_bytes_ = 0;  ///< of the files already closed
     std::uint64_t closed_lost_messages_ = 0;

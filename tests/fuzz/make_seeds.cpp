@@ -11,6 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "plexus/mcap/writer.hpp"
 #include "plexus/proto/cbor.hpp"
 #include "plexus/proto/control.hpp"
 #include "plexus/proto/datagram.hpp"
@@ -43,6 +44,62 @@ proto::Bytes cbor(const json& value) {
 proto::Bytes fields_of(const proto::Bytes& frame) {
     const auto decoded = proto::FrameDecoder().decode(frame);
     return {decoded.fields.begin(), decoded.fields.end()};
+}
+
+/// Small recordings as plexus::mcap::Writer makes them: zstd and plain chunks, with and without
+/// summary, and an empty one.
+void mcap_seed(const std::string& name, const std::string& compression, bool summary, int messages) {
+    std::filesystem::create_directories(root / "mcap_reader");
+    const auto path = (root / "mcap_reader" / name).string();
+    std::filesystem::remove(path);  // the writer never replaces a file
+    plexus::mcap::WriterOptions options;
+    options.compression = compression;
+    options.write_summary = summary;
+    options.chunk_bytes = 256;  // several chunks even in a small seed
+    auto writer = plexus::mcap::Writer::create(path, options);
+    if (!writer) {
+        std::cerr << writer.error().message << "\n";
+        return;
+    }
+    const auto schema = (*writer)->add_schema("Pose", "jsonschema", proto::as_bytes(R"({"type":"object"})"));
+    const auto pose = (*writer)->add_channel("/robot/pose:o", "json", {{"carrier", "tcp"}}, schema);
+    const auto image = (*writer)->add_channel("/camera/image:o", "cbor", {});
+    (void)(*writer)->write_metadata("recording", {{"host", "robot"}});
+    for (int i = 0; i < messages; ++i) {
+        const std::string text = R"({"x":)" + std::to_string(i) + "}";
+        (void)(*writer)->write_message(i % 2 == 0 ? *pose : *image, static_cast<std::uint32_t>(i),
+                                       1000 + static_cast<std::uint64_t>(i), 999, proto::as_bytes(text));
+    }
+    (void)(*writer)->close();
+}
+
+/// The same file with every CRC set to 0 ("not computed", which readers accept): without them
+/// nearly every mutation fails a CRC, and the fuzzer never reaches the parsers behind it.
+void mcap_seed_without_crcs(const std::string& name, const std::string& from) {
+    std::ifstream in(root / "mcap_reader" / from, std::ios::binary);
+    proto::Bytes bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+    const auto zero = [&](std::size_t at, std::size_t count) {
+        for (std::size_t i = 0; i < count && at + i < bytes.size(); ++i)
+            bytes[at + i] = 0;
+    };
+    // Walk the top-level records (opcode u8, length u64 little-endian; layout in proto/mcap/src/format.hpp).
+    std::size_t at = 8;
+    while (at + 9 <= bytes.size()) {
+        std::uint64_t length = 0;
+        for (std::size_t i = 0; i < 8; ++i)
+            length |= std::uint64_t{bytes[at + 1 + i]} << (8 * i);
+        const std::size_t content = at + 9;
+        if (bytes[at] == 0x06)  // chunk: start u64, end u64, uncompressed size u64, then the CRC
+            zero(content + 24, 4);
+        else if (bytes[at] == 0x0F)  // data end: the CRC
+            zero(content, 4);
+        else if (bytes[at] == 0x02)  // footer: summary start, summary offset start, then the CRC
+            zero(content + 16, 4);
+        if (bytes[at] == 0x02 || length > bytes.size() - content)
+            break;
+        at = content + static_cast<std::size_t>(length);
+    }
+    seed("mcap_reader", name, bytes);
 }
 
 }  // namespace
@@ -184,6 +241,13 @@ int main(int argc, char** argv) {
     }
     seed("name_request", "session", session);
     seed("name_request", "discover", proto::discovery_query());
+    mcap_seed("chunked_zstd", "zstd", true, 30);
+    mcap_seed("chunked_plain", "", true, 20);
+    mcap_seed("no_summary", "zstd", false, 20);
+    mcap_seed("empty", "zstd", true, 0);
+    mcap_seed_without_crcs("chunked_zstd_no_crcs", "chunked_zstd");
+    mcap_seed_without_crcs("chunked_plain_no_crcs", "chunked_plain");
+    mcap_seed_without_crcs("no_summary_no_crcs", "no_summary");
     std::cout << "seeds written under " << root << "\n";
     return 0;
 }

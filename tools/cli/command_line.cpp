@@ -29,6 +29,7 @@ CommandLine::CommandLine()
     add_inspect_commands();
     add_app_commands();
     add_what_if_command();
+    add_recording_commands();
 }
 
 // Commands that make connections and move messages.
@@ -190,6 +191,53 @@ void CommandLine::add_what_if_command() {
         "recording, a --carrier that does not parse or load); 4 a file that is not a readable recording\n"
         "(the reader names the byte offset).");
     cmd->callback([this] { status_ = what_if(what_if_args_); });
+}
+
+// Recordings: record, play (docs/RECORDING.md).
+void CommandLine::add_recording_commands() {
+    auto& record = record_options_;
+    auto* record_cmd = app_.add_subcommand(
+        "record",
+        "record ports of the local daemon into an MCAP file: every message that reaches them, what "
+        "their monitors and arbitration decided, their events (docs/RECORDING.md). The daemon "
+        "writes the file; runs until Ctrl-C, --duration or --max-bytes");
+    record_cmd->add_option("PORT", record.ports, "ports of the local daemon to record");
+    record_cmd->add_option("-o,--output", record.output, "the file to write (never overwritten)");
+    record_cmd->add_flag("--all", record.all, "record every port of the local daemon");
+    record_cmd->add_option("--duration", record.duration, "stop after this many seconds")
+        ->transform(seconds(0.001, 31'536'000));
+    record_cmd->add_option("--max-bytes", record.max_bytes, "stop once the files hold this many bytes")
+        ->transform(whole_number(1, UINT64_MAX));
+    record_cmd
+        ->add_option("--split-bytes", record.split_bytes,
+                     "start a new file (FILE-STEM.1.mcap, .2, ...) past this many bytes")
+        ->transform(whole_number(1, UINT64_MAX));
+    record_cmd->add_option("--info", record.info, "print what the recording FILE holds instead");
+    record_cmd->add_flag("--json", record.json, "print JSON");
+    record_cmd->callback([this] { status_ = plexus::cli::record(common_, record_options_); });
+
+    auto& play = play_options_;
+    auto* play_cmd = app_.add_subcommand(
+        "play",
+        "write the recorded sources' messages again, with their recorded timing, from ports of their "
+        "names on the local daemon: the connections that exist now carry them (stop the original "
+        "components first, or --remap)");
+    play_cmd->add_option("FILE", play.file, "a recording made by plexus record")->required();
+    play_cmd->add_option("--rate", play.rate, "speed: 2 plays twice as fast")
+        ->transform(seconds(0.001, 1000));
+    play_cmd->add_flag("--loop", play.loop, "start again at the end, until Ctrl-C");
+    play_cmd->add_option("--remap", play.remaps, "play source OLD from port NEW (OLD=NEW, repeatable)");
+    play_cmd->add_option("--start", play.start, "skip the first S seconds")
+        ->transform(seconds(0, 31'536'000));
+    play_cmd->add_option("--end", play.end, "stop S seconds after the recording's start")
+        ->transform(seconds(0, 31'536'000));
+    play_cmd->add_option("--ports", play.ports, "play only the sources of these recorded ports");
+    play_cmd
+        ->add_option("--wait", play.wait,
+                     "seconds to wait for connections out of the opened ports before playing")
+        ->transform(seconds(0, 3600))
+        ->capture_default_str();
+    play_cmd->callback([this] { status_ = plexus::cli::play(common_, play_options_); });
 }
 
 // Commands on application files (docs/APPLICATIONS.md).

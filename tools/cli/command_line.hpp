@@ -29,6 +29,7 @@ private:
     void add_inspect_commands();
     void add_app_commands();
     void add_what_if_command();
+    void add_recording_commands();
 
     CLI::App app_;
     Common common_;
@@ -54,6 +55,8 @@ private:
     UpOptions up_options_;
     std::vector<std::string> node_sockets_;
     WhatIfArgs what_if_args_;
+    RecordOptions record_options_;
+    PlayOptions play_options_;
 };
 
 }  // namespace plexus::cli

@@ -2,6 +2,7 @@
 // The `plexus` commands. Each returns the process exit status of DESIGN's contract:
 // 0 success, 1 a "no" answer, 2 usage error, 3 timeout, 4 refused by the system.
 
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -53,6 +54,33 @@ struct WhatIfArgs {
     std::vector<std::string> script_dirs;
     std::vector<std::string> monitor_lib_dirs;
 };
+
+struct RecordOptions {
+    std::vector<std::string> ports;
+    std::string output;
+    bool all = false;
+    std::optional<double> duration;  ///< seconds; none: until Ctrl-C
+    std::uint64_t max_bytes = 0;
+    std::uint64_t split_bytes = 0;
+    std::string info;  ///< --info FILE
+    bool json = false;
+};
+
+struct PlayOptions {
+    std::string file;
+    double rate = 1.0;
+    bool loop = false;
+    std::vector<std::string> remaps;  ///< OLD=NEW
+    double start = 0;                 ///< seconds from the recording's start
+    std::optional<double> end;
+    std::vector<std::string> ports;  ///< the recorded ports whose sources to play; all when empty
+    double wait = 5;                 ///< seconds to wait for connections out of the opened ports
+};
+
+/// `plexus record`: the local daemon records ports into a file (docs/RECORDING.md).
+int record(const Common& common, const RecordOptions& options);
+/// `plexus play`: the recorded sources' messages written again, with their timing.
+int play(const Common& common, const PlayOptions& options);
 
 int list(const Common& common, bool json);
 /// `plexus where`: the name server's address and how it was found.

@@ -126,6 +126,10 @@ public:
     /// (a .npy header, say) and may be empty.
     void write_blob(std::span<const std::uint8_t> head, std::span<const std::uint8_t> body,
                     bool flush = true);
+    /// Writes a payload already encoded as CBOR, sent as it is: what `plexus play` replays from a
+    /// recording (whose chunks are checked when read). Bytes that are not one CBOR value reach the
+    /// readers as a message they cannot decode.
+    void write_encoded(std::span<const std::uint8_t> cbor, bool flush = true);
     /// Sends what write(..., false) buffered.
     void flush();
     /// Waits up to `timeout` for the next message delivered to this port (also while the daemon is

@@ -12,7 +12,9 @@ namespace plexus::mcap {
 
 namespace {
 
-std::string at(std::uint64_t offset) { return "offset " + std::to_string(offset) + ": "; }
+std::string at(std::uint64_t offset) {
+    return "offset " + std::to_string(offset) + ": ";
+}
 
 std::string name_of(std::uint8_t opcode) {
     const std::string_view name = format::opcode_name(opcode);
@@ -29,7 +31,8 @@ proto::Status unpack_chunk(const ScannedRecord& chunk_record, proto::Bytes& reco
     const std::string where = at(chunk_record.offset) + "chunk record: ";
     if (chunk->uncompressed_size > format::max_uncompressed_chunk)
         return proto::Error{where + "its uncompressed size " + std::to_string(chunk->uncompressed_size) +
-                            " exceeds this reader's limit of " + std::to_string(format::max_uncompressed_chunk)};
+                            " exceeds this reader's limit of " +
+                            std::to_string(format::max_uncompressed_chunk)};
     if (chunk->compression.empty()) {
         if (chunk->records.size() != chunk->uncompressed_size)
             return proto::Error{where + "uncompressed records of " + std::to_string(chunk->records.size()) +
@@ -39,7 +42,8 @@ proto::Status unpack_chunk(const ScannedRecord& chunk_record, proto::Bytes& reco
         if (auto status = zstd_decompress(chunk->records, chunk->uncompressed_size, records); !status)
             return proto::Error{where + status.error().message};
     } else {
-        return proto::Error{where + "compression \"" + chunk->compression + "\" is not supported (only zstd)"};
+        return proto::Error{where + "compression \"" + chunk->compression +
+                            "\" is not supported (only zstd)"};
     }
     if (chunk->uncompressed_crc != 0) {
         const std::uint32_t actual = crc32(records);
@@ -68,7 +72,8 @@ proto::Result<bool> visit_chunk_records(std::uint64_t chunk_offset, proto::ByteV
                                 std::to_string(position) + " runs past the end of the records"};
         ScannedRecord record;
         record.opcode = opcode;
-        record.content = records.subspan(position + format::record_header_size, static_cast<std::size_t>(length));
+        record.content =
+            records.subspan(position + format::record_header_size, static_cast<std::size_t>(length));
         record.offset = chunk_offset;
         record.position_in_chunk = position;
         auto go_on = visitor.record(record);
@@ -88,8 +93,8 @@ std::string ScannedRecord::where() const {
     return at(offset) + name_of(opcode) + " record";
 }
 
-proto::Result<RecordHeader> read_record_header(const InputSource& source, std::uint64_t offset, std::uint64_t limit,
-                                               const std::string& region) {
+proto::Result<RecordHeader> read_record_header(const InputSource& source, std::uint64_t offset,
+                                               std::uint64_t limit, const std::string& region) {
     if (offset > limit || limit - offset < format::record_header_size)
         return proto::Error{at(offset) + "the " + region + " ends inside a record header"};
     std::array<std::uint8_t, format::record_header_size> bytes{};
@@ -101,8 +106,8 @@ proto::Result<RecordHeader> read_record_header(const InputSource& source, std::u
     header.length = load_u64(bytes.data() + 1);
     if (header.length > limit - offset - format::record_header_size)
         return proto::Error{at(offset) + "the " + name_of(header.opcode) + " record's length " +
-                            std::to_string(header.length) + " runs past the end of the " + region + " at offset " +
-                            std::to_string(limit)};
+                            std::to_string(header.length) + " runs past the end of the " + region +
+                            " at offset " + std::to_string(limit)};
     return header;
 }
 
@@ -130,7 +135,8 @@ proto::Status scan_data_section(const InputSource& source, std::uint64_t begin, 
             offset = header->end();
             continue;
         }
-        if (auto status = read_bytes(source, offset, format::record_header_size + header->length, content); !status)
+        if (auto status = read_bytes(source, offset, format::record_header_size + header->length, content);
+            !status)
             return status;
         ScannedRecord record;
         record.opcode = header->opcode;
@@ -163,7 +169,9 @@ proto::Status scan_data_section(const InputSource& source, std::uint64_t begin, 
         }
         offset = header->end();
     }
-    return proto::Ok{};
+    // Every writer ends the data section with DataEnd; a scan that misses it has been led off
+    // the records by a damaged length, and its CRC check would be skipped.
+    return proto::Error{at(end) + "the data section ends without a data end record"};
 }
 
 proto::Error truncation_error(const InputSource& source, std::uint64_t begin) {

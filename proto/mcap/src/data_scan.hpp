@@ -21,14 +21,14 @@ struct RecordHeader {
 };
 
 /// The header of the record at `offset`, which must end by `limit` (the end of `region`, named in errors).
-proto::Result<RecordHeader> read_record_header(const InputSource& source, std::uint64_t offset, std::uint64_t limit,
-                                               const std::string& region);
+proto::Result<RecordHeader> read_record_header(const InputSource& source, std::uint64_t offset,
+                                               std::uint64_t limit, const std::string& region);
 
 /// One record met by a scan: outside chunks, or inside the chunk at `offset`.
 struct ScannedRecord {
     std::uint8_t opcode = 0;
     proto::ByteView content;
-    std::uint64_t offset = 0;                      ///< the record's offset, or its chunk's
+    std::uint64_t offset = 0;                        ///< the record's offset, or its chunk's
     std::optional<std::uint64_t> position_in_chunk;  ///< in the uncompressed records, for records in a chunk
     /// "offset 1234: message record" or "offset 1234: chunk record, message record at uncompressed byte 56".
     std::string where() const;
@@ -42,8 +42,8 @@ struct ScanVisitor {
     std::function<bool(std::uint64_t)> want_chunk;
 };
 
-/// Scans [begin, end) of the data section. When every byte was read, checks the DataEnd
-/// record's CRC of [0, DataEnd).
+/// Scans [begin, end) of the data section up to its DataEnd record, whose absence is an error.
+/// When every byte was read (no chunk skipped), checks DataEnd's CRC of [0, DataEnd).
 proto::Status scan_data_section(const InputSource& source, std::uint64_t begin, std::uint64_t end,
                                 const ScanVisitor& visitor);
 

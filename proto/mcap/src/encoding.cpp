@@ -20,10 +20,18 @@ T load_little_endian(const std::uint8_t* at) {
 
 }  // namespace
 
-void put_u8(proto::Bytes& out, std::uint8_t value) { out.push_back(value); }
-void put_u16(proto::Bytes& out, std::uint16_t value) { put_little_endian(out, value); }
-void put_u32(proto::Bytes& out, std::uint32_t value) { put_little_endian(out, value); }
-void put_u64(proto::Bytes& out, std::uint64_t value) { put_little_endian(out, value); }
+void put_u8(proto::Bytes& out, std::uint8_t value) {
+    out.push_back(value);
+}
+void put_u16(proto::Bytes& out, std::uint16_t value) {
+    put_little_endian(out, value);
+}
+void put_u32(proto::Bytes& out, std::uint32_t value) {
+    put_little_endian(out, value);
+}
+void put_u64(proto::Bytes& out, std::uint64_t value) {
+    put_little_endian(out, value);
+}
 
 void put_string(proto::Bytes& out, std::string_view text) {
     put_u32(out, static_cast<std::uint32_t>(text.size()));
@@ -53,7 +61,9 @@ void end_record(proto::Bytes& out, std::size_t content_start) {
         out[content_start - 8 + i] = static_cast<std::uint8_t>(length >> (8 * i));
 }
 
-std::uint64_t load_u64(const std::uint8_t* at) { return load_little_endian<std::uint64_t>(at); }
+std::uint64_t load_u64(const std::uint8_t* at) {
+    return load_little_endian<std::uint64_t>(at);
+}
 
 const std::uint8_t* FieldReader::take(std::uint64_t size, std::string_view field) {
     if (!ok())

@@ -7,9 +7,9 @@
 //   Footer 0x02        summary_start u64, summary_offset_start u64, summary_crc u32
 //                      (CRC32 of [summary_start, the summary_crc field))
 //   Schema 0x03        id u16, name string, encoding string, data (u32 length + bytes)
-//   Channel 0x04       id u16, schema_id u16, topic string, message_encoding string, metadata map<string,string>
-//   Message 0x05       channel_id u16, sequence u32, log_time u64, publish_time u64, data (the rest)
-//   Chunk 0x06         message_start_time u64, message_end_time u64, uncompressed_size u64,
+//   Channel 0x04       id u16, schema_id u16, topic string, message_encoding string, metadata
+//   map<string,string> Message 0x05       channel_id u16, sequence u32, log_time u64, publish_time u64, data
+//   (the rest) Chunk 0x06         message_start_time u64, message_end_time u64, uncompressed_size u64,
 //                      uncompressed_crc u32, compression string, records (u64 length + bytes)
 //   MessageIndex 0x07  channel_id u16, array<(log_time u64, offset in the uncompressed records u64)>
 //   ChunkIndex 0x08    message_start_time u64, message_end_time u64, chunk_start_offset u64,
@@ -55,7 +55,8 @@ inline constexpr std::uint64_t record_header_size = 9;
 /// Footer content: two u64 and a u32.
 inline constexpr std::uint64_t footer_content_size = 20;
 /// The footer record and the closing magic: the last bytes of every file.
-inline constexpr std::uint64_t footer_and_magic_size = record_header_size + footer_content_size + magic.size();
+inline constexpr std::uint64_t footer_and_magic_size =
+    record_header_size + footer_content_size + magic.size();
 /// Message content before its data.
 inline constexpr std::uint64_t message_fixed_size = 2 + 4 + 8 + 8;
 /// DataEnd record.
@@ -63,8 +64,9 @@ inline constexpr std::uint64_t data_end_record_size = record_header_size + 4;
 
 /// The reader's limits, so that no length field makes it allocate without bound.
 inline constexpr std::uint64_t max_uncompressed_chunk = std::uint64_t{1} << 30;  // 1 GiB
-inline constexpr std::uint64_t max_record = max_uncompressed_chunk + 4096;  // a chunk's records and its fields
-inline constexpr std::uint64_t max_summary = std::uint64_t{256} << 20;      // 256 MiB
+inline constexpr std::uint64_t max_record =
+    max_uncompressed_chunk + 4096;                                      // a chunk's records and its fields
+inline constexpr std::uint64_t max_summary = std::uint64_t{256} << 20;  // 256 MiB
 
 /// "chunk", "message", ... for error messages; "unknown (0x42)" style for others.
 std::string_view opcode_name(std::uint8_t opcode);

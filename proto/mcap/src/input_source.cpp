@@ -28,8 +28,8 @@ public:
             if (got < 0 && errno == EINTR)
                 continue;
             if (got < 0)
-                return proto::Error{"offset " + std::to_string(offset + done) + ": read failed: " +
-                                    std::strerror(errno)};
+                return proto::Error{"offset " + std::to_string(offset + done) +
+                                    ": read failed: " + std::strerror(errno)};
             if (got == 0)  // the file shrank since it was opened
                 return proto::Error{"offset " + std::to_string(offset + done) + ": the file ends early"};
             done += static_cast<std::size_t>(got);
@@ -49,6 +49,8 @@ public:
     proto::Status read(std::uint64_t offset, std::span<std::uint8_t> out) const override {
         if (offset > bytes_.size() || out.size() > bytes_.size() - offset)
             return proto::Error{"offset " + std::to_string(offset) + ": read past the end"};
+        if (out.empty())
+            return proto::Ok{};  // memcpy's pointers may not be null, even for 0 bytes
         std::memcpy(out.data(), bytes_.data() + offset, out.size());
         return proto::Ok{};
     }
@@ -68,14 +70,16 @@ proto::Result<std::unique_ptr<InputSource>> open_file_source(const std::string& 
         ::close(fd);
         return proto::Error{"cannot read " + path + ": not a regular file"};
     }
-    return std::unique_ptr<InputSource>(std::make_unique<FileSource>(fd, static_cast<std::uint64_t>(status.st_size)));
+    return std::unique_ptr<InputSource>(
+        std::make_unique<FileSource>(fd, static_cast<std::uint64_t>(status.st_size)));
 }
 
 std::unique_ptr<InputSource> memory_source(proto::Bytes bytes) {
     return std::make_unique<MemorySource>(std::move(bytes));
 }
 
-proto::Status read_bytes(const InputSource& source, std::uint64_t offset, std::uint64_t length, proto::Bytes& out) {
+proto::Status read_bytes(const InputSource& source, std::uint64_t offset, std::uint64_t length,
+                         proto::Bytes& out) {
     out.resize(static_cast<std::size_t>(length));
     return source.read(offset, out);
 }

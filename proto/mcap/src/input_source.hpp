@@ -26,6 +26,7 @@ std::unique_ptr<InputSource> memory_source(proto::Bytes bytes);
 
 /// Reads `length` bytes at `offset` into `out` (resized); the caller has checked `length` against
 /// the file's size and its own limit.
-proto::Status read_bytes(const InputSource& source, std::uint64_t offset, std::uint64_t length, proto::Bytes& out);
+proto::Status read_bytes(const InputSource& source, std::uint64_t offset, std::uint64_t length,
+                         proto::Bytes& out);
 
 }  // namespace plexus::mcap

@@ -34,7 +34,8 @@ public:
     }
 
     int reserve(std::uint64_t offset, std::uint64_t length) override {
-        if (::fallocate(fd_, FALLOC_FL_KEEP_SIZE, static_cast<off_t>(offset), static_cast<off_t>(length)) != 0)
+        if (::fallocate(fd_, FALLOC_FL_KEEP_SIZE, static_cast<off_t>(offset), static_cast<off_t>(length)) !=
+            0)
             return errno;
         return 0;
     }
@@ -60,7 +61,8 @@ proto::Result<std::unique_ptr<OutputFile>> create_output_file(const std::string&
     if (fd < 0) {
         const int error = errno;
         if (error == EEXIST)
-            return proto::Error{"cannot create " + path + ": the file exists (a recording never replaces a file)"};
+            return proto::Error{"cannot create " + path +
+                                ": the file exists (a recording never replaces a file)"};
         return proto::Error{"cannot create " + path + ": " + std::strerror(error)};
     }
     return std::unique_ptr<OutputFile>(std::make_unique<PosixOutputFile>(fd, path));

@@ -4,8 +4,8 @@
 #include <array>
 
 #include "crc32.hpp"
-#include "encoding.hpp"
 #include "data_scan.hpp"
+#include "encoding.hpp"
 #include "format.hpp"
 #include "input_source.hpp"
 #include "record_codec.hpp"
@@ -14,9 +14,13 @@ namespace plexus::mcap {
 
 namespace {
 
-std::string at(std::uint64_t offset) { return "offset " + std::to_string(offset) + ": "; }
+std::string at(std::uint64_t offset) {
+    return "offset " + std::to_string(offset) + ": ";
+}
 
-constexpr std::uint8_t opcode_of(format::Opcode opcode) { return static_cast<std::uint8_t>(opcode); }
+constexpr std::uint8_t opcode_of(format::Opcode opcode) {
+    return static_cast<std::uint8_t>(opcode);
+}
 
 }  // namespace
 
@@ -25,7 +29,9 @@ Reader::Reader(Reader&&) noexcept = default;
 Reader& Reader::operator=(Reader&&) noexcept = default;
 Reader::~Reader() = default;
 
-std::uint64_t Reader::file_size() const { return source_->size(); }
+std::uint64_t Reader::file_size() const {
+    return source_->size();
+}
 
 proto::Result<Reader> Reader::open(const std::string& path) {
     auto source = open_file_source(path);
@@ -37,7 +43,9 @@ proto::Result<Reader> Reader::open(const std::string& path) {
     return reader;
 }
 
-proto::Result<Reader> Reader::open_bytes(proto::Bytes bytes) { return open_source(memory_source(std::move(bytes))); }
+proto::Result<Reader> Reader::open_bytes(proto::Bytes bytes) {
+    return open_source(memory_source(std::move(bytes)));
+}
 
 proto::Result<Reader> Reader::open_source(std::unique_ptr<InputSource> source) {
     Reader reader(std::move(source));
@@ -58,9 +66,11 @@ proto::Result<Reader> Reader::open_source(std::unique_ptr<InputSource> source) {
         return proto::Error{at(magic.size()) + "header record of " + std::to_string(header->length) +
                             " bytes exceeds this reader's limit"};
     proto::Bytes content;
-    if (auto status = read_bytes(input, header->offset + format::record_header_size, header->length, content); !status)
+    if (auto status = read_bytes(input, header->offset + format::record_header_size, header->length, content);
+        !status)
         return status.error();
-    if (auto status = parse_header(content, at(magic.size()) + "header record", reader.profile_, reader.library_);
+    if (auto status =
+            parse_header(content, at(magic.size()) + "header record", reader.profile_, reader.library_);
         !status)
         return status.error();
     reader.data_begin_ = header->end();
@@ -92,8 +102,8 @@ proto::Result<Reader> Reader::open_source(std::unique_ptr<InputSource> source) {
     if (footer->summary_start < reader.data_begin_ || footer->summary_start > reader.footer_offset_)
         return proto::Error{at(reader.footer_offset_) + "footer: the summary start " +
                             std::to_string(footer->summary_start) + " is outside the file's records (" +
-                            std::to_string(reader.data_begin_) + " to " + std::to_string(reader.footer_offset_) +
-                            ")"};
+                            std::to_string(reader.data_begin_) + " to " +
+                            std::to_string(reader.footer_offset_) + ")"};
     if (footer->summary_offset_start != 0 && (footer->summary_offset_start < footer->summary_start ||
                                               footer->summary_offset_start > reader.footer_offset_))
         return proto::Error{at(reader.footer_offset_) + "footer: the summary offset start " +
@@ -106,15 +116,16 @@ proto::Result<Reader> Reader::open_source(std::unique_ptr<InputSource> source) {
         return proto::Error{at(footer->summary_start) + "a summary of " + std::to_string(summary_length) +
                             " bytes exceeds this reader's limit"};
     proto::Bytes summary;
-    if (auto status = read_bytes(input, footer->summary_start, summary_length + format::record_header_size + 16, summary);
+    if (auto status = read_bytes(input, footer->summary_start,
+                                 summary_length + format::record_header_size + 16, summary);
         !status)
         return status.error();
     if (footer->summary_crc != 0) {
         const std::uint32_t actual = crc32(summary);
         if (actual != footer->summary_crc)
             return proto::Error{at(footer->summary_start) + "summary CRC mismatch (the footer says " +
-                                std::to_string(footer->summary_crc) + ", the bytes give " + std::to_string(actual) +
-                                ")"};
+                                std::to_string(footer->summary_crc) + ", the bytes give " +
+                                std::to_string(actual) + ")"};
     }
     summary.resize(static_cast<std::size_t>(summary_length));
     if (auto status = reader.read_summary_records(footer->summary_start, summary); !status)
@@ -197,21 +208,25 @@ proto::Status Reader::read_summary_records(std::uint64_t summary_start, proto::B
 
     for (const auto& index : metadata_indexes) {
         const std::string where = at(index.offset) + "metadata record";
-        auto header = read_record_header(*source_, index.offset, index.offset + index.length, "metadata index's range");
+        auto header =
+            read_record_header(*source_, index.offset, index.offset + index.length, "metadata index's range");
         if (!header)
             return header.error();
-        if (header->opcode != opcode_of(format::Opcode::metadata) || header->end() != index.offset + index.length)
+        if (header->opcode != opcode_of(format::Opcode::metadata) ||
+            header->end() != index.offset + index.length)
             return proto::Error{at(index.offset) + "the metadata index named \"" + index.name +
                                 "\" does not point at a metadata record of its length"};
         proto::Bytes content;
-        if (auto status = read_bytes(*source_, index.offset + format::record_header_size, header->length, content);
+        if (auto status =
+                read_bytes(*source_, index.offset + format::record_header_size, header->length, content);
             !status)
             return status;
         auto metadata = parse_metadata(content, where);
         if (!metadata)
             return metadata.error();
         if (metadata->name != index.name)
-            return proto::Error{where + ": named \"" + metadata->name + "\", its index says \"" + index.name + "\""};
+            return proto::Error{where + ": named \"" + metadata->name + "\", its index says \"" + index.name +
+                                "\""};
         metadata_.push_back(std::move(*metadata));
     }
     return proto::Ok{};

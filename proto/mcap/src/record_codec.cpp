@@ -164,8 +164,8 @@ std::uint64_t schema_record_size(const Schema& schema) {
 }
 
 std::uint64_t channel_record_size(const Channel& channel) {
-    return format::record_header_size + 2 + 2 + 4 + channel.topic.size() + 4 + channel.message_encoding.size() +
-           map_size(channel.metadata);
+    return format::record_header_size + 2 + 2 + 4 + channel.topic.size() + 4 +
+           channel.message_encoding.size() + map_size(channel.metadata);
 }
 
 std::uint64_t chunk_index_record_size(std::size_t channels, std::size_t compression_length) {

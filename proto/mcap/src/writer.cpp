@@ -55,9 +55,11 @@ proto::Result<std::unique_ptr<Writer>> Writer::create(const std::string& path, W
     return writer;
 }
 
-proto::Result<std::unique_ptr<Writer>> Writer::create_on(std::unique_ptr<OutputFile> file, WriterOptions options) {
+proto::Result<std::unique_ptr<Writer>> Writer::create_on(std::unique_ptr<OutputFile> file,
+                                                         WriterOptions options) {
     if (options.compression != "zstd" && !options.compression.empty())
-        return proto::Error{"MCAP compression \"" + options.compression + "\" is not supported (use \"zstd\" or \"\")"};
+        return proto::Error{"MCAP compression \"" + options.compression +
+                            "\" is not supported (use \"zstd\" or \"\")"};
     if (options.chunk_bytes == 0)
         return proto::Error{"MCAP chunk size must be at least 1 byte"};
     std::unique_ptr<Writer> writer(new Writer(std::move(file), std::move(options)));
@@ -83,8 +85,9 @@ std::uint16_t Writer::add_schema(const std::string& name, const std::string& enc
     return id;
 }
 
-proto::Result<std::uint16_t> Writer::add_channel(const std::string& topic, const std::string& message_encoding,
-                                                 StringMap metadata, std::uint16_t schema_id) {
+proto::Result<std::uint16_t> Writer::add_channel(const std::string& topic,
+                                                 const std::string& message_encoding, StringMap metadata,
+                                                 std::uint16_t schema_id) {
     if (schema_id != 0 && schemas_.count(schema_id) == 0)
         return proto::Error{"MCAP channel " + topic + ": no schema has id " + std::to_string(schema_id)};
     const std::size_t next = channels_.empty() ? 1 : std::size_t{channels_.rbegin()->first} + 1;
@@ -100,7 +103,8 @@ void Writer::append_channel_records(std::uint16_t channel_id) {
     // putting them in the same chunk keeps each chunk readable on its own.
     const Channel& channel = channels_.at(channel_id);
     const std::uint16_t schema_id = channel.schema_id;
-    if (schema_id != 0 && schemas_in_file_.count(schema_id) == 0 && chunk_->schemas_added.count(schema_id) == 0) {
+    if (schema_id != 0 && schemas_in_file_.count(schema_id) == 0 &&
+        chunk_->schemas_added.count(schema_id) == 0) {
         append_schema(chunk_->records, schemas_.at(schema_id));
         chunk_->schemas_added.insert(schema_id);
     }
@@ -232,8 +236,8 @@ proto::Status Writer::write_metadata(const std::string& name, const StringMap& v
 
 std::uint64_t Writer::summary_estimate() const {
     // Every schema and channel counts, written or not: an estimate may only err on the large side.
-    std::uint64_t size = format::data_end_record_size + statistics_record_size(channels_.size()) + index_bytes_ +
-                         6 * (format::record_header_size + 17) + format::footer_and_magic_size;
+    std::uint64_t size = format::data_end_record_size + statistics_record_size(channels_.size()) +
+                         index_bytes_ + 6 * (format::record_header_size + 17) + format::footer_and_magic_size;
     for (const auto& [id, schema] : schemas_)
         size += schema_record_size(schema);
     for (const auto& [id, channel] : channels_)
@@ -285,9 +289,10 @@ void Writer::lose_open_chunk() {
     chunk_ = std::make_unique<OpenChunk>();
 }
 
-proto::Status Writer::close() {
+proto::Status Writer::close(const Metadata* closing_note) {
     if (closed_)
-        return file_valid_ ? proto::Status(proto::Ok{}) : proto::Status(proto::Error{"already closed: " + error_});
+        return file_valid_ ? proto::Status(proto::Ok{})
+                           : proto::Status(proto::Error{"already closed: " + error_});
     if (!failed())
         (void)flush_chunk();  // a failure is recorded in error_ and the chunk counted lost
     else
@@ -296,19 +301,37 @@ proto::Status Writer::close() {
 
     // After a failed write the bytes past end_ are garbage: the end of the file is written over
     // them from end_, in the space reserved for it. (Truncating first, as one might, would also
-    // free that reserved space: file systems drop preallocated blocks past the new end.)
-    const std::uint64_t data_end = end_;
-    const proto::Bytes tail = finalization(data_end);
-    if (const int error_number = file_->write_at(data_end, tail); error_number != 0) {
-        fail("cannot finish the file at offset " + std::to_string(data_end), error_number);
+    // free that reserved space: file systems drop preallocated blocks past the new end.) A closing
+    // note goes first, in the same reserve (its margin holds a small one), so that even a file
+    // whose disk filled says why it ended.
+    proto::Bytes note_block;
+    if (closing_note) {
+        append_metadata(note_block, *closing_note);
+        MetadataIndexEntry index;
+        index.offset = end_;
+        index.length = note_block.size();
+        index.name = closing_note->name;
+        metadata_indexes_.push_back(std::move(index));
+        index_bytes_ += metadata_index_record_size(closing_note->name.size());
+        ++statistics_.metadata_count;
+        Crc32 crc(data_crc_);
+        crc.update(note_block);
+        data_crc_ = crc.value();
+    }
+    const std::uint64_t data_end = end_ + note_block.size();
+    proto::Bytes tail = note_block;
+    const proto::Bytes finish = finalization(data_end);
+    tail.insert(tail.end(), finish.begin(), finish.end());
+    if (const int error_number = file_->write_at(end_, tail); error_number != 0) {
+        fail("cannot finish the file at offset " + std::to_string(end_), error_number);
         return proto::Error{error_ + " (the file has no footer; readers will report it truncated)"};
     }
-    end_ = data_end + tail.size();
-    if (written_high_ > end_) {
-        if (const int error_number = file_->truncate(end_); error_number != 0) {
-            fail("cannot cut the file at offset " + std::to_string(end_), error_number);
-            return proto::Error{error_};
-        }
+    end_ = data_end + finish.size();
+    // Cutting the file at its end also gives back the reserved blocks past it. It matters only
+    // when a failed write left bytes beyond the footer; otherwise a failure costs nothing.
+    if (const int error_number = file_->truncate(end_); error_number != 0 && written_high_ > end_) {
+        fail("cannot cut the file at offset " + std::to_string(end_), error_number);
+        return proto::Error{error_};
     }
     if (const int error_number = file_->sync(); error_number != 0) {
         fail("cannot sync the file", error_number);

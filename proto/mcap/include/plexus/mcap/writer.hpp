@@ -19,8 +19,9 @@ namespace plexus::mcap {
 
 /// How the writer lays out the file.
 struct WriterOptions {
-    std::uint64_t chunk_bytes = 4 * 1024 * 1024;  ///< uncompressed bytes per chunk (a larger message gets its own)
-    std::string compression = "zstd";             ///< "zstd" or "" (none)
+    std::uint64_t chunk_bytes =
+        4 * 1024 * 1024;               ///< uncompressed bytes per chunk (a larger message gets its own)
+    std::string compression = "zstd";  ///< "zstd" or "" (none)
     int zstd_level = 1;
     bool write_summary = true;  ///< false: a footer without summary (readers then scan the file)
     std::string profile;        ///< the Header's profile; "" for Plexus recordings
@@ -52,7 +53,9 @@ public:
     proto::Status flush_chunk();
     /// Writes the current chunk, DataEnd, the summary, the footer and the closing magic. Fails when
     /// any message was lost; file_valid() then tells whether the file was still finalized.
-    proto::Status close();
+    /// `closing_note`, when given, is written as a last Metadata record even after a failed write
+    /// (into the space reserved for the end of the file), so that a file says why it ended.
+    proto::Status close(const Metadata* closing_note = nullptr);
 
     /// Whether close() wrote a complete, readable file.
     bool file_valid() const { return file_valid_; }
@@ -68,6 +71,8 @@ public:
     std::uint64_t bytes_written() const { return end_; }
     /// Messages written to the file so far (not those still in the current chunk).
     std::uint64_t messages_written() const { return statistics_.message_count; }
+    /// What the file holds so far (per channel too), as its Statistics record will say.
+    const Statistics& statistics() const { return statistics_; }
     /// Chunks written so far.
     std::uint32_t chunks_written() const { return statistics_.chunk_count; }
 
