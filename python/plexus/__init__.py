@@ -12,12 +12,13 @@
 Blocking reads release the GIL and Ctrl-C interrupts them; ``await port.read_async()`` and
 ``async for message in port`` serve asyncio. Errors raise plexus.Error (NotFoundError,
 UsageError, TimeoutError, RefusedError) with the messages the CLI prints. NumPy arrays travel as
-blobs holding a .npy file (see python/README.md).
+blobs holding a .npy file (see python/README.md). ``plexus.Recording(path)`` reads a recording
+made by ``plexus record`` (docs/RECORDING.md).
 """
 
 from . import _asyncio
 from ._errors import Error, NotFoundError, RefusedError, TimeoutError, UsageError
-from ._plexus import Client, Envelope, Message, Port
+from ._plexus import Client, Envelope, Message, Port, RecordedMessage, Recording
 
 _asyncio.install()
 
@@ -28,6 +29,8 @@ __all__ = [
     "Message",
     "NotFoundError",
     "Port",
+    "RecordedMessage",
+    "Recording",
     "RefusedError",
     "TimeoutError",
     "UsageError",

@@ -4,10 +4,13 @@
 #include "client_binding.hpp"
 #include "errors.hpp"
 #include "port_binding.hpp"
+#include "recording_binding.hpp"
 
 PYBIND11_MODULE(_plexus, module) {
-    module.doc() = "libplexus for Python: Client, Port, Message, Envelope. Import plexus, not this.";
+    module.doc() =
+        "libplexus for Python: Client, Port, Message, Envelope, Recording. Import plexus, not this.";
     plexus::python::register_error_translator();
     plexus::python::bind_port(module);
     plexus::python::bind_client(module);
+    plexus::python::bind_recording(module);
 }

@@ -33,7 +33,8 @@ const std::string object_carrier =
 /// opens the detectors' ports again.
 class GazeDemo {
 public:
-    explicit GazeDemo(const TempDir& dir) : dir_(dir), daemon_(dir, "gaze") {
+    explicit GazeDemo(const TempDir& dir)
+        : dir_(dir), daemon_(dir, "gaze", "", {"--scripts", monitors_dir()}) {
         reader_ = start_cli(dir, daemon_, {"read", "/gaze/in", "--policy", "latest"}, "gaze");
         EXPECT_TRUE(wait_port(dir, daemon_, "/gaze/in"));
     }
@@ -186,7 +187,8 @@ TEST(Record_test, TheGazeDemoRecordedReadsBackByteIdenticalAndWhatIfReproducesAn
     EXPECT_EQ(model_misses, 0u) << "the test's own model of the arbitration disagrees with the recording";
 
     // ...what-if with the recorded carriers reproduces every one of them...
-    auto same = run_cli(dir, demo.daemon(), {"what-if", file, "/gaze/in", "--json"});
+    auto same =
+        run_cli(dir, demo.daemon(), {"what-if", file, "/gaze/in", "--scripts", monitors_dir(), "--json"});
     ASSERT_EQ(same.status, 0) << same.err;
     const auto same_totals = nlohmann::json::parse(last_line(same.out));
     EXPECT_EQ(same_totals["messages"], recorded.size());
@@ -202,9 +204,9 @@ TEST(Record_test, TheGazeDemoRecordedReadsBackByteIdenticalAndWhatIfReproducesAn
         << "the demo's detectors overlap in view: some messages must change hands";
     const std::string no_inhibition =
         "local+" + certainty + "+event.e_object_seen+recv.priority+tc.0.5+ex./demo/face/out:0";
-    auto changed =
-        run_cli(dir, demo.daemon(),
-                {"what-if", file, "/gaze/in", "--carrier", "/demo/object/out=" + no_inhibition, "--json"});
+    auto changed = run_cli(dir, demo.daemon(),
+                           {"what-if", file, "/gaze/in", "--scripts", monitors_dir(), "--carrier",
+                            "/demo/object/out=" + no_inhibition, "--json"});
     ASSERT_EQ(changed.status, 0) << changed.err;
     const auto totals = nlohmann::json::parse(last_line(changed.out));
     EXPECT_EQ(totals["changed"], expected_changes) << changed.out;
@@ -212,8 +214,8 @@ TEST(Record_test, TheGazeDemoRecordedReadsBackByteIdenticalAndWhatIfReproducesAn
 
     // The SVG timeline is written.
     auto svg = run_cli(dir, demo.daemon(),
-                       {"what-if", file, "/gaze/in", "--carrier", "/demo/object/out=" + no_inhibition,
-                        "--svg", dir.file("timeline.svg")});
+                       {"what-if", file, "/gaze/in", "--scripts", monitors_dir(), "--carrier",
+                        "/demo/object/out=" + no_inhibition, "--svg", dir.file("timeline.svg")});
     EXPECT_EQ(svg.status, 0) << svg.err;
     EXPECT_TRUE(std::filesystem::file_size(dir.file("timeline.svg")) > 1000);
 
