@@ -257,8 +257,9 @@ TEST(Record_test, ARecordingWhoseClientIsKilledIsClosedValidByTheDaemon) {
     TempDir dir;
     Daemon daemon(dir, "orphan");
     CliWriter writer(dir, daemon, "/w", "writer");
+    ASSERT_TRUE(wait_port(dir, daemon, "/w"));
     auto reader = start_cli(dir, daemon, {"read", "/r", "/w"}, "reader");
-    ASSERT_TRUE(wait_port(dir, daemon, "/r"));
+    ASSERT_TRUE(wait_port(dir, daemon, "/r")) << reader->err();
     const std::string file = dir.file("orphan.mcap");
     auto recorder = start_cli(dir, daemon, {"record", "/r", "-o", file}, "recorder");
     ASSERT_TRUE(eventually([&] { return std::filesystem::exists(file); })) << recorder->err();
@@ -280,8 +281,9 @@ TEST(Record_test, AFileThatIsNotARecordingIsAClearErrorNamingTheOffsetNeverACras
     TempDir dir;
     Daemon daemon(dir, "bad");
     CliWriter writer(dir, daemon, "/w", "writer");
+    ASSERT_TRUE(wait_port(dir, daemon, "/w"));
     auto reader = start_cli(dir, daemon, {"read", "/r", "/w"}, "reader");
-    ASSERT_TRUE(wait_port(dir, daemon, "/r"));
+    ASSERT_TRUE(wait_port(dir, daemon, "/r")) << reader->err();
     const std::string file = dir.file("good.mcap");
     auto recorder = start_cli(dir, daemon, {"record", "/r", "-o", file}, "recorder");
     ASSERT_TRUE(eventually([&] { return std::filesystem::exists(file); })) << recorder->err();
@@ -293,6 +295,7 @@ TEST(Record_test, AFileThatIsNotARecordingIsAClearErrorNamingTheOffsetNeverACras
     }));
     recorder->signal(SIGINT);
     ASSERT_EQ(recorder->wait(30s), 0) << recorder->err();
+    writer.finish();  // play opens /w again
     std::string bytes;
     {
         std::ifstream in(file, std::ios::binary);

@@ -9,6 +9,13 @@ namespace plexus::cli {
 
 int recording_info(const std::string& file, bool json) {
     const auto recording = Recording::open(file);
+    // Every chunk is read once, so that a damaged one is reported here (with its offset) rather
+    // than halfway through a replay.
+    std::uint64_t readable = 0;
+    recording.for_each([&readable](const RecordedMessage&) {
+        ++readable;
+        return true;
+    });
     const auto connections = recording.connections();
     const auto end = recording.end_note();
     const double span = recording.end_ns() > recording.start_ns()
