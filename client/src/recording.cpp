@@ -50,15 +50,15 @@ Recording::~Recording() = default;
 Recording Recording::open(const std::string& path) {
     auto reader = mcap::Reader::open(path);
     if (!reader)
-        throw Error(ErrorCode::usage, path + ": " + reader.error().message);
+        throw Error(ErrorCode::refused, path + ": " + reader.error().message);
     auto state = std::make_unique<State>(std::move(*reader));
     state->path = path;
     bool plexus_recording = false;
     for (const auto& entry : state->reader.metadata())
         plexus_recording = plexus_recording || entry.name == layout::recording_metadata;
     if (!plexus_recording)
-        throw Error(ErrorCode::usage, path + ": an MCAP file, but not a Plexus recording (no " +
-                                          std::string(layout::recording_metadata) + " metadata)");
+        throw Error(ErrorCode::refused, path + ": an MCAP file, but not a Plexus recording (no " +
+                                            std::string(layout::recording_metadata) + " metadata)");
     return Recording(std::move(state));
 }
 
@@ -143,7 +143,7 @@ void Recording::for_each(const std::function<bool(const RecordedMessage&)>& visi
         },
         &wanted);
     if (!read)
-        throw Error(ErrorCode::usage, state_->path + ": " + read.error().message);
+        throw Error(ErrorCode::refused, state_->path + ": " + read.error().message);
 }
 
 std::vector<RecordedMessage> Recording::messages(const std::vector<std::string>& ports) const {

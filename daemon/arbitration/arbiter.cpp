@@ -46,6 +46,20 @@ Arbiter::Verdict Arbiter::admit(Member& member, double now) {
     return member.aux ? Verdict::auxiliary : Verdict::deliver;
 }
 
+const char* Arbiter::verdict_name(Verdict verdict) {
+    switch (verdict) {
+        case Verdict::constraint:
+            return "constraint";
+        case Verdict::priority:
+            return "priority";
+        case Verdict::auxiliary:
+            return "auxiliary";
+        case Verdict::deliver:
+            break;
+    }
+    return "delivered";
+}
+
 PriorityState Arbiter::priority_state() const {
     PriorityState state;
     state.members = stimulated_;

@@ -85,6 +85,8 @@ public:
     /// same). Counts the drops on the member.
     Verdict admit(Member& member, double now);
     Verdict admit(Member& member) { return admit(member, clock_.now()); }
+    /// "delivered", "constraint", "priority", "auxiliary": as recordings and what-if name them.
+    static const char* verdict_name(Verdict verdict);
 
     /// While someone records the port's decisions (a tap), the monitors' stages note the time of
     /// each step. Read without the lock, on every message: an atomic flag, nothing more.

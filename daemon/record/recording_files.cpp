@@ -93,19 +93,18 @@ void RecordingFiles::message(const ConnectionInfo& connection, std::uint64_t seq
 }
 
 void RecordingFiles::decision(const std::string& port, std::uint64_t unix_ns, const json& entry) {
-    const std::string topic = layout::decisions_topic(port);
-    const std::uint16_t id = channel(topic, topic, std::string(layout::record_encoding),
-                                     {{std::string(layout::kind_key), std::string(layout::decisions_kind)},
-                                      {std::string(layout::port_key), port}});
-    const std::string text = entry.dump();
-    write(id, 0, unix_ns, unix_ns, text_bytes(text));
+    json_record(port, layout::decisions_topic(port), layout::decisions_kind, unix_ns, entry);
 }
 
 void RecordingFiles::event(const std::string& port, std::uint64_t unix_ns, const json& entry) {
-    const std::string topic = layout::events_topic(port);
-    const std::uint16_t id = channel(topic, topic, std::string(layout::record_encoding),
-                                     {{std::string(layout::kind_key), std::string(layout::events_kind)},
-                                      {std::string(layout::port_key), port}});
+    json_record(port, layout::events_topic(port), layout::events_kind, unix_ns, entry);
+}
+
+void RecordingFiles::json_record(const std::string& port, const std::string& topic, std::string_view kind,
+                                 std::uint64_t unix_ns, const json& entry) {
+    const std::uint16_t id =
+        channel(topic, topic, std::string(layout::record_encoding),
+                {{std::string(layout::kind_key), std::string(kind)}, {std::string(layout::port_key), port}});
     const std::string text = entry.dump();
     write(id, 0, unix_ns, unix_ns, text_bytes(text));
 }

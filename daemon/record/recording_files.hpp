@@ -6,6 +6,7 @@
 #include <memory>
 #include <set>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -69,6 +70,9 @@ private:
     void write(std::uint16_t channel, std::uint32_t sequence, std::uint64_t log_time,
                std::uint64_t publish_time, proto::ByteView data);
     void note_failure();
+    /// A decision or an event: JSON on the port's channel of that kind.
+    void json_record(const std::string& port, const std::string& topic, std::string_view kind,
+                     std::uint64_t unix_ns, const nlohmann::json& entry);
     /// Counts what the current file holds and lost, and lets it go (closed).
     void let_go_of_writer();
     std::uint64_t kept_in_current() const;

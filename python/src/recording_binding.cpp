@@ -64,7 +64,7 @@ void bind_recording(py::module_& module) {
     py::class_<Recording>(
         module, "Recording",
         "A recording made by `plexus record`: Recording(path) opens it; a file that is not one, "
-        "or is truncated or corrupt, raises UsageError naming the offset.")
+        "or is truncated or corrupt, raises RefusedError naming the offset.")
         .def(py::init([](const std::string& path) { return Recording::open(path); }), py::arg("path"))
         .def_property_readonly("ports", &Recording::ports)
         .def_property_readonly("node", &Recording::node)

@@ -42,8 +42,8 @@ def test_a_recording_reads_back_every_message_with_its_payload(client, daemon, t
     assert recording.messages(ports=["/not/recorded"]) == []
 
 
-def test_a_file_that_is_not_a_recording_raises_a_usage_error_naming_the_offset(tmp_path):
+def test_a_file_that_is_not_a_recording_raises_an_error_naming_the_offset(tmp_path):
     path = tmp_path / "bad.mcap"
     path.write_bytes(b"\x89MCAP0\r\n" + b"\0" * 64)
-    with pytest.raises(plexus.UsageError, match="offset"):
+    with pytest.raises(plexus.RefusedError, match="offset"):
         plexus.Recording(str(path))

@@ -177,21 +177,33 @@ TEST(Record_test, TheGazeDemoRecordedReadsBackByteIdenticalAndWhatIfReproducesAn
         EXPECT_EQ(theirs, ours);
     }
 
-    // The recorded decisions follow DESIGN's rules (the independent model agrees with them)...
+    // The recorded decisions follow DESIGN's rules (the independent model agrees with them), but
+    // for a few at the very start: the stimulation of messages before the recording began is not
+    // in the file (the warm-up, docs/WHAT_IF.md), and the model starts from an empty past.
     const auto recorded = decisions_of(file, "/gaze/in");
-    ASSERT_EQ(recorded.size(), ours.size());
+    // A message still in its monitors when the recording stopped has no decision in the file.
+    ASSERT_LE(recorded.size(), ours.size());
+    EXPECT_LE(ours.size() - recorded.size(), 2u);
     const auto as_recorded = predicted(recorded, -1);
-    std::size_t model_misses = 0;
-    for (std::size_t i = 0; i < recorded.size(); ++i)
-        model_misses += as_recorded[i] != recorded[i].outcome ? 1 : 0;
-    EXPECT_EQ(model_misses, 0u) << "the test's own model of the arbitration disagrees with the recording";
+    std::vector<bool> warm_up(recorded.size(), false);
+    std::size_t warm = 0;
+    for (std::size_t i = 0; i < recorded.size(); ++i) {
+        if (as_recorded[i] == recorded[i].outcome)
+            continue;
+        warm_up[i] = true;
+        ++warm;
+        EXPECT_LE(recorded[i].decision_time - recorded.front().decision_time, 0.5 + 1e-6)
+            << "the model disagrees with the recording past tc of its start, at message " << i;
+    }
+    EXPECT_LE(warm, 3u);
 
-    // ...what-if with the recorded carriers reproduces every one of them...
+    // ...what-if with the recorded carriers reproduces every one of them it compares (all but
+    // those the unrecorded past decided)...
     auto same =
         run_cli(dir, demo.daemon(), {"what-if", file, "/gaze/in", "--scripts", monitors_dir(), "--json"});
     ASSERT_EQ(same.status, 0) << same.err;
     const auto same_totals = nlohmann::json::parse(last_line(same.out));
-    EXPECT_EQ(same_totals["messages"], recorded.size());
+    EXPECT_EQ(same_totals["messages"], recorded.size() - warm);
     EXPECT_EQ(same_totals["changed"], 0) << same.out;
 
     // ...and without the object's inhibition it reports the messages that change hands, as many
@@ -199,7 +211,7 @@ TEST(Record_test, TheGazeDemoRecordedReadsBackByteIdenticalAndWhatIfReproducesAn
     const auto without = predicted(recorded, 0);
     std::size_t expected_changes = 0;
     for (std::size_t i = 0; i < recorded.size(); ++i)
-        expected_changes += without[i] != recorded[i].outcome ? 1 : 0;
+        expected_changes += !warm_up[i] && without[i] != recorded[i].outcome ? 1 : 0;
     EXPECT_GT(expected_changes, 0u)
         << "the demo's detectors overlap in view: some messages must change hands";
     const std::string no_inhibition =
@@ -253,16 +265,27 @@ TEST(Record_test, TheGazeDemoRecordedReadsBackByteIdenticalAndWhatIfReproducesAn
     EXPECT_LE(differing * 20, compared) << "more than 5% of the replayed decisions differ";
 }
 
+/// `plexus write /w` into `plexus read /r`, with /r being recorded by `plexus record` into FILE.
+struct RecordedPipe {
+    RecordedPipe(const TempDir& dir, const std::string& node)
+        : daemon(dir, node), writer(dir, daemon, "/w", "writer"), file(dir.file(node + ".mcap")) {
+        EXPECT_TRUE(wait_port(dir, daemon, "/w"));
+        reader = start_cli(dir, daemon, {"read", "/r", "/w"}, "reader");
+        EXPECT_TRUE(wait_port(dir, daemon, "/r")) << reader->err();
+        recorder = start_cli(dir, daemon, {"record", "/r", "-o", file}, "recorder");
+        EXPECT_TRUE(eventually([&] { return std::filesystem::exists(file); })) << recorder->err();
+    }
+    Daemon daemon;
+    CliWriter writer;
+    std::unique_ptr<Process> reader;
+    std::string file;
+    std::unique_ptr<Process> recorder;
+};
+
 TEST(Record_test, ARecordingWhoseClientIsKilledIsClosedValidByTheDaemon) {
     TempDir dir;
-    Daemon daemon(dir, "orphan");
-    CliWriter writer(dir, daemon, "/w", "writer");
-    ASSERT_TRUE(wait_port(dir, daemon, "/w"));
-    auto reader = start_cli(dir, daemon, {"read", "/r", "/w"}, "reader");
-    ASSERT_TRUE(wait_port(dir, daemon, "/r")) << reader->err();
-    const std::string file = dir.file("orphan.mcap");
-    auto recorder = start_cli(dir, daemon, {"record", "/r", "-o", file}, "recorder");
-    ASSERT_TRUE(eventually([&] { return std::filesystem::exists(file); })) << recorder->err();
+    RecordedPipe pipe(dir, "orphan");
+    auto& [daemon, writer, reader, file, recorder] = pipe;
     writer.send("1\n2\n3\n");
     recorder->signal(SIGKILL);
     recorder->wait(10s);
@@ -279,14 +302,8 @@ TEST(Record_test, ARecordingWhoseClientIsKilledIsClosedValidByTheDaemon) {
 
 TEST(Record_test, AFileThatIsNotARecordingIsAClearErrorNamingTheOffsetNeverACrash) {
     TempDir dir;
-    Daemon daemon(dir, "bad");
-    CliWriter writer(dir, daemon, "/w", "writer");
-    ASSERT_TRUE(wait_port(dir, daemon, "/w"));
-    auto reader = start_cli(dir, daemon, {"read", "/r", "/w"}, "reader");
-    ASSERT_TRUE(wait_port(dir, daemon, "/r")) << reader->err();
-    const std::string file = dir.file("good.mcap");
-    auto recorder = start_cli(dir, daemon, {"record", "/r", "-o", file}, "recorder");
-    ASSERT_TRUE(eventually([&] { return std::filesystem::exists(file); })) << recorder->err();
+    RecordedPipe pipe(dir, "bad");
+    auto& [daemon, writer, reader, file, recorder] = pipe;
     for (int i = 0; i < 50; ++i)
         writer.send("{\"n\": " + std::to_string(i) + "}\n");
     ASSERT_TRUE(eventually([&] {
@@ -328,6 +345,74 @@ TEST(Record_test, AFileThatIsNotARecordingIsAClearErrorNamingTheOffsetNeverACras
             EXPECT_NE(result.err.find("offset"), std::string::npos) << what << ": " << result.err;
         }
     }
+}
+
+TEST(Record_test, PortsOnTwoNodesAreRecordedEachByItsOwnDaemonIntoAFileWithTheClockNote) {
+    TempDir dir;
+    Daemon a(dir, "a");
+    Daemon b(dir, "b", a.names());
+    CliWriter to_a(dir, a, "/a/w", "writer-a");
+    CliWriter to_b(dir, b, "/b/w", "writer-b");
+    ASSERT_TRUE(wait_port(dir, a, "/a/w"));
+    ASSERT_TRUE(wait_port(dir, b, "/b/w"));
+    auto read_a = start_cli(dir, a, {"read", "/a/in", "/a/w"}, "reader-a");
+    auto read_b = start_cli(dir, b, {"read", "/b/in", "/b/w"}, "reader-b");
+    ASSERT_TRUE(wait_port(dir, a, "/a/in")) << read_a->err();
+    ASSERT_TRUE(wait_port(dir, a, "/b/in")) << read_b->err();
+    // Asked of node a's daemon, for a port of each node.
+    const std::string file = dir.file("both.mcap");
+    const std::string file_b = dir.file("both.b.mcap");
+    auto recorder = start_cli(dir, a, {"record", "/a/in", "/b/in", "-o", file}, "recorder");
+    ASSERT_TRUE(eventually([&] { return std::filesystem::exists(file) && std::filesystem::exists(file_b); }))
+        << recorder->err();
+    to_a.send("1\n2\n3\n");
+    to_b.send("4\n5\n");
+    const auto lines_of = [](const Process& process) {
+        const std::string out = process.out();
+        return std::count(out.begin(), out.end(), '\n');
+    };
+    ASSERT_TRUE(eventually([&] { return lines_of(*read_a) >= 3 && lines_of(*read_b) >= 2; }));
+    recorder->signal(SIGINT);
+    ASSERT_EQ(recorder->wait(30s), 0) << recorder->err();
+    const auto recording_a = Recording::open(file);
+    const auto recording_b = Recording::open(file_b);
+    EXPECT_EQ(recording_a.node(), "a");
+    EXPECT_EQ(recording_b.node(), "b");
+    EXPECT_EQ(recording_a.ports(), std::vector<std::string>{"/a/in"});
+    EXPECT_EQ(recording_b.ports(), std::vector<std::string>{"/b/in"});
+    EXPECT_EQ(recording_a.message_count(), 3u);
+    EXPECT_EQ(recording_b.message_count(), 2u);
+    // The clock note lines the files up: wall-clock arrival times on both.
+    for (const auto* recording : {&recording_a, &recording_b}) {
+        recording->for_each([](const RecordedMessage& m) {
+            EXPECT_GT(m.arrived_ns, 1'600'000'000'000'000'000ull) << "ns since the Unix epoch";
+            return true;
+        });
+    }
+}
+
+TEST(Record_test, ARecordingOnAnotherNodeEndsWhenItsClientStopsAsking) {
+    TempDir dir;
+    Daemon a(dir, "a");
+    Daemon b(dir, "b", a.names());
+    auto read_b = start_cli(dir, b, {"read", "/b/in"}, "reader-b");
+    ASSERT_TRUE(wait_port(dir, a, "/b/in")) << read_b->err();
+    const std::string file_b = dir.file("lease.b.mcap");
+    auto recorder = start_cli(dir, a, {"record", "/b/in", "-o", dir.file("lease.mcap")}, "recorder");
+    ASSERT_TRUE(eventually([&] { return std::filesystem::exists(file_b); })) << recorder->err();
+    recorder->signal(SIGKILL);
+    recorder->wait(10s);
+    // Node b's daemon closes its file once nobody asked about it for its lease (5 s).
+    ASSERT_TRUE(eventually(
+        [&] {
+            try {
+                return !Recording::open(file_b).end_note().empty();
+            } catch (const std::exception&) {
+                return false;
+            }
+        },
+        30s));
+    EXPECT_EQ(Recording::open(file_b).end_note()["reason"], "its client went away");
 }
 
 }  // namespace

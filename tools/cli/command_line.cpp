@@ -158,19 +158,21 @@ void CommandLine::add_inspect_commands() {
 // `plexus what-if`: a recording re-run offline (no daemon needed).
 void CommandLine::add_what_if_command() {
     auto& args = what_if_args_;
-    auto* cmd = app_.add_subcommand(
-        "what-if",
-        "re-run a recorded port's arbitration and recv-side monitors offline, with the daemon's own code, and "
-        "print the decisions that come out otherwise (no daemon needed)");
+    auto* cmd = app_.add_subcommand("what-if",
+                                    "re-run a recorded port's arbitration and recv-side monitors offline, "
+                                    "with the daemon's own code, and "
+                                    "print the decisions that come out otherwise (no daemon needed)");
     cmd->add_option("FILE", args.file, "a recording (plexus record ... -o FILE.mcap)")->required();
     cmd->add_option("PORT", args.port, "the recorded input port to re-run")->required();
-    cmd->add_option("--carrier", args.carriers,
-                    "SOURCE=CARRIER: re-run the connection from SOURCE with this full carrier text instead of "
-                    "the recorded one (weights, constraints, scripts), e.g. "
-                    "/obj/out=local+recv.priority+tc.0.5+ex./face/out:0 (repeatable)");
-    cmd->add_flag("--json", args.json,
-                  "one JSON object per line for each message decided otherwise: {\"source\", \"seq\", \"time\", "
-                  "\"recorded\", \"what_if\"}; then a last line {\"messages\": N, \"changed\": K}");
+    cmd->add_option(
+        "--carrier", args.carriers,
+        "SOURCE=CARRIER: re-run the connection from SOURCE with this full carrier text instead of "
+        "the recorded one (weights, constraints, scripts), e.g. "
+        "/obj/out=local+recv.priority+tc.0.5+ex./face/out:0 (repeatable)");
+    cmd->add_flag(
+        "--json", args.json,
+        "one JSON object per line for each message decided otherwise: {\"source\", \"seq\", \"time\", "
+        "\"recorded\", \"what_if\"}; then a last line {\"messages\": N, \"changed\": K}");
     cmd->add_option("--svg", args.svg,
                     "also draw the recorded and what-if decisions as an SVG timeline into this file");
     cmd->add_option("--scripts", args.script_dirs,
@@ -179,13 +181,15 @@ void CommandLine::add_what_if_command() {
     cmd->add_option("--monitor-libs", args.monitor_lib_dirs,
                     "directory of compiled monitors (type.so), as plexusd --monitor-libs (repeatable)");
     cmd->footer(
-        "Each recorded message is re-run in two steps at its recorded times, on a clock that PortMonitor.now()\n"
+        "Each recorded message is re-run in two steps at its recorded times, on a clock that "
+        "PortMonitor.now()\n"
         "and event lifetimes read: its monitors at the instant they began, its arbitration at the instant\n"
         "the daemon decided; all connections' steps in time order. With the recorded carriers the decisions\n"
         "come out as recorded (0 changed).\n"
         "Not compared, and counted: messages the recording holds no decision for (in flight at its end),\n"
         "and those decided while stimulation from before the recording could still count (the warm-up).\n"
-        "Text output: a line per changed message (seconds from the start, source, seq, recorded -> what-if),\n"
+        "Text output: a line per changed message (seconds from the start, source, seq, recorded -> "
+        "what-if),\n"
         "then messages compared and changed, per source the deliveries recorded -> what-if, and how often\n"
         "the delivering source switched. Exit 0 whatever the count; 2 bad arguments (a port not in the\n"
         "recording, a --carrier that does not parse or load); 4 a file that is not a readable recording\n"
@@ -202,15 +206,20 @@ void CommandLine::add_recording_commands() {
         "their monitors and arbitration decided, their events (docs/RECORDING.md). The daemon "
         "writes the file; runs until Ctrl-C, --duration or --max-bytes");
     record_cmd->add_option("PORT", record.ports, "ports of the local daemon to record");
-    record_cmd->add_option("-o,--output", record.output, "the file to write (never overwritten)");
+    record_cmd->add_option(
+        "-o,--output", record.output,
+        "the file to write, never overwritten (default: plexus-YYYYmmdd-HHMMSS.mcap here)");
     record_cmd->add_flag("--all", record.all, "record every port of the local daemon");
     record_cmd->add_option("--duration", record.duration, "stop after this many seconds")
         ->transform(seconds(0.001, 31'536'000));
-    record_cmd->add_option("--max-bytes", record.max_bytes, "stop once the files hold this many bytes")
+    record_cmd
+        ->add_option("--max-bytes", record.max_bytes,
+                     "stop once the files hold this many bytes (any number of bytes)")
         ->transform(whole_number(1, UINT64_MAX));
     record_cmd
-        ->add_option("--split-bytes", record.split_bytes,
-                     "start a new file (FILE-STEM.1.mcap, .2, ...) past this many bytes")
+        ->add_option(
+            "--split-bytes", record.split_bytes,
+            "start a new file (FILE-STEM.1.mcap, .2, ...) past this many bytes (any number of bytes)")
         ->transform(whole_number(1, UINT64_MAX));
     record_cmd->add_option("--info", record.info, "print what the recording FILE holds instead");
     record_cmd->add_flag("--json", record.json, "print JSON");
@@ -227,14 +236,15 @@ void CommandLine::add_recording_commands() {
         ->transform(seconds(0.001, 1000));
     play_cmd->add_flag("--loop", play.loop, "start again at the end, until Ctrl-C");
     play_cmd->add_option("--remap", play.remaps, "play source OLD from port NEW (OLD=NEW, repeatable)");
-    play_cmd->add_option("--start", play.start, "skip the first S seconds")
+    play_cmd->add_option("--start", play.start, "skip the first S seconds (0: from the start)")
         ->transform(seconds(0, 31'536'000));
     play_cmd->add_option("--end", play.end, "stop S seconds after the recording's start")
-        ->transform(seconds(0, 31'536'000));
+        ->transform(seconds(0.001, 31'536'000));
     play_cmd->add_option("--ports", play.ports, "play only the sources of these recorded ports");
     play_cmd
-        ->add_option("--wait", play.wait,
-                     "seconds to wait for connections out of the opened ports before playing")
+        ->add_option(
+            "--wait", play.wait,
+            "seconds to wait for connections out of the opened ports before playing (0: do not wait)")
         ->transform(seconds(0, 3600))
         ->capture_default_str();
     play_cmd->callback([this] { status_ = plexus::cli::play(common_, play_options_); });

@@ -6,6 +6,7 @@
 #include <atomic>
 #include <chrono>
 #include <csignal>
+#include <ctime>
 #include <filesystem>
 #include <iostream>
 #include <thread>
@@ -63,6 +64,16 @@ void print_summary(const Value& status, bool json) {
                   << " messages were in a writer's shared memory and are not in the file\n";
 }
 
+/// plexus-YYYYmmdd-HHMMSS.mcap (UTC), in the current directory, as rosbag2 names its bags.
+std::string default_file_name() {
+    const std::time_t now = std::time(nullptr);
+    std::tm utc{};
+    gmtime_r(&now, &utc);
+    char name[64];
+    std::strftime(name, sizeof name, "plexus-%Y%m%d-%H%M%S.mcap", &utc);
+    return name;
+}
+
 /// One daemon's part of a recording: the ports it hosts and the file it writes.
 struct NodeRecording {
     std::string node;
@@ -110,13 +121,14 @@ std::vector<NodeRecording> plan(Client& client, const RecordOptions& options, co
 int record(const Common& common, const RecordOptions& options) {
     if (!options.info.empty())
         return recording_info(options.info, options.json);
-    if (options.output.empty())
-        throw Error(ErrorCode::usage, "record needs -o FILE.mcap (or --info FILE)");
+    auto client = plexus::Client({common.socket});
     if (options.ports.empty() && !options.all)
         throw Error(ErrorCode::usage, "record needs at least one PORT, or --all");
     // The daemons write the files: they get the path as this shell means it.
-    const std::string output = std::filesystem::absolute(options.output).lexically_normal().string();
-    auto client = plexus::Client({common.socket});
+    const std::string output =
+        std::filesystem::absolute(options.output.empty() ? default_file_name() : options.output)
+            .lexically_normal()
+            .string();
     catch_interrupts();
     auto parts = plan(client, options, output);
     for (auto& part : parts) {

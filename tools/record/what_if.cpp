@@ -20,20 +20,6 @@ namespace arbitration = daemon::arbitration;
 
 namespace {
 
-const char* outcome_name(arbitration::Arbiter::Verdict verdict) {
-    switch (verdict) {
-        case arbitration::Arbiter::Verdict::constraint:
-            return "constraint";
-        case arbitration::Arbiter::Verdict::priority:
-            return "priority";
-        case arbitration::Arbiter::Verdict::auxiliary:
-            return "auxiliary";
-        case arbitration::Arbiter::Verdict::deliver:
-            break;
-    }
-    return "delivered";
-}
-
 /// One half of a message's passage through the port.
 struct Step {
     double time = 0;
@@ -135,7 +121,7 @@ proto::Result<Run> run_port(const RecordedPort& port, const std::vector<std::str
         auto& arbiter = replay.arbiter();
         std::lock_guard lock(arbiter.mutex());
         const bool constraint_holds = arbiter.constraint_value(member, clock.now());
-        outcomes[step.message] = outcome_name(arbiter.admit(member, clock.now()));
+        outcomes[step.message] = arbitration::Arbiter::verdict_name(arbiter.admit(member, clock.now()));
         stimulated[step.message] = constraint_holds && member.stimulus ? 1 : 0;
     }
 

@@ -38,7 +38,7 @@ struct RecordedConnection {
 class Recording {
 public:
     /// Opens a recording; a file that is not one, or is truncated or corrupt, throws an Error
-    /// (usage) whose message names the file offset where it went wrong.
+    /// (refused, as what-if's exit status 4) whose message names the file offset where it went wrong.
     static Recording open(const std::string& path);
     Recording(Recording&&) noexcept;
     Recording& operator=(Recording&&) noexcept;

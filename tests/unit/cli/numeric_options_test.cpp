@@ -43,6 +43,11 @@ struct DocumentedMeaning {
 const std::vector<DocumentedMeaning> documented_meanings = {
     {"wait", "--timeout", "0", "0 waits forever",
      "waiting for a port with no deadline is the point of `wait` in scripts that start things in any order"},
+    {"record", "--max-bytes", "99999999999", "any number of bytes",
+     "a recording of a hundred gigabytes is an ordinary day of camera images"},
+    {"record", "--split-bytes", "99999999999", "any number of bytes", "as --max-bytes"},
+    {"play", "--start", "0", "0: from the start", "the default: play the whole recording"},
+    {"play", "--wait", "0", "0: do not wait", "connections made after the player started are fine too"},
 };
 
 bool is_numeric(const std::string& type) {

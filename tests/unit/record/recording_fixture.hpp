@@ -183,17 +183,7 @@ public:
         clock_.set(decision_time);
         if (member->trivial())
             return "delivered";
-        switch (arbiter_->admit(*member, decision_time)) {
-            case arbitration::Arbiter::Verdict::deliver:
-                return "delivered";
-            case arbitration::Arbiter::Verdict::constraint:
-                return "constraint";
-            case arbitration::Arbiter::Verdict::priority:
-                return "priority";
-            case arbitration::Arbiter::Verdict::auxiliary:
-                return "auxiliary";
-        }
-        return "?";
+        return arbitration::Arbiter::verdict_name(arbiter_->admit(*member, decision_time));
     }
 
 private:
