@@ -1,0 +1,164 @@
+// plexus-bench record, part 2: the data path without a recording, with a recording of the ports
+// being read, and without one again (issue 28's "≤ 10% slower while recording, 0% when no one
+// records").
+//
+// One daemon carries all three scenarios (ping-pong 64 B, stream 64 B, stream 64 KiB), each with its
+// own ports. A round is, per scenario: a run with no recording ("none"), a run while the daemon
+// records the scenario's reading ports ("recording"), and a run after that recording was stopped
+// ("none_after"). Rounds repeat --repeat times; medians per variant. The latency scenario records
+// both of its reading ports (/bench/lat-pong-in and /bench/lat-ping-in), so that every message of a
+// round trip passes a tap; the streams record their sink. Each recording is stopped (its file
+// written, synced and closed) before the next run starts, and its file is removed.
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "plexus_measurements.hpp"
+#include "record_scenario.hpp"
+#include "run_deadline.hpp"
+#include "topology.hpp"
+
+namespace plexus::bench {
+
+namespace {
+
+struct Scenario {
+    std::string name;  ///< the JSON `scenario`
+    std::string title;
+    Options options;
+    std::vector<std::string> recorded_ports;
+    std::unique_ptr<Measurement> measurement;
+    std::vector<RunResult> none, recording, none_after;
+    std::uint64_t lost = 0;  ///< by the recorder, over all recording runs
+    std::uint64_t kept = 0;
+};
+
+Options tagged(const Options& given, const std::string& tag, std::size_t size) {
+    Options options = given;
+    options.size = size;
+    options.port_tag = tag;
+    options.count = 0;  // the scenario's own default (docs/BENCHMARKS.md)
+    return options;
+}
+
+void print_table(const Scenario& scenario, const RunResult& none, const RunResult& recording,
+                 const RunResult& after, const std::string& latency_label) {
+    std::printf("%s\n", scenario.title.c_str());
+    std::printf("  %-26s %12s %12s %12s %12s %12s\n", "", "none", "recording", "none_after", "rec/none",
+                "after/none");
+    auto row = [](const char* label, double a, double b, double c) {
+        std::printf("  %-26s %12.2f %12.2f %12.2f %12.3f %12.3f\n", label, a, b, c, a > 0 ? b / a : 0,
+                    a > 0 ? c / a : 0);
+    };
+    row(("p50 " + latency_label + " (us)").c_str(), none.p50_us, recording.p50_us, after.p50_us);
+    row(("p99 " + latency_label + " (us)").c_str(), none.p99_us, recording.p99_us, after.p99_us);
+    row("messages/s", none.msgs_per_s, recording.msgs_per_s, after.msgs_per_s);
+    row("plexusd CPU us/message", none.cpu_us_per_msg, recording.cpu_us_per_msg, after.cpu_us_per_msg);
+    std::printf("  recorder: %llu messages kept, %llu lost over the recording runs\n\n",
+                static_cast<unsigned long long>(scenario.kept), static_cast<unsigned long long>(scenario.lost));
+}
+
+double ratio(double a, double b) {
+    return b > 0 ? a / b : 0;
+}
+
+}  // namespace
+
+void measure_record_data_path(const Options& given) {
+    OutputDir dir(given.record_dir);
+    TempDir scratch;
+    const auto topology = Topology::plexus(scratch, given.plexusd, 1);
+    Client control = connect_client(topology->near_socket());
+
+    std::vector<Scenario> scenarios;
+    {
+        Scenario latency;
+        latency.name = "record_latency_1hop";
+        latency.options = tagged(given, "lat", 64);
+        latency.title = "latency, 1 hop, 64 B: " + std::to_string(latency_count(latency.options)) +
+                        " round trips per run";
+        latency.recorded_ports = {"/bench/lat-pong-in", "/bench/lat-ping-in"};
+        scenarios.push_back(std::move(latency));
+        for (const std::size_t size : {std::size_t{64}, std::size_t{64} << 10}) {
+            Scenario stream;
+            const std::string tag = size == 64 ? "small" : "large";
+            stream.name = "record_throughput_1hop";
+            stream.options = tagged(given, tag, size);
+            stream.title = "throughput, 1 hop, " + std::to_string(size) +
+                           " B: " + std::to_string(throughput_count(stream.options)) + " messages per run";
+            stream.recorded_ports = {"/bench/" + tag + "-sink"};
+            scenarios.push_back(std::move(stream));
+        }
+    }
+    {
+        RunDeadline setup;
+        for (auto& scenario : scenarios) {
+            scenario.measurement = scenario.name == "record_latency_1hop"
+                                       ? plexus_latency(*topology, scenario.options)
+                                       : plexus_throughput(*topology, scenario.options);
+        }
+    }
+    for (int round = 0; round < given.repeat; ++round) {
+        for (auto& scenario : scenarios) {
+            RunDeadline per_run;
+            scenario.none.push_back(scenario.measurement->run());
+            {
+                Recording recording(control, scenario.recorded_ports, dir.next("data-path", ".mcap"));
+                scenario.recording.push_back(scenario.measurement->run());
+                const Value status = recording.stop();
+                std::filesystem::remove(recording.path());
+                scenario.lost += status_count(status, "lost_messages") + status_count(status, "not_recordable");
+                scenario.kept += status_count(status, "messages");
+            }
+            scenario.none_after.push_back(scenario.measurement->run());
+        }
+    }
+
+    const std::string runs = ", median of " + std::to_string(given.repeat) +
+                             " rounds (none, recording, none_after in turn)";
+    for (auto& scenario : scenarios) {
+        const RunResult none = median_of(scenario.none);
+        const RunResult recording = median_of(scenario.recording);
+        const RunResult after = median_of(scenario.none_after);
+        const bool latency = scenario.name == "record_latency_1hop";
+        if (given.json) {
+            auto line = [&](const char* system, const RunResult& run) {
+                std::cout << nlohmann::ordered_json{{"system", system},
+                                                    {"scenario", scenario.name},
+                                                    {"size", scenario.options.size},
+                                                    {"p50_us", run.p50_us},
+                                                    {"p99_us", run.p99_us},
+                                                    {"msgs_per_s", run.msgs_per_s},
+                                                    {"mb_per_s", run.mb_per_s},
+                                                    {"cpu_us_per_msg", run.cpu_us_per_msg}}
+                                 .dump()
+                          << '\n';
+            };
+            line("none", none);
+            line("recording", recording);
+            line("none_after", after);
+            std::cout << nlohmann::ordered_json{{"scenario", scenario.name + "_ratios"},
+                                                {"size", scenario.options.size},
+                                                {"p50_recording_over_none", ratio(recording.p50_us, none.p50_us)},
+                                                {"p99_recording_over_none", ratio(recording.p99_us, none.p99_us)},
+                                                {"msgs_recording_over_none",
+                                                 ratio(recording.msgs_per_s, none.msgs_per_s)},
+                                                {"p50_after_over_none", ratio(after.p50_us, none.p50_us)},
+                                                {"msgs_after_over_none", ratio(after.msgs_per_s, none.msgs_per_s)},
+                                                {"recorder_kept", scenario.kept},
+                                                {"recorder_lost", scenario.lost}}
+                             .dump()
+                      << '\n';
+        } else {
+            scenario.title += runs;
+            print_table(scenario, none, recording, after, latency ? "RTT/2" : "write->read");
+        }
+    }
+    std::fflush(stdout);
+}
+
+}  // namespace plexus::bench
