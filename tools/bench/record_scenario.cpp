@@ -1,6 +1,6 @@
 // plexus-bench record: what recording a port costs and how fast it writes (issue 28).
 //
-// 1. Recording throughput. A writer streams --record-mib messages of 1 MiB of random bytes into a
+// 1. Recording throughput. A writer streams --mib messages of 1 MiB of random bytes into a
 //    port that a reader drains, while the daemon records that port into a file under --dir. MB/s =
 //    the file's bytes / the time from the first write to record_stop's reply (it replies once the
 //    file is closed and synced). Alternated with the same bytes written by dd into the same
@@ -16,9 +16,9 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <cstring>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -35,6 +35,7 @@
 #include "plexus_measurements.hpp"
 #include "record_scenario.hpp"
 #include "run_deadline.hpp"
+#include "scenarios.hpp"
 #include "topology.hpp"
 
 namespace plexus::bench {
@@ -64,49 +65,60 @@ struct ThroughputRun {
     Value status;
 };
 
-ThroughputRun record_stream(const Topology& topology, OutputDir& dir, const std::vector<Value>& payloads,
-                            std::size_t messages) {
-    Client writer = connect_client(topology.near_socket());
-    Client reader = connect_client(topology.near_socket());
-    Port source = writer.open("/bench/record-source");
-    Port sink = reader.open("/bench/record-sink", {QueuePolicy::strict, 0});
-    connect_when_registered(writer, source.name(), sink.name());
-    Recording recording(reader, {sink.name()}, dir.next("record", ".mcap"));
+/// A writer and a reader on one daemon, connected once; each run() records the reader's port.
+class RecordedStream {
+public:
+    explicit RecordedStream(const Topology& topology)
+        : writer_(connect_client(topology.near_socket())),
+          reader_(connect_client(topology.near_socket())),
+          source_(writer_.open("/bench/record-source")),
+          sink_(reader_.open("/bench/record-sink", {QueuePolicy::strict, 0})) {
+        connect_when_registered(writer_, source_.name(), sink_.name());
+    }
 
-    std::string error;
-    Clock::time_point last_read;
-    const auto start = Clock::now();
-    std::jthread drain([&] {
-        try {
-            for (std::size_t i = 0; i < messages; ++i) {
-                if (!sink.read(10s))
-                    throw std::runtime_error("message " + std::to_string(i) + " never arrived");
+    ThroughputRun run(OutputDir& dir, const std::vector<Value>& payloads, std::size_t messages) {
+        Recording recording(reader_, {sink_.name()}, dir.next("record", ".mcap"));
+        std::string error;
+        Clock::time_point last_read;
+        const auto start = Clock::now();
+        std::jthread drain([&] {
+            try {
+                for (std::size_t i = 0; i < messages; ++i) {
+                    if (!sink_.read(10s))
+                        throw std::runtime_error("message " + std::to_string(i) + " never arrived");
+                }
+                last_read = Clock::now();
+            } catch (const std::exception& e) {
+                error = e.what();
             }
-            last_read = Clock::now();
-        } catch (const std::exception& e) {
-            error = e.what();
-        }
-    });
-    for (std::size_t i = 0; i < messages; ++i)
-        source.write(payloads[i % payloads.size()], false);
-    source.flush();
-    drain.join();
-    if (!error.empty())
-        throw std::runtime_error("record throughput: " + error);
-    ThroughputRun run;
-    run.status = recording.stop();
-    const auto closed = Clock::now();
-    const auto bytes = file_size(recording.path());
-    std::filesystem::remove(recording.path());
-    check_kept(run.status, messages, "record throughput");
-    const double total_s = std::chrono::duration<double>(closed - start).count();
-    run.record_mb_per_s = static_cast<double>(bytes) / 1e6 / total_s;
-    run.data_path_mb_per_s =
-        static_cast<double>(messages * mib) / 1e6 / std::chrono::duration<double>(last_read - start).count();
-    run.close_s = std::chrono::duration<double>(closed - last_read).count();
-    run.file_mb = static_cast<double>(bytes) / 1e6;
-    return run;
-}
+        });
+        for (std::size_t i = 0; i < messages; ++i)
+            source_.write(payloads[i % payloads.size()], false);
+        source_.flush();
+        drain.join();
+        if (!error.empty())
+            throw std::runtime_error("record throughput: " + error);
+        ThroughputRun run;
+        run.status = recording.stop();
+        const auto closed = Clock::now();
+        const auto bytes = file_size(recording.path());
+        std::filesystem::remove(recording.path());
+        check_kept(run.status, messages, "record throughput");
+        const double total_s = std::chrono::duration<double>(closed - start).count();
+        run.record_mb_per_s = static_cast<double>(bytes) / 1e6 / total_s;
+        run.data_path_mb_per_s = static_cast<double>(messages * mib) / 1e6 /
+                                 std::chrono::duration<double>(last_read - start).count();
+        run.close_s = std::chrono::duration<double>(closed - last_read).count();
+        run.file_mb = static_cast<double>(bytes) / 1e6;
+        return run;
+    }
+
+private:
+    Client writer_;
+    Client reader_;
+    Port source_;
+    Port sink_;
+};
 
 /// dd into the directory; MB/s of what it wrote over its whole run (the fdatasync included).
 double dd_mb_per_s(OutputDir& dir, const std::vector<std::string>& input, std::size_t messages) {
@@ -162,13 +174,14 @@ void measure_record_throughput(const Options& options) {
 
     std::vector<double> recorder, data_path, close_s, dd_random, dd_zero;
     std::vector<ThroughputRun> runs;
+    RecordedStream stream(*topology);
     {
         RunDeadline warm;
-        record_stream(*topology, dir, payloads, std::max<std::size_t>(messages / 10, 4));  // warm-up
+        stream.run(dir, payloads, std::max<std::size_t>(messages / 10, 4));  // warm-up: buffers, shm
     }
     for (int run = 0; run < options.repeat; ++run) {
         RunDeadline per_run;
-        runs.push_back(record_stream(*topology, dir, payloads, messages));
+        runs.push_back(stream.run(dir, payloads, messages));
         recorder.push_back(runs.back().record_mb_per_s);
         data_path.push_back(runs.back().data_path_mb_per_s);
         close_s.push_back(runs.back().close_s);
