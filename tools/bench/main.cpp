@@ -118,6 +118,11 @@ int main(int argc, char** argv) {
                        "rounds of writes in the what-if recording (3 or 4 messages each, 200 us apart)")
         ->check(CLI::PositiveNumber)
         ->capture_default_str();
+    record->add_option("--count", options.count, "round trips per latency run (default: by size)")
+        ->check(CLI::PositiveNumber);
+    record->add_option("--stream-count", options.stream_count,
+                       "messages per 64 B throughput run (default 1,000,000; 64 KiB: by size)")
+        ->check(CLI::PositiveNumber);
     record->add_option("--parts", options.parts, "throughput, data-path, what-if (default: all)")
         ->delimiter(',')
         ->check(CLI::IsMember({"throughput", "data-path", "what-if"}));
