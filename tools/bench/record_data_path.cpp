@@ -62,6 +62,19 @@ void print_table(const Scenario& scenario, const RunResult& none, const RunResul
     row(("p99 " + latency_label + " (us)").c_str(), none.p99_us, recording.p99_us, after.p99_us);
     row("messages/s", none.msgs_per_s, recording.msgs_per_s, after.msgs_per_s);
     row("plexusd CPU us/message", none.cpu_us_per_msg, recording.cpu_us_per_msg, after.cpu_us_per_msg);
+    auto runs = [](const std::vector<RunResult>& results, bool latency) {
+        std::string text;
+        for (const auto& run : results) {
+            char number[32];
+            std::snprintf(number, sizeof number, " %.0f", latency ? run.p50_us * 100 : run.msgs_per_s / 1e3);
+            text += number;
+        }
+        return text;
+    };
+    const bool latency = latency_label == "RTT/2";
+    std::printf("  each round's %s: none%s | recording%s | none_after%s\n",
+                latency ? "p50 (10 ns)" : "messages/s (thousands)", runs(scenario.none, latency).c_str(),
+                runs(scenario.recording, latency).c_str(), runs(scenario.none_after, latency).c_str());
     std::printf("  recorder: %llu messages kept, %llu lost over the recording runs\n\n",
                 static_cast<unsigned long long>(scenario.kept), static_cast<unsigned long long>(scenario.lost));
 }

@@ -225,6 +225,17 @@ void measure_record_throughput(const Options& options) {
     std::printf("  %-52s %10.1f MB/s\n", "the data path meanwhile (payload / first..last read)",
                 median(data_path));
     std::printf("  %-52s %10.2f s\n", "last read .. record_stop's reply (drain, sync)", median(close_s));
+    auto runs_text = [](const std::vector<double>& values) {
+        std::string text;
+        for (const double value : values) {
+            char number[32];
+            std::snprintf(number, sizeof number, " %.0f", value);
+            text += number;
+        }
+        return text;
+    };
+    std::printf("  each run's MB/s: recording%s | dd (random)%s | dd (zero)%s\n", runs_text(recorder).c_str(),
+                runs_text(dd_random).c_str(), runs_text(dd_zero).c_str());
     std::printf("  recorder's counts (last run): %llu messages, %llu bytes; over all runs: %llu lost, "
                 "%llu not recordable\n\n",
                 static_cast<unsigned long long>(status_count(last.status, "messages")),
