@@ -123,6 +123,9 @@ int main(int argc, char** argv) {
     record->add_option("--stream-count", options.stream_count,
                        "messages per 64 B throughput run (default 1,000,000; 64 KiB: by size)")
         ->check(CLI::PositiveNumber);
+    record->add_option("--baseline-plexusd", options.baseline_plexusd,
+                       "data-path: also run each scenario on this plexusd (one built from the commit "
+                       "before the recording tap, 8cd2c9d), alternated: the '0% when no one records' check");
     record->add_option("--parts", options.parts, "throughput, data-path, what-if (default: all)")
         ->delimiter(',')
         ->check(CLI::IsMember({"throughput", "data-path", "what-if"}));

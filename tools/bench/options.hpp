@@ -42,6 +42,8 @@ struct Options {
     int what_if_rounds = 10000;
     /// record: the monitor scripts the what-if recording's Lua carriers name.
     std::string scripts_dir;
+    /// record: a plexusd built from the commit before the tap (8cd2c9d), measured alongside.
+    std::string baseline_plexusd;
     /// record: which parts to run (throughput, data-path, what-if); empty: all.
     std::vector<std::string> parts;
 };

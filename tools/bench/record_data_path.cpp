@@ -32,7 +32,8 @@ struct Scenario {
     Options options;
     std::vector<std::string> recorded_ports;
     std::unique_ptr<Measurement> measurement;
-    std::vector<RunResult> none, recording, none_after;
+    std::unique_ptr<Measurement> before_tap;  ///< on the --baseline-plexusd daemon, if given
+    std::vector<RunResult> none, recording, none_after, baseline;
     std::uint64_t lost = 0;  ///< by the recorder, over all recording runs
     std::uint64_t kept = 0;
 };
@@ -49,19 +50,28 @@ Options tagged(const Options& given, const std::string& tag, std::size_t size, s
     return options;
 }
 
-void print_table(const Scenario& scenario, const RunResult& none, const RunResult& recording,
-                 const RunResult& after, const std::string& latency_label) {
+/// Columns: none, recording, none_after (and before_tap); ratios to none (and none to before_tap).
+void print_table(const Scenario& scenario, const std::vector<RunResult>& medians, const std::string& latency_label) {
+    const bool with_baseline = medians.size() == 4;
     std::printf("%s\n", scenario.title.c_str());
-    std::printf("  %-26s %12s %12s %12s %12s %12s\n", "", "none", "recording", "none_after", "rec/none",
-                "after/none");
-    auto row = [](const char* label, double a, double b, double c) {
-        std::printf("  %-26s %12.2f %12.2f %12.2f %12.3f %12.3f\n", label, a, b, c, a > 0 ? b / a : 0,
-                    a > 0 ? c / a : 0);
+    std::printf("  %-26s %12s %12s %12s %s%11s %11s%s\n", "", "none", "recording", "none_after",
+                with_baseline ? "  before_tap " : "", "rec/none", "after/none", with_baseline ? "  none/before" : "");
+    auto row = [&](const char* label, double RunResult::*field) {
+        const double none = medians[0].*field;
+        const double recording = medians[1].*field;
+        const double after = medians[2].*field;
+        std::printf("  %-26s %12.2f %12.2f %12.2f", label, none, recording, after);
+        if (with_baseline)
+            std::printf(" %12.2f", medians[3].*field);
+        std::printf(" %11.3f %11.3f", none > 0 ? recording / none : 0, none > 0 ? after / none : 0);
+        if (with_baseline)
+            std::printf(" %12.3f", medians[3].*field > 0 ? none / (medians[3].*field) : 0);
+        std::printf("\n");
     };
-    row(("p50 " + latency_label + " (us)").c_str(), none.p50_us, recording.p50_us, after.p50_us);
-    row(("p99 " + latency_label + " (us)").c_str(), none.p99_us, recording.p99_us, after.p99_us);
-    row("messages/s", none.msgs_per_s, recording.msgs_per_s, after.msgs_per_s);
-    row("plexusd CPU us/message", none.cpu_us_per_msg, recording.cpu_us_per_msg, after.cpu_us_per_msg);
+    row(("p50 " + latency_label + " (us)").c_str(), &RunResult::p50_us);
+    row(("p99 " + latency_label + " (us)").c_str(), &RunResult::p99_us);
+    row("messages/s", &RunResult::msgs_per_s);
+    row("plexusd CPU us/message", &RunResult::cpu_us_per_msg);
     auto runs = [](const std::vector<RunResult>& results, bool latency) {
         std::string text;
         for (const auto& run : results) {
@@ -72,10 +82,12 @@ void print_table(const Scenario& scenario, const RunResult& none, const RunResul
         return text;
     };
     const bool latency = latency_label == "RTT/2";
-    std::printf("  each round's %s: none%s | recording%s | none_after%s\n",
+    std::printf("  each round's %s: none%s | recording%s | none_after%s", 
                 latency ? "p50 (10 ns)" : "messages/s (thousands)", runs(scenario.none, latency).c_str(),
                 runs(scenario.recording, latency).c_str(), runs(scenario.none_after, latency).c_str());
-    std::printf("  recorder: %llu messages kept, %llu lost over the recording runs\n\n",
+    if (with_baseline)
+        std::printf(" | before_tap%s", runs(scenario.baseline, latency).c_str());
+    std::printf("\n  recorder: %llu messages kept, %llu lost over the recording runs\n\n",
                 static_cast<unsigned long long>(scenario.kept), static_cast<unsigned long long>(scenario.lost));
 }
 
@@ -89,6 +101,11 @@ void measure_record_data_path(const Options& given) {
     OutputDir dir(given.record_dir);
     TempDir scratch;
     const auto topology = Topology::plexus(scratch, given.plexusd, 1);
+    // The daemon of the commit before the tap, if given: the "0% when no one records" comparison.
+    TempDir baseline_scratch;
+    const auto baseline = given.baseline_plexusd.empty()
+                              ? nullptr
+                              : Topology::plexus(baseline_scratch, given.baseline_plexusd, 1);
     Client control = connect_client(topology->near_socket());
 
     std::vector<Scenario> scenarios;
@@ -119,11 +136,19 @@ void measure_record_data_path(const Options& given) {
             scenario.measurement = scenario.name == "record_latency_1hop"
                                        ? plexus_latency(*topology, scenario.options)
                                        : plexus_throughput(*topology, scenario.options);
+            if (baseline) {
+                scenario.before_tap = scenario.name == "record_latency_1hop"
+                                          ? plexus_latency(*baseline, scenario.options)
+                                          : plexus_throughput(*baseline, scenario.options);
+            }
         }
     }
     for (int round = 0; round < given.repeat; ++round) {
         for (auto& scenario : scenarios) {
             RunDeadline per_run;
+            // The baseline goes first in even rounds and last in odd ones: the order hits both alike.
+            if (scenario.before_tap && round % 2 == 0)
+                scenario.baseline.push_back(scenario.before_tap->run());
             scenario.none.push_back(scenario.measurement->run());
             {
                 Recording recording(control, scenario.recorded_ports, dir.next("data-path", ".mcap"));
@@ -134,6 +159,8 @@ void measure_record_data_path(const Options& given) {
                 scenario.kept += status_count(status, "messages");
             }
             scenario.none_after.push_back(scenario.measurement->run());
+            if (scenario.before_tap && round % 2 == 1)
+                scenario.baseline.push_back(scenario.before_tap->run());
         }
     }
 
@@ -160,6 +187,18 @@ void measure_record_data_path(const Options& given) {
             line("none", none);
             line("recording", recording);
             line("none_after", after);
+            if (!scenario.baseline.empty()) {
+                const RunResult before = median_of(scenario.baseline);
+                line("before_tap", before);
+                std::cout << nlohmann::ordered_json{{"scenario", scenario.name + "_no_recording_vs_before_tap"},
+                                                    {"size", scenario.options.size},
+                                                    {"p50_none_over_before", ratio(none.p50_us, before.p50_us)},
+                                                    {"msgs_none_over_before",
+                                                     ratio(none.msgs_per_s, before.msgs_per_s)},
+                                                    {"baseline_plexusd", given.baseline_plexusd}}
+                                 .dump()
+                          << '\n';
+            }
             std::cout << nlohmann::ordered_json{{"scenario", scenario.name + "_ratios"},
                                                 {"size", scenario.options.size},
                                                 {"p50_recording_over_none", ratio(recording.p50_us, none.p50_us)},
@@ -174,7 +213,10 @@ void measure_record_data_path(const Options& given) {
                       << '\n';
         } else {
             scenario.title += runs;
-            print_table(scenario, none, recording, after, latency ? "RTT/2" : "write->read");
+            std::vector<RunResult> medians{none, recording, after};
+            if (!scenario.baseline.empty())
+                medians.push_back(median_of(scenario.baseline));
+            print_table(scenario, medians, latency ? "RTT/2" : "write->read");
         }
     }
     std::fflush(stdout);
