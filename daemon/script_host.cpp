@@ -4,8 +4,8 @@
 
 #include <spdlog/spdlog.h>
 
-#include "arbitration/carrier_rules.hpp"
 #include "daemon.hpp"
+#include "monitor/carrier_monitors.hpp"
 #include "plexus/proto/message.hpp"
 #include "plexus/proto/port_name.hpp"
 
@@ -15,43 +15,6 @@ namespace {
 
 /// Monitors publishing into connections whose monitors publish again: past this, refuse.
 constexpr int max_publish_depth = 4;
-
-/// The clause keys a portmonitor takes for itself; the others go to the script's create(options).
-proto::Result<monitor::MonitorSpec> spec_of(const proto::Clause& clause, const proto::Carrier& carrier,
-                                            const std::string& source, const std::string& destination) {
-    monitor::MonitorSpec spec;
-    spec.side = clause.side;
-    spec.source = source;
-    spec.destination = destination;
-    spec.carrier = carrier.text();
-    std::string file;
-    for (const auto& param : clause.params) {
-        const std::string value = param.value.value_or("");
-        if (param.key == "type") {
-            if (value != "lua" && value != "so")
-                return proto::Error{"portmonitor type '" + value +
-                                    "' is not supported (type.lua or type.so)"};
-            spec.type = value == "so" ? monitor::MonitorType::plugin : monitor::MonitorType::lua;
-        } else if (param.key == "file") {
-            file = value;
-        } else if (param.key == "onerror") {
-            if (value == "drop")
-                spec.on_error = monitor::OnError::drop;
-            else if (value == "pass")
-                spec.on_error = monitor::OnError::pass;
-            else
-                return proto::Error{"onerror." + value + ": expected onerror.drop or onerror.pass"};
-        } else if (param.key == "constraint" || param.key == "aux") {
-            continue;  // the port's arbitration reads these (arbitration/carrier_rules)
-        } else {
-            spec.options[param.key] = value;
-        }
-    }
-    if (file.empty())
-        return proto::Error{"portmonitor clause without file.NAME"};
-    spec.script.name = file;
-    return spec;
-}
 
 }  // namespace
 
@@ -63,29 +26,9 @@ ScriptHost::~ScriptHost() = default;
 proto::Result<std::shared_ptr<monitor::MonitorChain>> ScriptHost::build_chain(
     const proto::Carrier& carrier, proto::Side side, const std::string& source,
     const std::string& destination, const std::shared_ptr<arbitration::Member>& member) {
-    auto chain = std::make_shared<monitor::MonitorChain>();
-    for (const auto& clause : carrier.clauses) {
-        if (clause.side != side || clause.modifier != "portmonitor" || arbitration::arbitration_only(clause))
-            continue;
-        auto spec = spec_of(clause, carrier, source, destination);
-        if (!spec)
-            return spec.error();
-        auto script = spec->type == monitor::MonitorType::plugin
-                          ? monitor::find_plugin(spec->script.name, daemon_.config().monitor_lib_dirs)
-                          : monitor::find_script(spec->script.name, daemon_.config().script_dirs);
-        if (!script)
-            return script.error();
-        spec->script = std::move(*script);
-        if (side == proto::Side::recv)
-            spec->member = member;
-        auto created = monitor::Monitor::create(std::move(*spec), daemon_.config().monitors, *this);
-        if (!created)
-            return created.error();
-        chain->monitors.push_back(std::move(*created));
-    }
-    if (chain->monitors.empty())
-        return std::shared_ptr<monitor::MonitorChain>{};
-    return chain;
+    const monitor::ChainPlaces places{daemon_.config().script_dirs, daemon_.config().monitor_lib_dirs,
+                                      daemon_.config().monitors};
+    return monitor::build_carrier_chain(carrier, side, source, destination, member, places, *this);
 }
 
 std::shared_ptr<monitor::MonitorStage> ScriptHost::make_stage(std::shared_ptr<monitor::MonitorChain> chain,

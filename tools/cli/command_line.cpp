@@ -28,6 +28,7 @@ CommandLine::CommandLine()
     add_port_commands();
     add_inspect_commands();
     add_app_commands();
+    add_what_if_command();
     add_recording_commands();
 }
 
@@ -154,7 +155,45 @@ void CommandLine::add_inspect_commands() {
     param_set->callback([this] { status_ = param(common_, "set", source_, destination_, assignments_); });
 }
 
-// Commands on application files (docs/APPLICATIONS.md).
+// `plexus what-if`: a recording re-run offline (no daemon needed).
+void CommandLine::add_what_if_command() {
+    auto& args = what_if_args_;
+    auto* cmd = app_.add_subcommand(
+        "what-if",
+        "re-run a recorded port's arbitration and recv-side monitors offline, with the daemon's own code, and "
+        "print the decisions that come out otherwise (no daemon needed)");
+    cmd->add_option("FILE", args.file, "a recording (plexus record ... -o FILE.mcap)")->required();
+    cmd->add_option("PORT", args.port, "the recorded input port to re-run")->required();
+    cmd->add_option("--carrier", args.carriers,
+                    "SOURCE=CARRIER: re-run the connection from SOURCE with this full carrier text instead of "
+                    "the recorded one (weights, constraints, scripts), e.g. "
+                    "/obj/out=local+recv.priority+tc.0.5+ex./face/out:0 (repeatable)");
+    cmd->add_flag("--json", args.json,
+                  "one JSON object per line for each message decided otherwise: {\"source\", \"seq\", \"time\", "
+                  "\"recorded\", \"what_if\"}; then a last line {\"messages\": N, \"changed\": K}");
+    cmd->add_option("--svg", args.svg,
+                    "also draw the recorded and what-if decisions as an SVG timeline into this file");
+    cmd->add_option("--scripts", args.script_dirs,
+                    "directory of the monitor scripts the carriers name (file.NAME), as plexusd --scripts "
+                    "(repeatable)");
+    cmd->add_option("--monitor-libs", args.monitor_lib_dirs,
+                    "directory of compiled monitors (type.so), as plexusd --monitor-libs (repeatable)");
+    cmd->footer(
+        "Each recorded message is re-run in two steps at its recorded times, on a clock that PortMonitor.now()\n"
+        "and event lifetimes read: its monitors at the instant they began, its arbitration at the instant\n"
+        "the daemon decided; all connections' steps in time order. With the recorded carriers the decisions\n"
+        "come out as recorded (0 changed).\n"
+        "Not compared, and counted: messages the recording holds no decision for (in flight at its end),\n"
+        "and those decided while stimulation from before the recording could still count (the warm-up).\n"
+        "Text output: a line per changed message (seconds from the start, source, seq, recorded -> what-if),\n"
+        "then messages compared and changed, per source the deliveries recorded -> what-if, and how often\n"
+        "the delivering source switched. Exit 0 whatever the count; 2 bad arguments (a port not in the\n"
+        "recording, a --carrier that does not parse or load); 4 a file that is not a readable recording\n"
+        "(the reader names the byte offset).");
+    cmd->callback([this] { status_ = what_if(what_if_args_); });
+}
+
+// Recordings: record, play (docs/RECORDING.md).
 void CommandLine::add_recording_commands() {
     auto& record = record_options_;
     auto* record_cmd = app_.add_subcommand(
@@ -201,6 +240,7 @@ void CommandLine::add_recording_commands() {
     play_cmd->callback([this] { status_ = plexus::cli::play(common_, play_options_); });
 }
 
+// Commands on application files (docs/APPLICATIONS.md).
 void CommandLine::add_app_commands() {
     auto* check_cmd = app_.add_subcommand(
         "check",

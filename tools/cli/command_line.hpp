@@ -28,6 +28,7 @@ private:
     void add_port_commands();
     void add_inspect_commands();
     void add_app_commands();
+    void add_what_if_command();
     void add_recording_commands();
 
     CLI::App app_;
@@ -53,6 +54,7 @@ private:
     std::string app_file_;
     UpOptions up_options_;
     std::vector<std::string> node_sockets_;
+    WhatIfArgs what_if_args_;
     RecordOptions record_options_;
     PlayOptions play_options_;
 };

@@ -44,6 +44,17 @@ struct EventsOptions {
     std::optional<long> count;  ///< with --watch: stop after this many redraws
 };
 
+/// `plexus what-if FILE PORT`: the recording's arbitration of PORT re-run offline (tools/record/).
+struct WhatIfArgs {
+    std::string file;
+    std::string port;
+    std::vector<std::string> carriers;  ///< SOURCE=CARRIER, as given
+    bool json = false;
+    std::string svg;  ///< "" = no picture
+    std::vector<std::string> script_dirs;
+    std::vector<std::string> monitor_lib_dirs;
+};
+
 struct RecordOptions {
     std::vector<std::string> ports;
     std::string output;
@@ -88,6 +99,9 @@ int stats(const Common& common, const std::string& port, bool json);
 int events(const Common& common, const EventsOptions& options);
 /// `plexus web`: the local daemon's web page address; with `token`, the web token instead.
 int web(const Common& common, bool token);
+/// Re-runs PORT's decisions from a recording, with some connections' carriers replaced, and
+/// prints those that differ; exit 0 whatever the count, 2 for bad arguments, 4 for a bad file.
+int what_if(const WhatIfArgs& args);
 /// Prints, as a JSON array, {script, side, param} for each monitor on SRC -> DST; `set` calls
 /// setparam with the KEY=VALUE pairs first.
 int param(const Common& common, const std::string& action, const std::string& source,
