@@ -39,7 +39,7 @@ struct Options {
     /// record: 1 MiB messages per recording-throughput run.
     std::size_t record_mib = 256;
     /// record: rounds of writes in the what-if recording (each 3 or 4 messages, 200 us apart).
-    int what_if_rounds = 10000;
+    int what_if_rounds = 16000;
     /// record: the monitor scripts the what-if recording's Lua carriers name.
     std::string scripts_dir;
     /// record: a plexusd built from the commit before the tap (8cd2c9d), measured alongside.

@@ -4,7 +4,7 @@
 // The recording is made here, on one daemon started with --scripts configs/monitors, of two
 // arbitrated ports:
 //   /bench/gaze: the gaze demo of README.md's arbitration section: /bench/face always, /bench/object
-//                in spells of 500 messages on and off, with recv.priority (tc 0.5 s, the object
+//                in spells of 4,000 rounds (0.8 s, longer than tc) on and off, with recv.priority (tc 0.5 s, the object
 //                inhibiting the face);
 //   /bench/head: the two-trackers example: /bench/tmpl and /bench/pf through the Lua certainty
 //                monitor (threshold 0.6, events e_template_ok / e_particle_ok, keep) with constraints,
@@ -36,7 +36,7 @@ using namespace std::chrono_literals;
 using Clock = std::chrono::steady_clock;
 
 constexpr auto write_period = 200us;
-constexpr int object_spell = 500;  ///< rounds the object is seen, then not seen
+constexpr int object_spell = 4000;  ///< rounds (0.8 s) the object is seen, then not: longer than tc
 
 struct PortCase {
     std::string label;  ///< the JSON `case`
