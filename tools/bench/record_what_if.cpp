@@ -153,15 +153,29 @@ void measure_what_if(const Options& options) {
         argv.insert(argv.end(), each.extra.begin(), each.extra.end());
         std::vector<double> seconds;
         nlohmann::json summary;
+        std::string last_output;
         for (int run = 0; run < options.repeat; ++run) {
             RunDeadline per_run;
             const auto start = Clock::now();
             const auto result = run_command(argv);
             seconds.push_back(std::chrono::duration<double>(Clock::now() - start).count());
             summary = summary_line(result.output);
+            last_output = result.output;
             if (result.status != 0 || summary.is_null())
                 throw std::runtime_error("plexus what-if failed (" + std::to_string(result.status) +
                                          "): " + result.output.substr(0, 2000));
+        }
+        // With the recorded carriers what-if must reproduce every decision (issue 28): a difference
+        // is a finding, shown rather than averaged away.
+        if (each.extra.empty() || each.extra.front() != "--carrier") {
+            if (summary.value("changed", 0) != 0) {
+                std::cerr << "plexus-bench: what-if on " << each.port
+                          << " with the recorded carriers changed decisions; the last run said:\n";
+                std::istringstream lines(last_output);
+                std::string line;
+                for (int shown = 0; std::getline(lines, line) && shown < 5; ++shown)
+                    std::cerr << "  " << line << '\n';
+            }
         }
         const double wall = median(seconds);
         const double rate = static_cast<double>(each.input) / wall;
