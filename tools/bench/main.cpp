@@ -114,14 +114,16 @@ int main(int argc, char** argv) {
     record->add_option("--mib", options.record_mib, "1 MiB messages per recording-throughput run")
         ->check(CLI::Range(std::size_t{4}, std::size_t{4096}))
         ->capture_default_str();
-    record->add_option("--what-if-rounds", options.what_if_rounds,
-                       "rounds of writes in the what-if recording (3 or 4 messages each, 200 us apart)")
+    record
+        ->add_option("--what-if-rounds", options.what_if_rounds,
+                     "rounds of writes in the what-if recording (3 or 4 messages each, 200 us apart)")
         ->check(CLI::PositiveNumber)
         ->capture_default_str();
     record->add_option("--count", options.count, "round trips per latency run (default: by size)")
         ->check(CLI::PositiveNumber);
-    record->add_option("--stream-count", options.stream_count,
-                       "messages per 64 B throughput run (default 1,000,000; 64 KiB: by size)")
+    record
+        ->add_option("--stream-count", options.stream_count,
+                     "messages per 64 B throughput run (default 1,000,000; 64 KiB: by size)")
         ->check(CLI::PositiveNumber);
     record->add_option("--baseline-plexusd", options.baseline_plexusd,
                        "data-path: also run each scenario on this plexusd (one built from the commit "
@@ -132,8 +134,10 @@ int main(int argc, char** argv) {
     options.scripts_dir = std::string(PLEXUS_SOURCE_DIR) + "/configs/monitors";
     record->add_option("--scripts", options.scripts_dir, "the monitor scripts (what-if's Lua carriers)")
         ->capture_default_str();
-    record->add_option("--plexus", options.plexus_cli, "the plexus CLI (it runs what-if)")->capture_default_str();
-    record->add_option("--capacity", options.capacity, "reader queue length asked of plexusd (0: its default)")
+    record->add_option("--plexus", options.plexus_cli, "the plexus CLI (it runs what-if)")
+        ->capture_default_str();
+    record
+        ->add_option("--capacity", options.capacity, "reader queue length asked of plexusd (0: its default)")
         ->capture_default_str();
     record->add_flag("--json", options.json, "one JSON object per line");
     record->add_option("--plexusd", options.plexusd, "the plexusd binary")->capture_default_str();

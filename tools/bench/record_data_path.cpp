@@ -51,11 +51,13 @@ Options tagged(const Options& given, const std::string& tag, std::size_t size, s
 }
 
 /// Columns: none, recording, none_after (and before_tap); ratios to none (and none to before_tap).
-void print_table(const Scenario& scenario, const std::vector<RunResult>& medians, const std::string& latency_label) {
+void print_table(const Scenario& scenario, const std::vector<RunResult>& medians,
+                 const std::string& latency_label) {
     const bool with_baseline = medians.size() == 4;
     std::printf("%s\n", scenario.title.c_str());
     std::printf("  %-26s %12s %12s %12s %s%11s %11s%s\n", "", "none", "recording", "none_after",
-                with_baseline ? "  before_tap " : "", "rec/none", "after/none", with_baseline ? "  none/before" : "");
+                with_baseline ? "  before_tap " : "", "rec/none", "after/none",
+                with_baseline ? "  none/before" : "");
     auto row = [&](const char* label, double RunResult::*field) {
         const double none = medians[0].*field;
         const double recording = medians[1].*field;
@@ -82,13 +84,14 @@ void print_table(const Scenario& scenario, const std::vector<RunResult>& medians
         return text;
     };
     const bool latency = latency_label == "RTT/2";
-    std::printf("  each round's %s: none%s | recording%s | none_after%s", 
+    std::printf("  each round's %s: none%s | recording%s | none_after%s",
                 latency ? "p50 (10 ns)" : "messages/s (thousands)", runs(scenario.none, latency).c_str(),
                 runs(scenario.recording, latency).c_str(), runs(scenario.none_after, latency).c_str());
     if (with_baseline)
         std::printf(" | before_tap%s", runs(scenario.baseline, latency).c_str());
     std::printf("\n  recorder: %llu messages kept, %llu lost over the recording runs\n\n",
-                static_cast<unsigned long long>(scenario.kept), static_cast<unsigned long long>(scenario.lost));
+                static_cast<unsigned long long>(scenario.kept),
+                static_cast<unsigned long long>(scenario.lost));
 }
 
 double ratio(double a, double b) {
@@ -121,9 +124,9 @@ void measure_record_data_path(const Options& given) {
             Scenario stream;
             const std::string tag = size == 64 ? "small" : "large";
             stream.name = "record_throughput_1hop";
-            stream.options = tagged(given, tag, size,
-                                    size == 64 ? (given.stream_count ? given.stream_count : small_stream_count)
-                                               : 0);
+            stream.options =
+                tagged(given, tag, size,
+                       size == 64 ? (given.stream_count ? given.stream_count : small_stream_count) : 0);
             stream.title = "throughput, 1 hop, " + std::to_string(size) +
                            " B: " + std::to_string(throughput_count(stream.options)) + " messages per run";
             stream.recorded_ports = {"/bench/" + tag + "-sink"};
@@ -155,7 +158,8 @@ void measure_record_data_path(const Options& given) {
                 scenario.recording.push_back(scenario.measurement->run());
                 const Value status = recording.stop();
                 std::filesystem::remove(recording.path());
-                scenario.lost += status_count(status, "lost_messages") + status_count(status, "not_recordable");
+                scenario.lost +=
+                    status_count(status, "lost_messages") + status_count(status, "not_recordable");
                 scenario.kept += status_count(status, "messages");
             }
             scenario.none_after.push_back(scenario.measurement->run());
@@ -164,8 +168,8 @@ void measure_record_data_path(const Options& given) {
         }
     }
 
-    const std::string runs = ", median of " + std::to_string(given.repeat) +
-                             " rounds (none, recording, none_after in turn)";
+    const std::string runs =
+        ", median of " + std::to_string(given.repeat) + " rounds (none, recording, none_after in turn)";
     for (auto& scenario : scenarios) {
         const RunResult none = median_of(scenario.none);
         const RunResult recording = median_of(scenario.recording);
@@ -190,27 +194,29 @@ void measure_record_data_path(const Options& given) {
             if (!scenario.baseline.empty()) {
                 const RunResult before = median_of(scenario.baseline);
                 line("before_tap", before);
-                std::cout << nlohmann::ordered_json{{"scenario", scenario.name + "_no_recording_vs_before_tap"},
-                                                    {"size", scenario.options.size},
-                                                    {"p50_none_over_before", ratio(none.p50_us, before.p50_us)},
-                                                    {"msgs_none_over_before",
-                                                     ratio(none.msgs_per_s, before.msgs_per_s)},
-                                                    {"baseline_plexusd", given.baseline_plexusd}}
-                                 .dump()
-                          << '\n';
+                std::cout
+                    << nlohmann::ordered_json{{"scenario", scenario.name + "_no_recording_vs_before_tap"},
+                                              {"size", scenario.options.size},
+                                              {"p50_none_over_before", ratio(none.p50_us, before.p50_us)},
+                                              {"msgs_none_over_before",
+                                               ratio(none.msgs_per_s, before.msgs_per_s)},
+                                              {"baseline_plexusd", given.baseline_plexusd}}
+                           .dump()
+                    << '\n';
             }
-            std::cout << nlohmann::ordered_json{{"scenario", scenario.name + "_ratios"},
-                                                {"size", scenario.options.size},
-                                                {"p50_recording_over_none", ratio(recording.p50_us, none.p50_us)},
-                                                {"p99_recording_over_none", ratio(recording.p99_us, none.p99_us)},
-                                                {"msgs_recording_over_none",
-                                                 ratio(recording.msgs_per_s, none.msgs_per_s)},
-                                                {"p50_after_over_none", ratio(after.p50_us, none.p50_us)},
-                                                {"msgs_after_over_none", ratio(after.msgs_per_s, none.msgs_per_s)},
-                                                {"recorder_kept", scenario.kept},
-                                                {"recorder_lost", scenario.lost}}
-                             .dump()
-                      << '\n';
+            std::cout
+                << nlohmann::ordered_json{{"scenario", scenario.name + "_ratios"},
+                                          {"size", scenario.options.size},
+                                          {"p50_recording_over_none", ratio(recording.p50_us, none.p50_us)},
+                                          {"p99_recording_over_none", ratio(recording.p99_us, none.p99_us)},
+                                          {"msgs_recording_over_none",
+                                           ratio(recording.msgs_per_s, none.msgs_per_s)},
+                                          {"p50_after_over_none", ratio(after.p50_us, none.p50_us)},
+                                          {"msgs_after_over_none", ratio(after.msgs_per_s, none.msgs_per_s)},
+                                          {"recorder_kept", scenario.kept},
+                                          {"recorder_lost", scenario.lost}}
+                       .dump()
+                << '\n';
         } else {
             scenario.title += runs;
             std::vector<RunResult> medians{none, recording, after};

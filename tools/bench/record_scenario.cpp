@@ -68,11 +68,11 @@ struct ThroughputRun {
 /// A writer and a reader on one daemon, connected once; each run() records the reader's port.
 class RecordedStream {
 public:
-    explicit RecordedStream(const Topology& topology)
+    RecordedStream(const Topology& topology, std::size_t capacity)
         : writer_(connect_client(topology.near_socket())),
           reader_(connect_client(topology.near_socket())),
           source_(writer_.open("/bench/record-source")),
-          sink_(reader_.open("/bench/record-sink", {QueuePolicy::strict, 0})) {
+          sink_(reader_.open("/bench/record-sink", {QueuePolicy::strict, capacity})) {
         connect_when_registered(writer_, source_.name(), sink_.name());
     }
 
@@ -125,8 +125,8 @@ double dd_mb_per_s(OutputDir& dir, const std::vector<std::string>& input, std::s
     const std::string output = dir.next("dd", ".bin");
     std::vector<std::string> argv{"/usr/bin/dd"};
     argv.insert(argv.end(), input.begin(), input.end());
-    argv.insert(argv.end(), {"of=" + output, "bs=1M", "count=" + std::to_string(messages),
-                             "conv=fdatasync", "status=none"});
+    argv.insert(argv.end(), {"of=" + output, "bs=1M", "count=" + std::to_string(messages), "conv=fdatasync",
+                             "status=none"});
     const auto start = Clock::now();
     const auto result = run_command(argv);
     const double elapsed = seconds_since(start);
@@ -174,7 +174,7 @@ void measure_record_throughput(const Options& options) {
 
     std::vector<double> recorder, data_path, close_s, dd_random, dd_zero;
     std::vector<ThroughputRun> runs;
-    RecordedStream stream(*topology);
+    RecordedStream stream(*topology, options.capacity);
     {
         RunDeadline warm;
         stream.run(dir, payloads, std::max<std::size_t>(messages / 10, 4));  // warm-up: buffers, shm
@@ -214,9 +214,10 @@ void measure_record_throughput(const Options& options) {
                   << '\n';
         return;
     }
-    std::printf("recording throughput into %s: %zu messages of 1 MiB of random bytes, median of %d "
-                "runs, alternated with dd\n",
-                dir.path().c_str(), messages, options.repeat);
+    std::printf(
+        "recording throughput into %s: %zu messages of 1 MiB of random bytes, median of %d "
+        "runs, alternated with dd\n",
+        dir.path().c_str(), messages, options.repeat);
     std::printf("  %-52s %10.1f MB/s\n", "plexusd recording (file bytes / first write..closed)",
                 median(recorder));
     std::printf("  %-52s %10.1f MB/s\n", "dd if=<random file in /dev/shm> conv=fdatasync", median(dd_random));
@@ -236,11 +237,12 @@ void measure_record_throughput(const Options& options) {
     };
     std::printf("  each run's MB/s: recording%s | dd (random)%s | dd (zero)%s\n", runs_text(recorder).c_str(),
                 runs_text(dd_random).c_str(), runs_text(dd_zero).c_str());
-    std::printf("  recorder's counts (last run): %llu messages, %llu bytes; over all runs: %llu lost, "
-                "%llu not recordable\n\n",
-                static_cast<unsigned long long>(status_count(last.status, "messages")),
-                static_cast<unsigned long long>(status_count(last.status, "bytes")),
-                static_cast<unsigned long long>(lost), static_cast<unsigned long long>(not_recordable));
+    std::printf(
+        "  recorder's counts (last run): %llu messages, %llu bytes; over all runs: %llu lost, "
+        "%llu not recordable\n\n",
+        static_cast<unsigned long long>(status_count(last.status, "messages")),
+        static_cast<unsigned long long>(status_count(last.status, "bytes")),
+        static_cast<unsigned long long>(lost), static_cast<unsigned long long>(not_recordable));
     std::fflush(stdout);
 }
 

@@ -4,8 +4,8 @@
 // The recording is made here, on one daemon started with --scripts configs/monitors, of two
 // arbitrated ports:
 //   /bench/gaze: the gaze demo of README.md's arbitration section: /bench/face always, /bench/object
-//                in spells of 4,000 rounds (0.8 s, longer than tc) on and off, with recv.priority (tc 0.5 s, the object
-//                inhibiting the face);
+//                in spells of 4,000 rounds (0.8 s, longer than tc) on and off, with recv.priority (tc 0.5 s,
+//                the object inhibiting the face);
 //   /bench/head: the two-trackers example: /bench/tmpl and /bench/pf through the Lua certainty
 //                monitor (threshold 0.6, events e_template_ok / e_particle_ok, keep) with constraints,
 //                their certainties crossing the threshold in spells.
@@ -78,7 +78,8 @@ std::string make_recording(const Options& options, OutputDir& dir, std::vector<P
     const std::string monitor = "tcp+recv.portmonitor+type.lua+file.certainty+threshold.0.6+keep";
     connect_when_registered(writer, tmpl.name(), head.name(),
                             monitor + "+event.e_template_ok+constraint.e_template_ok and not e_particle_ok");
-    connect_when_registered(writer, pf.name(), head.name(), monitor + "+event.e_particle_ok+constraint.e_particle_ok");
+    connect_when_registered(writer, pf.name(), head.name(),
+                            monitor + "+event.e_particle_ok+constraint.e_particle_ok");
     std::uint64_t gaze_input = 0, head_input = 0;
     const std::string path = dir.next("what-if", ".mcap");
     {
@@ -193,7 +194,8 @@ void measure_what_if(const Options& options) {
                       << '\n';
         } else {
             std::printf("  %-28s %10llu %10llu %10llu %10.3f %14.0f\n", each.label.c_str(),
-                        static_cast<unsigned long long>(each.input), summary["messages"].get<unsigned long long>(),
+                        static_cast<unsigned long long>(each.input),
+                        summary["messages"].get<unsigned long long>(),
                         summary["changed"].get<unsigned long long>(), wall, rate);
         }
     }
