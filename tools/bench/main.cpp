@@ -101,6 +101,47 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(0, 50))
         ->capture_default_str();
     web->callback([&] { status = run_web(options); });
+    auto* record = app.add_subcommand(
+        "record",
+        "recording (issue 28): MB/s into a file against dd to the same directory; one-hop latency and "
+        "throughput without, with and again without a recording; plexus what-if in messages/s");
+    record->add_option("--repeat", options.repeat, "runs per figure; medians are reported")
+        ->check(CLI::PositiveNumber)
+        ->capture_default_str();
+    record->add_option("--dir", options.record_dir,
+                       "directory for the recordings and dd's files (default: a fresh one under /tmp, "
+                       "removed afterwards); its disk is the one measured");
+    record->add_option("--mib", options.record_mib, "1 MiB messages per recording-throughput run")
+        ->check(CLI::Range(std::size_t{4}, std::size_t{4096}))
+        ->capture_default_str();
+    record
+        ->add_option("--what-if-rounds", options.what_if_rounds,
+                     "rounds of writes in the what-if recording (3 or 4 messages each, 200 us apart)")
+        ->check(CLI::PositiveNumber)
+        ->capture_default_str();
+    record->add_option("--count", options.count, "round trips per latency run (default: by size)")
+        ->check(CLI::PositiveNumber);
+    record
+        ->add_option("--stream-count", options.stream_count,
+                     "messages per 64 B throughput run (default 1,000,000; 64 KiB: by size)")
+        ->check(CLI::PositiveNumber);
+    record->add_option("--baseline-plexusd", options.baseline_plexusd,
+                       "data-path: also run each scenario on this plexusd (one built from the commit "
+                       "before the recording tap, 8cd2c9d), alternated: the '0% when no one records' check");
+    record->add_option("--parts", options.parts, "throughput, data-path, what-if (default: all)")
+        ->delimiter(',')
+        ->check(CLI::IsMember({"throughput", "data-path", "what-if"}));
+    options.scripts_dir = std::string(PLEXUS_SOURCE_DIR) + "/configs/monitors";
+    record->add_option("--scripts", options.scripts_dir, "the monitor scripts (what-if's Lua carriers)")
+        ->capture_default_str();
+    record->add_option("--plexus", options.plexus_cli, "the plexus CLI (it runs what-if)")
+        ->capture_default_str();
+    record
+        ->add_option("--capacity", options.capacity, "reader queue length asked of plexusd (0: its default)")
+        ->capture_default_str();
+    record->add_flag("--json", options.json, "one JSON object per line");
+    record->add_option("--plexusd", options.plexusd, "the plexusd binary")->capture_default_str();
+    record->callback([&] { status = run_record(options); });
     auto* memory = app.add_subcommand("memory", "plexusd resident memory, idle and with many ports open");
     memory->add_option("--ports", options.ports, "ports to open")->capture_default_str();
     memory->add_flag("--json", options.json, "one JSON object per line");

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <string>
+#include <vector>
 
 namespace plexus::bench {
 
@@ -33,6 +34,18 @@ struct Options {
     std::string app_file;
     double window_s = 20;
     int cost_repeat = 3;
+    /// record: where the recordings and dd's files go ("": a fresh directory under /tmp).
+    std::string record_dir;
+    /// record: 1 MiB messages per recording-throughput run.
+    std::size_t record_mib = 256;
+    /// record: rounds of writes in the what-if recording (each 3 or 4 messages, 200 us apart).
+    int what_if_rounds = 16000;
+    /// record: the monitor scripts the what-if recording's Lua carriers name.
+    std::string scripts_dir;
+    /// record: a plexusd built from the commit before the tap (8cd2c9d), measured alongside.
+    std::string baseline_plexusd;
+    /// record: which parts to run (throughput, data-path, what-if); empty: all.
+    std::vector<std::string> parts;
 };
 
 /// Round trips per latency run when --count is not given: about 32 MiB each way, 100 to 10,000.

@@ -28,5 +28,9 @@ int run_arbitration(const Options& options);
 /// and a stream reader), alternated; then plexusd's CPU per second for the live stream with the
 /// fetch robot running (web_scenario.cpp).
 int run_web(const Options& options);
+/// Recording (issue 28): its write rate against dd to the same directory; the data path without,
+/// with and again without a recording; `plexus what-if` in recorded messages per second
+/// (record_scenario.cpp).
+int run_record(const Options& options);
 
 }  // namespace plexus::bench
