@@ -97,18 +97,28 @@ std::uint64_t Inlet::enqueue(const Message& message) {
 }
 
 void Inlet::deliver_batch(const Message& batch) {
-    if (!member_->trivial() || port_->queue().policy() != QueuePolicy::strict || port_->tap) {
-        // Arbitration and latest queues decide message by message, and a tap sees each.
+    if (!member_->trivial() || port_->queue().policy() != QueuePolicy::strict) {
+        // Arbitration and latest queues decide message by message.
         for_each_record(batch, [this](const Message& single) { deliver(single); });
         return;
     }
     received += batch.count();
+    // A tap takes the batch whole (it splits it on its own thread), so that recording a port
+    // keeps the batched path.
+    PortTap* tap = port_->tap.get();
+    if (tap)
+        tap->arrived(*this, batch);
     if (monitors) {
         monitors->submit(batch);  // record by record there
         return;
     }
     accepted += batch.count();
-    enqueue(batch);
+    TapDecision decision;
+    if (tap)
+        decision.monitor_time = decision.decision_time = member_->arbiter().now();
+    decision.queue_dropped = enqueue(batch);
+    if (tap)
+        tap->decided(*this, batch, decision);
 }
 
 }  // namespace plexus::daemon

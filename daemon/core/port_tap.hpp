@@ -34,11 +34,12 @@ struct TapDecision {
 class PortTap {
 public:
     virtual ~PortTap() = default;
-    /// `message` (one record, as it arrived) reached the port on `inlet`'s connection.
+    /// `message` (one record, or a batch of records, as it arrived) reached the port on
+    /// `inlet`'s connection.
     virtual void arrived(const Inlet& inlet, const Message& message) = 0;
     /// What became of messages that arrived earlier on `inlet`, in their order of arrival.
-    /// `message` is the record (possibly rewritten by a monitor), or a batch for a run of records
-    /// passed unchanged (each of them delivered).
+    /// `message` is the record (possibly rewritten by a monitor), or a batch whose records were
+    /// all delivered.
     virtual void decided(const Inlet& inlet, const Message& message, const TapDecision& decision) = 0;
 };
 

@@ -2,6 +2,7 @@
 
 #include <chrono>
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include "core/batch.hpp"
@@ -23,6 +24,9 @@ std::uint64_t unix_now_ns() {
 constexpr std::size_t entry_overhead = 128;
 /// How often an idle recording still writes what it holds.
 constexpr auto flush_period = std::chrono::seconds(1);
+/// How often the writer looks at the queue when nobody wakes it, and how much waiting wakes it.
+constexpr auto write_period = std::chrono::milliseconds(20);
+constexpr std::size_t wake_bytes = 4u << 20;
 }  // namespace
 
 struct Recorder::Entry {
@@ -39,6 +43,25 @@ struct Recorder::Connection {
     ConnectionInfo info;
     bool known = false;
 };
+
+namespace {
+/// A decision as the JSON of recording_layout.hpp, written directly: a json object built and
+/// dumped per message cost the writer thread more than the rest of the message. fmt's "{}" of a
+/// double is its shortest exact form, so times read back bit for bit. `info.quoted_source` is the
+/// source already as a JSON string.
+proto::ByteView decision_text(const ConnectionInfo& info, std::uint64_t seq, const TapDecision& decision,
+                              std::string& buffer) {
+    buffer.clear();
+    fmt::format_to(std::back_inserter(buffer),
+                   R"({{"source":{},"seq":{},"outcome":"{}","monitor_time":{},"decision_time":{})",
+                   info.quoted_source, seq, mcap::layout::outcome_names[static_cast<int>(decision.outcome)],
+                   decision.monitor_time, decision.decision_time);
+    if (decision.queue_dropped != 0)
+        fmt::format_to(std::back_inserter(buffer), R"(,"queue_dropped":{})", decision.queue_dropped);
+    buffer += '}';
+    return {reinterpret_cast<const std::uint8_t*>(buffer.data()), buffer.size()};
+}
+}  // namespace
 
 /// The tap on one recorded port, and the observer of its events.
 class Recorder::Watch final : public PortTap, public arbitration::EventObserver {
@@ -209,9 +232,11 @@ void Recorder::push(Entry entry, std::size_t bytes) {
         return;
     }
     queued_bytes_ += cost;
-    const bool was_empty = queue_.empty();
     queue_.push_back(std::move(entry));
-    if (was_empty)
+    // The writer is woken only once a good piece of work waits (else it looks every
+    // write_period): a wake-up per message would cost the daemon's thread a futex call and the
+    // writer a thread switch per message, on a machine whose cores the data path needs.
+    if (queued_bytes_ >= wake_bytes && queued_bytes_ - cost < wake_bytes)
         wake_.notify_one();
 }
 
@@ -222,7 +247,7 @@ void Recorder::run() {
         bool stopping = false;
         {
             std::unique_lock lock(queue_mutex_);
-            wake_.wait_for(lock, flush_period, [&] { return !queue_.empty() || stopping_; });
+            wake_.wait_for(lock, write_period, [&] { return queued_bytes_ >= wake_bytes || stopping_; });
             batch.swap(queue_);
             stopping = stopping_;
         }
@@ -307,19 +332,32 @@ void Recorder::write(Entry& entry) {
             if (connections_.size() <= entry.index)
                 connections_.resize(entry.index + 1);
             auto& connection = connections_[entry.index];
-            connection.info = {entry.detail["port"], entry.detail["source"], entry.detail["carrier"],
-                               entry.detail["order"]};
+            const std::string port = entry.detail["port"];
+            const std::string source = entry.detail["source"];
+            connection.info = {port,
+                               source,
+                               entry.detail["carrier"],
+                               entry.detail["order"],
+                               entry.detail["source"].dump(),
+                               port + '\n' + source,
+                               mcap::layout::decisions_topic(port)};
             connection.known = true;
             return;
         }
         case Entry::Kind::message: {
-            const auto record = proto::read_record(entry.message.record);
-            if (!record || entry.index >= connections_.size())
+            if (entry.index >= connections_.size())
                 return;
-            files_->message(connections_[entry.index].info, record->seq, entry.unix_ns, record->time_ns,
-                            record->payload);
+            std::uint64_t count = 0;
+            for_each_record(entry.message, [&](const Message& single) {
+                const auto record = proto::read_record(single.record);
+                if (!record)
+                    return;
+                files_->message(connections_[entry.index].info, record->seq, entry.unix_ns, record->time_ns,
+                                record->payload);
+                ++count;
+            });
             std::lock_guard lock(progress_mutex_);
-            ++messages_;
+            messages_ += count;
             return;
         }
         case Entry::Kind::decision: {
@@ -331,15 +369,8 @@ void Recorder::write(Entry& entry) {
                 const auto record = proto::read_record(single.record);
                 if (!record)
                     return;
-                json detail{
-                    {"source", info.source},
-                    {"seq", record->seq},
-                    {"outcome", mcap::layout::outcome_names[static_cast<int>(entry.decision.outcome)]},
-                    {"monitor_time", entry.decision.monitor_time},
-                    {"decision_time", entry.decision.decision_time}};
-                if (entry.decision.queue_dropped != 0)
-                    detail["queue_dropped"] = entry.decision.queue_dropped;
-                files_->decision(info.port, entry.unix_ns, detail);
+                files_->decision(info, entry.unix_ns,
+                                 decision_text(info, record->seq, entry.decision, decision_buffer_));
                 ++count;
             });
             std::lock_guard lock(progress_mutex_);

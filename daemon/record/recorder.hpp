@@ -79,6 +79,7 @@ private:
     std::uint32_t next_connection_ = 0;            ///< the daemon's thread's
     std::unique_ptr<RecordingFiles> files_;        ///< the thread's, once it runs
     std::vector<Connection> connections_;          ///< the thread's: by the index entries name
+    std::string decision_buffer_;                  ///< the thread's: one decision's text at a time
 
     mutable std::mutex queue_mutex_;
     std::condition_variable wake_;

@@ -60,14 +60,17 @@ void RecordingFiles::note_failure() {
     }
 }
 
-std::uint16_t RecordingFiles::channel(const std::string& key, const std::string& topic,
-                                      const std::string& encoding, mcap::StringMap metadata) {
+std::uint16_t RecordingFiles::channel(std::string_view key, const std::string& topic,
+                                      std::string_view encoding,
+                                      const std::function<mcap::StringMap()>& metadata) {
+    // Looked up on every message: by a view, without building the key or the metadata.
     if (auto found = channels_.find(key); found != channels_.end())
         return found->second;
-    metadata.emplace(std::string(layout::node_key), options_.node);
-    auto added = writer_->add_channel(topic, encoding, std::move(metadata));
+    auto described = metadata();
+    described.emplace(std::string(layout::node_key), options_.node);
+    auto added = writer_->add_channel(topic, std::string(encoding), std::move(described));
     const std::uint16_t id = added ? *added : 0;  // 0: out of ids; its messages are counted lost
-    channels_.emplace(key, id);
+    channels_.emplace(std::string(key), id);
     return id;
 }
 
@@ -80,33 +83,34 @@ void RecordingFiles::write(std::uint16_t channel, std::uint32_t sequence, std::u
 
 void RecordingFiles::message(const ConnectionInfo& connection, std::uint64_t seq, std::uint64_t unix_ns,
                              std::uint64_t sent_ns, proto::ByteView payload) {
-    const std::uint16_t id = channel(connection.port + '\n' + connection.source, connection.port,
-                                     std::string(layout::message_encoding),
-                                     {{std::string(layout::kind_key), std::string(layout::messages_kind)},
-                                      {std::string(layout::port_key), connection.port},
-                                      {std::string(layout::source_key), connection.source},
-                                      {std::string(layout::carrier_key), connection.carrier},
-                                      {std::string(layout::order_key), std::to_string(connection.order)}});
+    const std::uint16_t id = channel(connection.channel_key, connection.port, layout::message_encoding, [&] {
+        return mcap::StringMap{{std::string(layout::kind_key), std::string(layout::messages_kind)},
+                               {std::string(layout::port_key), connection.port},
+                               {std::string(layout::source_key), connection.source},
+                               {std::string(layout::carrier_key), connection.carrier},
+                               {std::string(layout::order_key), std::to_string(connection.order)}};
+    });
     message_channels_.insert(id);
     ++handed_messages_;
     write(id, static_cast<std::uint32_t>(seq), unix_ns, sent_ns, payload);
 }
 
-void RecordingFiles::decision(const std::string& port, std::uint64_t unix_ns, const json& entry) {
-    json_record(port, layout::decisions_topic(port), layout::decisions_kind, unix_ns, entry);
+void RecordingFiles::decision(const ConnectionInfo& connection, std::uint64_t unix_ns, proto::ByteView text) {
+    json_record(connection.port, connection.decisions_topic, layout::decisions_kind, unix_ns, text);
 }
 
 void RecordingFiles::event(const std::string& port, std::uint64_t unix_ns, const json& entry) {
-    json_record(port, layout::events_topic(port), layout::events_kind, unix_ns, entry);
+    const std::string text = entry.dump();
+    json_record(port, layout::events_topic(port), layout::events_kind, unix_ns, text_bytes(text));
 }
 
 void RecordingFiles::json_record(const std::string& port, const std::string& topic, std::string_view kind,
-                                 std::uint64_t unix_ns, const json& entry) {
-    const std::uint16_t id =
-        channel(topic, topic, std::string(layout::record_encoding),
-                {{std::string(layout::kind_key), std::string(kind)}, {std::string(layout::port_key), port}});
-    const std::string text = entry.dump();
-    write(id, 0, unix_ns, unix_ns, text_bytes(text));
+                                 std::uint64_t unix_ns, proto::ByteView text) {
+    const std::uint16_t id = channel(topic, topic, layout::record_encoding, [&] {
+        return mcap::StringMap{{std::string(layout::kind_key), std::string(kind)},
+                               {std::string(layout::port_key), port}};
+    });
+    write(id, 0, unix_ns, unix_ns, text);
 }
 
 void RecordingFiles::split_if_due() {

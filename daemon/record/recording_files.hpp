@@ -2,6 +2,7 @@
 // Threading: the recorder's writer thread only.
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <set>
@@ -21,7 +22,10 @@ struct ConnectionInfo {
     std::string port;
     std::string source;
     std::string carrier;
-    std::uint64_t order = 0;  ///< its place among the port's connections (ties go to the earliest)
+    std::uint64_t order = 0;      ///< its place among the port's connections (ties go to the earliest)
+    std::string quoted_source;    ///< `source` as a JSON string, for the decisions' text
+    std::string channel_key;      ///< its messages' channel among the file's: port and source
+    std::string decisions_topic;  ///< its port's decisions channel
 };
 
 /// The file (or, with a split size, the files) one recording writes: MCAP through mcap::Writer, laid
@@ -42,7 +46,8 @@ public:
 
     void message(const ConnectionInfo& connection, std::uint64_t seq, std::uint64_t unix_ns,
                  std::uint64_t sent_ns, proto::ByteView payload);
-    void decision(const std::string& port, std::uint64_t unix_ns, const nlohmann::json& entry);
+    /// A decision, as JSON text (the recorder writes it without building a json object).
+    void decision(const ConnectionInfo& connection, std::uint64_t unix_ns, proto::ByteView text);
     void event(const std::string& port, std::uint64_t unix_ns, const nlohmann::json& entry);
     /// Writes a short chunk so that an idle recording reaches the disk.
     void flush();
@@ -65,22 +70,22 @@ private:
     explicit RecordingFiles(Options options) : options_(std::move(options)) {}
     proto::Status open_next();
     void split_if_due();
-    std::uint16_t channel(const std::string& key, const std::string& topic, const std::string& encoding,
-                          mcap::StringMap metadata);
+    std::uint16_t channel(std::string_view key, const std::string& topic, std::string_view encoding,
+                          const std::function<mcap::StringMap()>& metadata);
     void write(std::uint16_t channel, std::uint32_t sequence, std::uint64_t log_time,
                std::uint64_t publish_time, proto::ByteView data);
     void note_failure();
     /// A decision or an event: JSON on the port's channel of that kind.
     void json_record(const std::string& port, const std::string& topic, std::string_view kind,
-                     std::uint64_t unix_ns, const nlohmann::json& entry);
+                     std::uint64_t unix_ns, proto::ByteView text);
     /// Counts what the current file holds and lost, and lets it go (closed).
     void let_go_of_writer();
     std::uint64_t kept_in_current() const;
 
     Options options_;
     std::unique_ptr<mcap::Writer> writer_;
-    std::map<std::string, std::uint16_t> channels_;  ///< of the current file, by key
-    std::set<std::uint16_t> message_channels_;       ///< of the current file: the ports' messages
+    std::map<std::string, std::uint16_t, std::less<>> channels_;  ///< of the current file, by key
+    std::set<std::uint16_t> message_channels_;  ///< of the current file: the ports' messages
     std::uint64_t handed_messages_ = 0;
     std::uint64_t closed_kept_messages_ = 0;
     std::vector<std::string> files_;

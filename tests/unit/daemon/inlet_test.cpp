@@ -192,8 +192,11 @@ struct KeepingTap : PortTap {
     std::vector<std::uint64_t> arrivals;
     std::vector<std::pair<std::vector<std::uint64_t>, TapDecision>> decisions;
     void arrived(const Inlet&, const Message& message) override {
-        arrivals.push_back(proto::decode_record(message.record)->seq);
+        for (const auto seq : seqs_of(message))
+            arrivals.push_back(seq);
+        ++arrival_calls;
     }
+    std::size_t arrival_calls = 0;
     void decided(const Inlet&, const Message& message, const TapDecision& decision) override {
         decisions.emplace_back(seqs_of(message), decision);
     }
@@ -208,6 +211,7 @@ TEST_F(Inlet_test, ATapSeesEveryRecordOfABatchAndWhatTheMonitorsAndTheArbitratio
     inlet->deliver(batch_of(4));
     wait_for_verdicts(*inlet);
     EXPECT_EQ(tap->arrivals, (std::vector<std::uint64_t>{1, 2, 3, 4}));
+    EXPECT_EQ(tap->arrival_calls, 1u) << "the batch arrives whole";
     ASSERT_EQ(tap->decisions.size(), 4u) << "one decision per record while tapped, no runs";
     using Outcome = TapDecision::Outcome;
     const std::vector<Outcome> outcomes{Outcome::delivered, Outcome::delivered, Outcome::accept,
@@ -233,6 +237,19 @@ TEST_F(Inlet_test, WithoutMonitorsATapSeesTheArbitrationsReasonForARefusal) {
     EXPECT_EQ(tap->decisions[0].second.outcome, TapDecision::Outcome::constraint);
     EXPECT_EQ(tap->decisions[0].second.decision_time, 7);
     EXPECT_EQ(port->queue().depth(), 0u);
+}
+
+TEST_F(Inlet_test, WithATapAndNothingToDecideABatchStillPassesWholeAndIsDecidedWhole) {
+    auto tap = std::make_shared<KeepingTap>();
+    port->tap = tap;
+    auto member = std::make_shared<arbitration::Member>(arbiter, "/a");
+    auto inlet = std::make_shared<Inlet>(port, "/a", "local", member);
+    inlet->deliver(batch_of(3));
+    EXPECT_EQ(tap->arrival_calls, 1u);
+    ASSERT_EQ(tap->decisions.size(), 1u);
+    EXPECT_EQ(tap->decisions[0].first, (std::vector<std::uint64_t>{1, 2, 3}));
+    EXPECT_EQ(tap->decisions[0].second.outcome, TapDecision::Outcome::delivered);
+    EXPECT_EQ(queued(), (std::vector<std::vector<std::uint64_t>>{{1, 2, 3}}));
 }
 
 TEST_F(Inlet_test, WithoutATapABatchStillPassesWhole) {
