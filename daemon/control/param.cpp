@@ -67,8 +67,8 @@ Task<proto::Status> apply_on_worker(const std::shared_ptr<MessageFilter>& monito
     co_return status;
 }
 
-/// The monitor's own keys of a portmonitor clause (monitor/carrier_monitors.cpp's spec_of_clause): not options that
-/// create(options) sees, so a value given to setparam under one of these names is not theirs.
+/// The monitor's own keys of a portmonitor clause (monitor/carrier_monitors.cpp's spec_of_clause): not
+/// options that create(options) sees, so a value given to setparam under one of these names is not theirs.
 bool monitor_own_key(const std::string& key) {
     for (const char* own : {"type", "file", "constraint", "aux", "onerror"}) {
         if (key == own)

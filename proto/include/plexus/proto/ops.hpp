@@ -13,21 +13,21 @@ namespace plexus::proto {
 
 enum class Op {
     // A daemon's.
-    open,        ///< a client opens a port
-    close,       ///< a client closes one
-    shm,         ///< a client asks for (or releases) a shared-memory region
-    attach,      ///< a link session becomes the receiving end of a connection
-    connect,     ///< SRC -> DST with a carrier
-    disconnect,  ///< SRC -> DST
-    stats,       ///< `plexus stats`
-    param,       ///< `plexus param get|set`
-    param_recv,  ///< the receiving half of param, asked of DST's daemon
-    ping,        ///< where a port lives; also the name server's "are you there"
-    events,      ///< `plexus events`
-    node,        ///< the daemon's node name, address and name server
-    lookup,      ///< where a port lives (also relayed by a daemon to the name server)
-    list,        ///< every port and connection (also relayed)
-    inspect,     ///< a daemon's part of the whole system's view (its stats and arbitration), for the web
+    open,           ///< a client opens a port
+    close,          ///< a client closes one
+    shm,            ///< a client asks for (or releases) a shared-memory region
+    attach,         ///< a link session becomes the receiving end of a connection
+    connect,        ///< SRC -> DST with a carrier
+    disconnect,     ///< SRC -> DST
+    stats,          ///< `plexus stats`
+    param,          ///< `plexus param get|set`
+    param_recv,     ///< the receiving half of param, asked of DST's daemon
+    ping,           ///< where a port lives; also the name server's "are you there"
+    events,         ///< `plexus events`
+    node,           ///< the daemon's node name, address and name server
+    lookup,         ///< where a port lives (also relayed by a daemon to the name server)
+    list,           ///< every port and connection (also relayed)
+    inspect,        ///< a daemon's part of the whole system's view (its stats and arbitration), for the web
     record_start,   ///< `plexus record`: this daemon records ports into a file of its own
     record_status,  ///< how a recording goes
     record_stop,    ///< ends a recording; the answer says what it kept and lost
