@@ -148,16 +148,29 @@ proto::Result<std::unique_ptr<Recorder>> Recorder::start(std::vector<std::shared
                                                          const arbitration::Clock& clock,
                                                          RecorderOptions options) {
     json names = json::array();
+    json connections = json::array();
     for (const auto& port : ports) {
         if (port->tap)
             return proto::Error{"port " + port->name() + " is already being recorded"};
         names.push_back(port->name());
+        // The connections at the start, with their carriers (monitors' parameters included), even
+        // those that will carry nothing: a channel is only declared with its first message.
+        for (const auto& weak : port->inbound) {
+            if (auto inlet = weak.lock()) {
+                connections.push_back({{"port", port->name()},
+                                       {"source", inlet->source()},
+                                       {"carrier", inlet->carrier()},
+                                       {"queue", queue_policy_name(port->queue().policy())},
+                                       {"capacity", port->queue().capacity()}});
+            }
+        }
     }
     RecordingFiles::Options file_options;
     file_options.path = options.path;
     file_options.split_bytes = options.split_bytes;
     file_options.node = options.node;
     file_options.ports = names;
+    file_options.connections = connections;
     file_options.started_unix_ns = unix_now_ns();
     file_options.started_clock = clock.now();
     auto files = RecordingFiles::create(std::move(file_options));

@@ -46,6 +46,7 @@ proto::Status RecordingFiles::open_next() {
                          {"started_unix_ns", std::to_string(options_.started_unix_ns)},
                          {"started_clock", json(options_.started_clock).dump()},
                          {"ports", options_.ports.dump()},
+                         {"connections", options_.connections.dump()},
                          {"part", std::to_string(files_.size() - 1)},
                          {"version", "1"}};
     if (auto written = writer_->write_metadata(std::string(layout::recording_metadata), note); !written)

@@ -38,6 +38,7 @@ public:
         std::uint64_t split_bytes = 0;  ///< 0: one file
         std::string node;
         nlohmann::json ports = nlohmann::json::array();
+        nlohmann::json connections = nlohmann::json::array();  ///< into them, at the start
         std::uint64_t started_unix_ns = 0;
         double started_clock = 0;
     };

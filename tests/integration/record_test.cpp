@@ -147,6 +147,23 @@ TEST(Record_test, TheGazeDemoRecordedReadsBackByteIdenticalAndWhatIfReproducesAn
     EXPECT_EQ(summary["end"]["lost_messages"], "0");
     EXPECT_GT(summary["seconds"].get<double>(), 15.0);
 
+    // The connections at the start, with their carriers, are in the recording's note.
+    {
+        auto reader = mcap::Reader::open(file);
+        ASSERT_TRUE(reader.ok()) << reader.error().message;
+        nlohmann::json at_start;
+        for (const auto& note : reader->metadata()) {
+            if (note.name == mcap::layout::recording_metadata)
+                at_start = nlohmann::json::parse(note.values.at("connections"));
+        }
+        ASSERT_EQ(at_start.size(), 2u) << at_start.dump();
+        std::map<std::string, std::string> carriers;
+        for (const auto& c : at_start)
+            carriers[c["source"]] = c["carrier"];
+        EXPECT_EQ(carriers["/demo/face/out"], face_carrier);
+        EXPECT_EQ(carriers["/demo/object/out"], object_carrier);
+    }
+
     // An independent reader (Foxglove's @mcap/core) reads every message byte-identical.
     const auto recording = Recording::open(file);
     std::vector<std::string> ours;

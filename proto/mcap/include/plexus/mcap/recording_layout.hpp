@@ -18,7 +18,8 @@
 //       "lifetime"?, "time"?}, in the order the port's event container saw them.
 //   metadata "plexus.recording": node, started_unix_ns and started_clock (the same instant on the
 //       wall clock and on the arbitration clock: the clock note that lines up files of several
-//       nodes), ports (JSON list), version.
+//       nodes), ports (JSON list), connections (JSON list of {"port", "source", "carrier",
+//       "queue", "capacity"}: those into the recorded ports at the start), version.
 //   metadata "plexus.recording.end": messages, decisions, events, lost_messages, lost_bytes,
 //       reason (why the recording ended) — absent when the daemon died while recording.
 
