@@ -11,7 +11,7 @@ namespace {
 
 bool is_known_type(std::uint8_t type) {
     return type >= static_cast<std::uint8_t>(FrameType::hello) &&
-           type <= static_cast<std::uint8_t>(FrameType::auth);
+           type <= static_cast<std::uint8_t>(FrameType::answer);
 }
 
 FrameDecode need_more(std::size_t needed) {
@@ -130,6 +130,10 @@ std::string frame_type_name(std::uint8_t type) {
             return "shm_region_gone";
         case static_cast<std::uint8_t>(FrameType::auth):
             return "auth";
+        case static_cast<std::uint8_t>(FrameType::call):
+            return "call";
+        case static_cast<std::uint8_t>(FrameType::answer):
+            return "answer";
         default:
             return "unknown(" + std::to_string(type) + ")";
     }

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "fuzz_check.hpp"
+#include "plexus/proto/call.hpp"
 #include "plexus/proto/control.hpp"
 #include "plexus/proto/datagram.hpp"
 #include "plexus/proto/discovery.hpp"
@@ -137,6 +138,32 @@ void check_shm_free(proto::ByteView fields) {
     PLEXUS_FUZZ_CHECK(again.ok() && *again == *free);
 }
 
+void check_call(proto::ByteView fields) {
+    const auto call = proto::decode_call(fields);
+    if (!call)
+        return;
+    PLEXUS_FUZZ_CHECK(call->timeout_ms <= proto::max_call_timeout_ms);
+    proto::Bytes frame;
+    proto::append_call_frame(frame, call->handle, call->id, call->timeout_ms, call->record);
+    const auto again = proto::decode_call(fields_of(frame, proto::FrameType::call));
+    PLEXUS_FUZZ_CHECK(again.ok() && again->handle == call->handle && again->id == call->id &&
+                      again->timeout_ms == call->timeout_ms && copy(again->record) == copy(call->record));
+}
+
+void check_answer(proto::ByteView fields) {
+    const auto answer = proto::decode_answer(fields);
+    if (!answer)
+        return;
+    proto::Bytes frame;
+    if (answer->outcome == proto::CallOutcome::ok)
+        proto::append_answer_frame(frame, answer->id, answer->record);
+    else
+        proto::append_failed_answer_frame(frame, answer->id, answer->outcome, answer->reason);
+    const auto again = proto::decode_answer(fields_of(frame, proto::FrameType::answer));
+    PLEXUS_FUZZ_CHECK(again.ok() && again->id == answer->id && again->outcome == answer->outcome &&
+                      copy(again->record) == copy(answer->record) && again->reason == answer->reason);
+}
+
 void check_datagram(proto::ByteView datagram) {
     constexpr std::uint64_t max_message = 1u << 20;
     const auto decoded = proto::decode_datagram(datagram, max_message);
@@ -206,6 +233,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
             break;
         case proto::FrameType::shm_free:
             check_shm_free(frame.fields);
+            break;
+        case proto::FrameType::call:
+            check_call(frame.fields);
+            break;
+        case proto::FrameType::answer:
+            check_answer(frame.fields);
             break;
         case proto::FrameType::data:
         case proto::FrameType::data_batch:

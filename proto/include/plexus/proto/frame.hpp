@@ -28,6 +28,9 @@ enum class FrameType : std::uint8_t {
     shm_free = 10,         ///< daemon -> writer: varint region | varint offset (a slot is free again)
     shm_region_gone = 11,  ///< daemon -> reader: varint region (no more messages from it: unmap, close)
     auth = 12,             ///< raw[32] proof of the deployment secret, right after the hello (TCP)
+    // Request/reply (see call.hpp): a message that wants one answer, and its answer.
+    call = 13,    ///< varint handle | varint id | varint timeout_ms | record
+    answer = 14,  ///< varint id | u8 outcome | record, or string reason
 };
 
 /// Default largest body accepted: 64 MiB, enough for large blobs, far below what a lie could ask for.
