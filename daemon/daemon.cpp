@@ -9,6 +9,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "net/call_table.hpp"
 #include "net/keepalive.hpp"
 #include "net/session.hpp"
 #include "plexus/proto/discovery.hpp"
@@ -36,6 +37,7 @@ Daemon::Daemon(asio::io_context& io, DaemonConfig config)
       signals_(io, SIGINT, SIGTERM),
       control_(io.get_executor(), *this),
       heap_trimmer_(io, HeapTrimmer::Settings{}) {
+    calls_ = std::make_shared<CallTable>(io.get_executor());
     const bool inline_monitors = config_.monitors.inline_cost_limit.count() > 0;
     workers_ = std::make_shared<monitor::Workers>(config_.monitor_threads, inline_monitors ? &io_ : nullptr);
     scripts_ = std::make_unique<ScriptHost>(io_, *this, workers_);

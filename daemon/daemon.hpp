@@ -20,6 +20,7 @@
 #include "names/name_client.hpp"
 #include "names/name_server.hpp"
 #include "net/asio.hpp"
+#include "net/call_table.hpp"
 #include "net/session_host.hpp"
 #include "net/signal.hpp"
 #include "net/udp_socket.hpp"
@@ -72,6 +73,7 @@ public:
     }
     const arbitration::Clock& clock() const override { return clock_; }
     DaemonCounters& counters() override { return counters_; }
+    CallTable& calls() override { return *calls_; }
     std::size_t session_count() const override { return sessions_.size(); }
     bool stopping() const override { return stopping_; }
     /// Called whenever a strict queue drops below capacity: wakes writers held back.
@@ -102,6 +104,7 @@ private:
     Router router_;
     Signal space_;
     DaemonCounters counters_;
+    std::shared_ptr<CallTable> calls_;  ///< made first thing: sessions and links use it
     std::unique_ptr<names::NameServer> embedded_names_;
     std::unique_ptr<names::NameClient> names_;
     asio::ip::tcp::acceptor tcp_acceptor_;

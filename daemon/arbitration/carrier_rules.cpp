@@ -35,6 +35,8 @@ proto::Status configure_member(Member& member, const proto::Carrier& carrier) {
         for (const auto& param : clause.params) {
             if (param.key != "constraint" && param.key != "aux")
                 continue;
+            if (param.key == "constraint" && clause.side == proto::Side::send)
+                continue;  // a route constraint, over the source port's events (route_constraint)
             if (clause.side != proto::Side::recv)
                 return proto::Error{"'" + param.key + "' in a " + side_name(clause.side) +
                                     ".portmonitor clause: arbitration happens in the input port, so it "
@@ -55,6 +57,26 @@ proto::Status configure_member(Member& member, const proto::Carrier& carrier) {
         }
     }
     return proto::Ok{};
+}
+
+proto::Result<std::optional<Constraint>> route_constraint(const proto::Carrier& carrier) {
+    std::optional<Constraint> found;
+    for (const auto& clause : carrier.clauses) {
+        if (clause.side != proto::Side::send || clause.modifier != "portmonitor")
+            continue;
+        for (const auto& param : clause.params) {
+            if (param.key != "constraint")
+                continue;
+            if (found)
+                return proto::Error{"two send-side constraints on one connection ('" + found->text() + "' and '" +
+                                    param.value.value_or("") + "'): combine them with and/or"};
+            auto parsed = Constraint::parse(param.value.value_or(""));
+            if (!parsed)
+                return parsed.error();
+            found = std::move(*parsed);
+        }
+    }
+    return found;
 }
 
 }  // namespace plexus::daemon::arbitration

@@ -13,6 +13,8 @@
 
 namespace plexus::daemon {
 
+class CallTable;
+
 class Peer;
 class Port;
 class Router;
@@ -42,6 +44,8 @@ public:
     /// Where arbitration reads the time (event lifetimes, stimulation decay).
     virtual const arbitration::Clock& clock() const = 0;
     virtual DaemonCounters& counters() = 0;
+    /// The calls in progress through this daemon (request/reply).
+    virtual CallTable& calls() = 0;
     /// Sessions open now.
     virtual std::size_t session_count() const = 0;
     /// True once the daemon is shutting down: a link that goes then is not reported as down.

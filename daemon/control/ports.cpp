@@ -24,6 +24,7 @@ Task<proto::Reply> ControlPlane::open_port(std::shared_ptr<Session> session, con
     if (!opened)
         co_return refuse(opened.error().message);
     auto port = *opened;
+    port->served = asked->serve;
     auto registered = co_await host_.names().register_port(name);
     if (!registered || session->closed()) {
         host_.router().close(name);
@@ -32,7 +33,8 @@ Task<proto::Reply> ControlPlane::open_port(std::shared_ptr<Session> session, con
         co_return refuse("the client went away while " + name + " was being registered");
     }
     const std::uint64_t handle = session->add_port(port);
-    spdlog::info("port {} opened ({} queue of {})", name, queue_policy_name(*policy), capacity);
+    spdlog::info("port {} opened ({} queue of {}{})", name, queue_policy_name(*policy), capacity,
+                 port->served ? ", answering calls" : "");
     // Restore remembered connections before answering, so the client's first write already
     // flows along them.
     co_await restore_persistent(std::move(*registered));

@@ -7,6 +7,7 @@
 
 #include <nlohmann/json_fwd.hpp>
 
+#include "../arbitration/constraint.hpp"
 #include "message.hpp"
 #include "message_filter.hpp"
 
@@ -53,8 +54,16 @@ struct Connection final : FilterClient {
     /// The send-side monitors, before the sink; null when there are none (or when an mcast sender
     /// runs them for all the port's mcast connections at once).
     std::shared_ptr<MessageFilter> send_monitors;
+    /// A send.portmonitor clause's `constraint.`: over the source port's events, whether this
+    /// connection carries the source's messages now, and which server a call goes to.
+    std::optional<arbitration::Constraint> route_constraint;
     std::uint64_t sent = 0;                ///< messages written into the source
     std::uint64_t dropped_by_monitor = 0;  ///< dropped by a send-side monitor
+    std::uint64_t dropped_by_route = 0;    ///< not taken: its route constraint was false
+    std::uint64_t calls = 0;               ///< calls sent to its server
+    /// True for a carrier that can take calls: requests need their answer back on the same path,
+    /// which a datagram carrier (udp, mcast) has not.
+    bool carries_calls() const { return carrier.rfind("udp", 0) != 0 && carrier.rfind("mcast", 0) != 0; }
 
     /// How many more messages the source may write into this connection.
     std::size_t room() const { return room_after(sink->room(), send_monitors.get()); }

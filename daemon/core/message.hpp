@@ -11,6 +11,7 @@
 namespace plexus::daemon {
 
 struct ShmSlot;  // net/shm_region.hpp
+class CallTicket;  // call_ticket.hpp
 
 /// A block of bytes read from a socket, left uninitialized on allocation: zero-filling a 1 MiB
 /// frame before reading into it would cost as much as the read itself.
@@ -40,6 +41,8 @@ struct Message {
     /// How many monitors' publish calls led to this message (0: a component wrote it). A monitor
     /// that publishes into a connection whose monitor publishes again... is cut off past a few.
     std::uint8_t publish_depth = 0;
+    /// Set for a request (request/reply): its ticket in this daemon's call table. Null for data.
+    std::shared_ptr<CallTicket> call{};
 
     /// How many messages this unit carries.
     std::uint64_t count() const { return batch == 0 ? 1 : batch; }

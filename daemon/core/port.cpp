@@ -2,9 +2,17 @@
 
 #include <algorithm>
 
+#include "call_ticket.hpp"
+
 namespace plexus::daemon {
 
 void Port::deliver(const Message& message) {
+    if (message.call && !served) [[unlikely]] {
+        // Its ticket ends with the message: the caller is refused with this reason.
+        ++calls_refused;
+        message.call->set_drop_reason("port " + name_ + " is not served: nobody answers calls there");
+        return;
+    }
     received += message.count();
     if (sampler) [[unlikely]]
         sampler->offer(message);

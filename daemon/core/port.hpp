@@ -49,6 +49,12 @@ public:
     /// first connection into the port.
     std::shared_ptr<arbitration::Arbiter> arbiter;
 
+    /// Its client answers calls on it (opened to serve): a call into any other port is refused.
+    bool served = false;
+    /// Calls through this port not yet answered or failed (as caller, or as the server's port).
+    std::uint64_t calls_outstanding = 0;
+    std::uint64_t calls_refused = 0;  ///< calls into it while it was not served
+
     std::uint64_t written = 0;      ///< messages its client wrote into it
     std::uint64_t unconnected = 0;  ///< of those, written while no connection went out of it
     std::uint64_t received = 0;     ///< messages that arrived through connections

@@ -4,6 +4,7 @@
 #include <limits>
 
 #include "batch.hpp"
+#include "call_routing.hpp"
 #include "plexus/proto/port_name.hpp"
 
 namespace plexus::daemon {
@@ -114,6 +115,10 @@ void Router::route(Port& source, const Message& message) {
     if (source.outgoing.empty())
         source.unconnected += message.count();  // pub-sub: nobody to send to, but say how many
     for (auto& connection : source.outgoing) {
+        if (connection->route_constraint && !route_holds(source, *connection)) {
+            connection->dropped_by_route += message.count();
+            continue;
+        }
         connection->sent += message.count();
         if (!connection->send_monitors) {
             connection->sink->deliver(message);  // a batch stays whole unless the sink splits it

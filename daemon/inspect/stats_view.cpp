@@ -1,6 +1,7 @@
 #include "stats_view.hpp"
 
 #include "core/router.hpp"
+#include "net/call_table.hpp"
 #include "inlet_counters.hpp"
 #include "monitor/stage.hpp"
 #include "net/udp_socket.hpp"
@@ -31,7 +32,9 @@ nlohmann::json stats_view(ControlHost& host, const ShmUsage& shm, const std::str
             nlohmann::json entry{{"destination", c->destination},
                                  {"carrier", c->carrier},
                                  {"sent", c->sent},
-                                 {"dropped_by_monitor", c->dropped_by_monitor}};
+                                 {"dropped_by_monitor", c->dropped_by_monitor},
+                                 {"dropped_by_route", c->dropped_by_route},
+                                 {"calls", c->calls}};
             // What the carrier's sending end counts itself (a tcp link's queue, udp's or mcast's
             // datagrams), and the monitors it runs for the whole port (mcast's shared ones).
             c->sink->report_stats(entry);
@@ -66,6 +69,9 @@ nlohmann::json stats_view(ControlHost& host, const ShmUsage& shm, const std::str
                          {"received", port->received},
                          {"delivered", port->delivered},
                          {"dropped_queue", queue.dropped()},
+                         {"served", port->served},
+                         {"calls_outstanding", port->calls_outstanding},
+                         {"calls_refused", port->calls_refused},
                          {"outgoing", connections},
                          {"inbound", inbound}});
     }
@@ -98,6 +104,7 @@ nlohmann::json stats_view(ControlHost& host, const ShmUsage& shm, const std::str
                           {"udp_reassembly_bytes", host.udp().budget().bytes},
                           {"monitor_published", scripts.published()},
                           {"monitor_publish_dropped", scripts.publish_dropped()}}}};
+    host.calls().add_stats(view["daemon"]);
     if (auto http = host.http_counters(); !http.is_null())
         view["http"] = std::move(http);  // the web endpoint's, when it serves one (docs/WEB.md)
     return view;

@@ -10,6 +10,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "call_table.hpp"
 #include "packet_marks.hpp"
 #include "plexus/proto/frame.hpp"
 
@@ -80,6 +81,8 @@ void FramedConnection::close(const std::string& reason) {
     wake_.notify();
     hello_signal_.notify();
     on_closed(reason);
+    if (auto calls = std::move(calls_))
+        calls->closed(*this);  // after on_closed: a session's ports are gone by then
 }
 
 void FramedConnection::close_when_drained() {

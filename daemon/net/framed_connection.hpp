@@ -18,6 +18,8 @@ namespace plexus::daemon {
 
 /// A socket speaking Plexus frames: hello exchange, a reader coroutine handing frames to the
 /// subclass, a writer coroutine gathering the outbox into few system calls, and one orderly close.
+class CallTable;
+
 class FramedConnection : public std::enable_shared_from_this<FramedConnection> {
 public:
     FramedConnection(Socket socket, std::size_t max_frame, std::function<void()> on_space);
@@ -71,10 +73,14 @@ public:
     /// True when the peer has closed or reset the connection, even with unread data left: lets a
     /// session that stopped reading (back-pressure) notice that its client died.
     bool peer_hung_up();
+    /// Calls came or went on this socket: `calls` is told when it closes (call_table.hpp).
+    void carry_calls(std::shared_ptr<CallTable> calls) { calls_ = std::move(calls); }
     /// Waits until the peer's hello arrived or the connection closed.
     Task<bool> wait_for_hello(std::chrono::steady_clock::duration timeout);
 
 protected:
+    /// The call table told of this socket's end; null until a call came or went on it.
+    CallTable* call_table() const { return calls_.get(); }
     /// Called for the peer's hello; an error refuses the peer (it is told why).
     virtual proto::Status on_hello(const proto::Hello& hello) = 0;
     enum class FrameAction { handled, stop, wait };
@@ -129,6 +135,7 @@ private:
     bool draining_ = false;
     bool large_send_buffer_ = false;  ///< raised after the first large message
     std::chrono::milliseconds handshake_timeout_{0};
+    std::shared_ptr<CallTable> calls_;  ///< set once a call came or went on this socket
 };
 
 }  // namespace plexus::daemon

@@ -3,8 +3,10 @@
 #include <algorithm>
 
 #include "plexus/proto/message.hpp"
+#include "plexus/proto/call.hpp"
 #include "plexus/proto/shm.hpp"
 #include "plexus/proto/varint.hpp"
+#include "call_table.hpp"
 #include "shm_region.hpp"
 
 namespace plexus::daemon {
@@ -41,6 +43,22 @@ bool Outbox::release(std::uint64_t count) {
     if (count > lent_.size())
         return false;
     lent_.erase(lent_.begin(), lent_.begin() + static_cast<std::ptrdiff_t>(count));
+    return true;
+}
+
+bool Outbox::start_call_frame(Batch& batch, std::uint64_t handle, const Message& message) {
+    CallTicket& ticket = *message.call;
+    const std::uint64_t left = ticket.timeout_left_ms();
+    if (left == 0) {
+        ticket.set_drop_reason("its deadline passed while it waited in a queue");
+        return false;
+    }
+    proto::append_call_frame_prefix(batch.flat, handle, ticket.id(), left, message.record.size());
+    ticket.hand_on();
+    // The only CallRoutes there is: the daemon's call table. It now waits for the answer on this
+    // socket, and fails the call if this socket closes first.
+    if (auto routes = ticket.routes())
+        static_cast<CallTable&>(*routes).handed_on(ticket.id(), owner_.lock());
     return true;
 }
 
@@ -130,11 +148,16 @@ void Outbox::fill(Batch& batch, std::size_t budget) {
                 // Only the place of its payload is sent: the payload stays in shared memory.
                 add_shm_message(batch, source.handle, std::move(message));
                 append_flat(offset);
+            } else if (message.call && !start_call_frame(batch, source.handle, message)) {
+                // Its deadline passed while it waited here: the caller has been told; not sent.
             } else {
-                if (message.batch == 0)
+                if (message.call) {
+                    // start_call_frame wrote its frame's head
+                } else if (message.batch == 0) {
                     proto::append_data_frame_prefix(batch.flat, source.handle, record_size);
-                else
+                } else {
                     proto::append_batch_frame_prefix(batch.flat, source.handle, message.batch, record_size);
+                }
                 if (record_size < copy_below) {
                     batch.flat.insert(batch.flat.end(), message.record.begin(), message.record.end());
                     append_flat(offset);

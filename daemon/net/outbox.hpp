@@ -105,6 +105,9 @@ private:
         proto::Bytes bytes;
         std::shared_ptr<const ShmRegion> writer_region;  ///< its read-write fd goes with the frame
     };
+    /// Writes the head of a request's call frame and hands its ticket on to this socket; false (and
+    /// nothing written) when its deadline has passed.
+    bool start_call_frame(Batch& batch, std::uint64_t handle, const Message& message);
     /// Adds the frame of a shared-memory message, preceded by its region the first time.
     void add_shm_message(Batch& batch, std::uint64_t handle, Message message);
 

@@ -2,7 +2,9 @@
 
 #include <spdlog/spdlog.h>
 
+#include "call_table.hpp"
 #include "keepalive.hpp"
+#include "plexus/proto/call.hpp"
 
 namespace plexus::daemon {
 
@@ -88,6 +90,21 @@ proto::Status Peer::on_hello(const proto::Hello&) {
 }
 
 Task<bool> Peer::on_frame(InFrame frame) {
+    if (frame.type == proto::FrameType::answer) {
+        // The answer to a call this daemon sent on the link (only a link that carried a call has
+        // a table; any other answer is counted there as unknown, or refused here).
+        const auto answer = proto::decode_answer(frame.fields);
+        if (!answer) {
+            fail("bad answer frame: " + answer.error().message);
+            co_return false;
+        }
+        if (auto* calls = call_table()) {
+            calls->answer(*this, *answer);
+            co_return true;
+        }
+        fail("an answer on a link that carried no call");
+        co_return false;
+    }
     if (frame.type != proto::FrameType::reply) {
         fail("unexpected " + proto::frame_type_name(static_cast<std::uint8_t>(frame.type)) + " frame");
         co_return false;

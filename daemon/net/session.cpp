@@ -3,7 +3,10 @@
 #include <spdlog/spdlog.h>
 
 #include "../core/batch.hpp"
+#include "../core/call_routing.hpp"
 #include "../core/router.hpp"
+#include "call_table.hpp"
+#include "plexus/proto/call.hpp"
 #include "plexus/proto/message.hpp"
 #include "plexus/proto/shm.hpp"
 #include "session_host.hpp"
@@ -356,6 +359,10 @@ bool Session::frees_pile_up() {
 FramedConnection::FrameAction Session::on_frame_now(InFrame& frame) {
     if (frame.type == proto::FrameType::shm_release)
         return on_release(frame) ? FrameAction::handled : FrameAction::stop;
+    if (frame.type == proto::FrameType::call)
+        return on_call(frame) ? FrameAction::handled : FrameAction::stop;
+    if (frame.type == proto::FrameType::answer)
+        return on_answer(frame) ? FrameAction::handled : FrameAction::stop;
     if (!is_data(frame.type))
         return FrameAction::wait;
     switch (try_deliver(frame)) {
@@ -383,6 +390,88 @@ Task<bool> Session::on_data(InFrame frame) {
         if (closed())
             co_return false;
     }
+}
+
+bool Session::on_call(const InFrame& frame) {
+    const auto call = proto::decode_call(frame.fields);
+    if (!call) {
+        ++daemon_.counters().protocol_errors;
+        fail("bad call frame: " + call.error().message);
+        return false;
+    }
+    CallTable& calls = daemon_.calls();
+    const Message request{frame.storage, call->record};
+    const auto deadline = CallTicket::Clock::now() + std::chrono::milliseconds(call->timeout_ms);
+    auto self = shared_from_this();
+    if (link_port_) {
+        // From the caller's daemon, on the link of one connection: into the served port, through
+        // the connection's receiving monitors and the port's arbitration, as its data would go.
+        if (!check_sources(request, link_->source(), "on the link attached for"))
+            return false;
+        if (link_port_->closed() || link_->room() == 0) {
+            calls.refuse(*this, call->id,
+                         "busy: " + link_port_->name() + " takes no more now (its queue is full)");
+            return true;
+        }
+        auto ticket = calls.start(self, call->id, deadline, link_->source() + " -> " + link_port_->name(),
+                                  link_port_);
+        if (!ticket) {
+            calls.refuse(*this, call->id,
+                         "busy: " + link_port_->name() + " has " + std::to_string(CallTable::max_calls_per_port) +
+                             " calls outstanding, the limit");
+            return true;
+        }
+        Message message = request;
+        message.call = std::move(ticket);
+        link_->deliver(message);
+        return true;
+    }
+    const auto it = ports_.find(call->handle);
+    if (it == ports_.end() || it->second->closed()) {
+        calls.refuse(*this, call->id, "no open port with handle " + std::to_string(call->handle));
+        return true;
+    }
+    const auto& port = it->second;
+    if (!check_sources(request, port->name(), "written on the handle of"))
+        return false;
+    auto chosen = choose_server(*port);
+    if (const auto* why = std::get_if<std::string>(&chosen)) {
+        calls.refuse(*this, call->id, *why);
+        return true;
+    }
+    Connection& connection = *std::get<Connection*>(chosen);
+    if (connection.room() == 0) {
+        calls.refuse(*this, call->id, "busy: the connection " + connection.source + " -> " +
+                                          connection.destination + " is full");
+        return true;
+    }
+    auto ticket = calls.start(self, call->id, deadline, port->name() + " -> " + connection.destination, port);
+    if (!ticket) {
+        calls.refuse(*this, call->id,
+                     "busy: " + port->name() + " has " + std::to_string(CallTable::max_calls_per_port) +
+                         " calls outstanding, the limit");
+        return true;
+    }
+    Message message = request;
+    message.call = std::move(ticket);
+    ++connection.calls;
+    ++connection.sent;
+    if (connection.send_monitors)
+        connection.send_monitors->submit(message);
+    else
+        connection.sink->deliver(message);
+    return true;
+}
+
+bool Session::on_answer(const InFrame& frame) {
+    const auto answer = proto::decode_answer(frame.fields);
+    if (!answer) {
+        ++daemon_.counters().protocol_errors;
+        fail("bad answer frame: " + answer.error().message);
+        return false;
+    }
+    daemon_.calls().answer(*this, *answer);
+    return true;
 }
 
 Task<void> Session::wait_for_space() {

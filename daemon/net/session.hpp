@@ -90,6 +90,11 @@ private:
     template <typename Deliver>
     DataOutcome deliver_within(InFrame& frame, const Message& message, std::size_t room, Deliver deliver);
     Task<bool> on_data(InFrame frame);
+    /// A call frame: from a caller's client, routed to the server its port's arbitration selects;
+    /// on a link, into the served port. False when the session was failed for a malformed one.
+    bool on_call(const InFrame& frame);
+    /// An answer frame: from a server's client, for a call delivered to it.
+    bool on_answer(const InFrame& frame);
     Task<void> serve(proto::Request request);
     Task<void> wait_for_space();
 

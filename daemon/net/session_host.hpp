@@ -14,6 +14,7 @@
 
 namespace plexus::daemon {
 
+class CallTable;
 class Session;
 
 class SessionHost {
@@ -29,6 +30,8 @@ public:
     /// Room appeared (a session's outbox drained): wakes writers held back.
     virtual void notify_space() = 0;
     virtual void session_closed(Session& session) = 0;
+    /// The daemon's table of calls in progress (request/reply).
+    virtual CallTable& calls() = 0;
 
 protected:
     ~SessionHost() = default;

@@ -15,7 +15,8 @@ const std::set<std::string> gauges{"capacity",         "depth",           "bytes
                                    "queued",           "sessions",        "shm_bytes",
                                    "shm_regions",      "shm_slots",       "memory_bytes",
                                    "quarantined",      "monitors_inline", "udp_reassembly_bytes",
-                                   "connections_open", "stream_clients"};
+                                   "connections_open", "stream_clients",  "calls_outstanding",
+                                   "served"};
 
 std::string escaped(const std::string& value) {
     std::string out;

@@ -34,6 +34,8 @@ json OpenRequest::encode() const {
     json fields = {{"port", port}, {"policy", policy}};
     if (capacity)
         fields["capacity"] = *capacity;
+    if (serve)
+        fields["serve"] = true;
     return request_with(op, std::move(fields));
 }
 Result<OpenRequest> OpenRequest::decode(const json& body) {
@@ -42,6 +44,7 @@ Result<OpenRequest> OpenRequest::decode(const json& body) {
     in.text("port", out.port);
     in.text("policy", out.policy);
     in.whole("capacity", out.capacity);
+    in.flag("serve", out.serve);
     return in.result(std::move(out));
 }
 

@@ -33,6 +33,7 @@ struct OpenRequest {
     std::string port;                       ///< the port's name
     std::string policy = "strict";          ///< "strict" or "latest"; checked by the daemon
     std::optional<std::uint64_t> capacity;  ///< absent: the daemon's default
+    bool serve = false;                     ///< the client answers calls on it (request/reply)
     nlohmann::json encode() const;          ///< the request body
     static Result<OpenRequest> decode(const nlohmann::json& body);  ///< from a request body
 };
