@@ -7,6 +7,7 @@
 #include <spdlog/spdlog.h>
 
 #include "control_plane.hpp"
+#include "arbitration/carrier_rules.hpp"
 #include "core/router.hpp"
 #include "names/name_client.hpp"
 #include "net/carriers/carrier_table.hpp"
@@ -78,6 +79,9 @@ Task<proto::Reply> ControlPlane::connect(std::shared_ptr<Session>, const proto::
     auto send_chain = host_.scripts().build_chain(carrier, proto::Side::send, source, destination);
     if (!send_chain)
         co_return refuse(send_chain.error().message);
+    auto route = arbitration::route_constraint(carrier);
+    if (!route)
+        co_return refuse(route.error().message);
 
     auto local_destination = router.find(destination);
     // No carrier named: the table's choice (local when both ports are here, else tcp). A carrier
@@ -101,6 +105,7 @@ Task<proto::Reply> ControlPlane::connect(std::shared_ptr<Session>, const proto::
         connection->destination = destination;
         connection->carrier = automatic ? base : carrier_text;
         connection->priority = carrier.qos.prio.value_or(0);
+        connection->route_constraint = *route;
         const InletSpec spec{local_destination, source, carrier, connection->carrier, asked.strict};
         carriers::SendingContext context{.host = host_,
                                          .request = {},
@@ -148,13 +153,14 @@ Task<proto::Reply> ControlPlane::connect(std::shared_ptr<Session>, const proto::
     if (automatic)
         chosen_text = base;
     std::shared_ptr<monitor::MonitorChain> chain = std::move(*send_chain);
-    co_return co_await connect_remote(asked, port, chosen_text, chosen, where, chain);
+    co_return co_await connect_remote(asked, port, chosen_text, chosen, where, chain, std::move(*route));
 }
 
 Task<proto::Reply> ControlPlane::connect_remote(proto::ConnectRequest asked, std::shared_ptr<Port> port,
                                                 std::string carrier, const carriers::Carrier* chosen,
                                                 std::string address,
-                                                std::shared_ptr<monitor::MonitorChain> send_chain) {
+                                                std::shared_ptr<monitor::MonitorChain> send_chain,
+                                                std::optional<arbitration::Constraint> route) {
     const std::string source = port->name();
     const std::string destination = asked.destination;
     for (const auto& existing : port->outgoing) {
@@ -175,6 +181,7 @@ Task<proto::Reply> ControlPlane::connect_remote(proto::ConnectRequest asked, std
     connection->remote = true;
     connection->priority = parsed.qos.prio.value_or(0);
     connection->persistent = asked.persist;
+    connection->route_constraint = std::move(route);
     carriers::SendingContext context{.host = host_,
                                      .request = link.request,
                                      .carrier = parsed,

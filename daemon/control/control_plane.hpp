@@ -87,10 +87,11 @@ private:
     /// Needs no session: restore_persistent calls it with none.
     Task<proto::Reply> connect(std::shared_ptr<Session> session, const proto::Request& request);
     /// The connection to another daemon (`address`) with carrier `carrier` (its text, and its
-    /// entry in the carrier table, `chosen`).
+    /// entry in the carrier table, `chosen`), and its route constraint (carrier_rules.hpp).
     Task<proto::Reply> connect_remote(proto::ConnectRequest asked, std::shared_ptr<Port> source,
                                       std::string carrier, const carriers::Carrier* chosen,
-                                      std::string address, std::shared_ptr<monitor::MonitorChain> send_chain);
+                                      std::string address, std::shared_ptr<monitor::MonitorChain> send_chain,
+                                      std::optional<arbitration::Constraint> route);
     /// Connects to the daemon at `endpoint` and asks it to attach `destination` for this
     /// connection, with what carrier `chosen` adds to the request. The carrier then makes the
     /// sending end on this link (connect_remote).

@@ -91,11 +91,24 @@ TEST_F(ConfigureMember_test, SendPriorityIsRefusedPointingToRecv) {
     EXPECT_TRUE(contains(message, "recv.priority")) << message;
 }
 
-TEST_F(ConfigureMember_test, ConstraintOrAuxOnTheSendSideIsRefused) {
-    const auto constraint = refusal("tcp+send.portmonitor+type.lua+file.codec+constraint.e_a");
-    EXPECT_TRUE(contains(constraint, "'constraint' in a send.portmonitor clause")) << constraint;
+TEST_F(ConfigureMember_test, AuxOnTheSendSideIsRefused) {
     const auto aux = refusal("tcp+send.portmonitor+type.lua+file.codec+aux");
     EXPECT_TRUE(contains(aux, "'aux' in a send.portmonitor clause")) << aux;
+}
+
+TEST_F(ConfigureMember_test, ASendSideConstraintIsARouteConstraintNotTheInputPorts) {
+    const auto parsed = carrier("tcp+send.portmonitor+constraint.e_a and not e_b");
+    Member member{arbiter, "/source"};
+    ASSERT_TRUE(configure_member(member, parsed).ok());
+    EXPECT_FALSE(member.constraint.has_value()) << "the input port's arbitration must not see it";
+    const auto route = route_constraint(parsed);
+    ASSERT_TRUE(route.ok()) << route.error().message;
+    ASSERT_TRUE(route->has_value());
+    EXPECT_EQ((*route)->text(), "e_a and not e_b");
+    EXPECT_FALSE(route_constraint(carrier("tcp+recv.portmonitor+constraint.e_a"))->has_value());
+    const auto bad = route_constraint(carrier("tcp+send.portmonitor+constraint.e_a and"));
+    ASSERT_FALSE(bad.ok());
+    EXPECT_TRUE(contains(bad.error().message, "at position")) << bad.error().message;
 }
 
 TEST_F(ConfigureMember_test, TwoConstraintsAreRefused) {
