@@ -3,6 +3,7 @@
 #include <mutex>
 
 #include "batch.hpp"
+#include "call_ticket.hpp"
 
 namespace plexus::daemon {
 
@@ -50,6 +51,10 @@ void Inlet::deliver(const Message& message) {
         }
         if (verdict != arbitration::Arbiter::Verdict::deliver) {
             // counted by the arbiter (constraint, priority) or an auxiliary connection
+            if (message.call) {
+                message.call->set_drop_reason(std::string("refused by the arbitration of ") + port_->name() +
+                                              " (" + arbitration::Arbiter::verdict_name(verdict) + ")");
+            }
             if (tap) {
                 decision.outcome = outcome_of(verdict);
                 tap->decided(*this, message, decision);

@@ -7,6 +7,7 @@
 #include <boost/asio/post.hpp>
 
 #include "../core/batch.hpp"
+#include "../core/call_ticket.hpp"
 
 namespace plexus::daemon::monitor {
 
@@ -242,7 +243,11 @@ Filtered MonitorStage::process(const Message& message) {
     t_publish_depth = message.publish_depth;
     const bool passed = chain_->process(out.message);
     t_publish_depth = 0;
+    // A request stays one when a monitor rewrote it (update makes a new message): its ticket goes on.
+    out.message.call = message.call;
     if (!passed) {
+        if (message.call)
+            message.call->set_drop_reason("dropped by a monitor's accept (or its error) on the way");
         out.verdict = FilterVerdict::dropped;
         if (timed)
             out.decision_time = member_->arbiter().now();
@@ -254,8 +259,12 @@ Filtered MonitorStage::process(const Message& message) {
         if (!member_->trivial()) {
             const double now = arbiter.now();
             out.arbitration = arbiter.admit(*member_, now);
-            if (out.arbitration != arbitration::Arbiter::Verdict::deliver)
+            if (out.arbitration != arbitration::Arbiter::Verdict::deliver) {
                 out.verdict = FilterVerdict::refused;
+                if (message.call)
+                    message.call->set_drop_reason(std::string("refused by the server port's arbitration (") +
+                                                  arbitration::Arbiter::verdict_name(out.arbitration) + ")");
+            }
             if (timed)
                 out.decision_time = now;
         } else if (timed) {
