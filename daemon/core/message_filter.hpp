@@ -8,6 +8,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "../arbitration/arbiter.hpp"
@@ -55,6 +56,12 @@ public:
     /// The connection is going: the monitors are let go (on their own thread), nothing more is
     /// reported.
     virtual void close() = 0;
+    /// True when some monitor here looks at the answers to calls (PortMonitor.reply).
+    virtual bool sees_replies() const { return false; }
+    /// Passes the answer to a call back through the monitors (in the reverse order of its
+    /// request); `done` runs on the daemon's thread with the answer as they left it (or as it was,
+    /// when the filter closed meanwhile).
+    virtual void reply(Message answer, std::function<void(Message)> done) { done(std::move(answer)); }
 };
 
 /// Room left in a destination after the messages still in a filter on their way to it.

@@ -24,6 +24,19 @@ struct MonitorChain {
         return true;
     }
 
+    /// The answer to a call, back through the monitors in the reverse order of its request.
+    void reply(Message& message) {
+        for (auto monitor = monitors.rbegin(); monitor != monitors.rend(); ++monitor)
+            (*monitor)->reply(message);
+    }
+    bool has_reply() const {
+        for (const auto& monitor : monitors) {
+            if (monitor->has_reply())
+                return true;
+        }
+        return false;
+    }
+
     /// True when every monitor is a script: the sandbox looks at the clock while they run, so they
     /// may run inline on the daemon's thread (stage.hpp). A compiled monitor cannot be watched.
     bool interruptible() const {

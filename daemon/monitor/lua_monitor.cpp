@@ -214,6 +214,8 @@ public:
     bool has_accept() const override { return has_accept_; }
     bool has_update() const override { return has_update_; }
     Outcome process(Message& message) override;
+    bool has_reply() const override { return has_reply_; }
+    Outcome reply(Message& message) override;
     std::optional<ScriptError> trig() override;
     std::optional<ScriptError> getparam(nlohmann::json& result) override;
     std::optional<ScriptError> setparam(const nlohmann::json& values, bool& defined) override;
@@ -227,6 +229,15 @@ private:
     bool push_callback(lua_State* L, const char* name);
     /// accept on the fast path: no protected trampoline, no std::function.
     std::optional<ScriptError> call_accept(lua_State* L, bool& accepted);
+    /// Calls PortMonitor[callback](msg) if `present` (update, reply), and notes in `replacement`
+    /// what the payload becomes: a value it returned other than msg, or msg.data changed in place
+    /// or assigned. Runs inside the sandbox (it may raise).
+    void rewrite(lua_State* L, const char* callback, bool present, MessageView& view,
+                 std::optional<nlohmann::json>& replacement);
+    /// Sets the msg userdata to show `view` (forgetting the previous message's data).
+    void show(lua_State* L, MessageView& view);
+    /// Detaches the msg userdata from `view` once the callbacks are done with it.
+    void hide(const MessageView& view);
 
     Monitor& monitor_;
     MonitorPolicy policy_;
@@ -247,6 +258,7 @@ private:
         int message = 0;
     } pins_;
     bool has_update_ = false;
+    bool has_reply_ = false;
     /// Until create has answered, the last line the script printed (at most reason_bytes and a
     /// bit): a script that refuses often says why with print, and the user should see it.
     bool remember_prints_ = true;
@@ -425,6 +437,7 @@ proto::Status LuaMonitor::create() {
     auto lookup = sandbox_->run([this](lua_State* L) {
         has_accept_ = has_callback(L, "accept");
         has_update_ = has_callback(L, "update");
+        has_reply_ = has_callback(L, "reply");
     });
     if (lookup)
         return proto::Error{"script '" + name + "': " + lookup->message};
@@ -449,48 +462,78 @@ MonitorBackend::Outcome LuaMonitor::process(Message& message) {
     outcome.in_accept = has_accept_;
     std::optional<nlohmann::json> replacement;
     lua_State* L = sandbox_->state();
+    show(L, view);
+
+    if (has_accept_)
+        outcome.error = call_accept(L, outcome.accepted);
+    if (!outcome.error && outcome.accepted && (has_update_ || view.assigned)) {
+        outcome.in_accept = false;
+        outcome.error =
+            sandbox_->run([&](lua_State* L) { rewrite(L, "update", has_update_, view, replacement); });
+    }
+    hide(view);
+    if (!outcome.error && outcome.accepted && replacement) {
+        message = encode_message(view.record, *replacement);
+        outcome.rewritten = true;
+    }
+    return outcome;
+}
+
+void LuaMonitor::show(lua_State* L, MessageView& view) {
     message_box_->view = &view;
     if (data_kept_) {
         lua_pushnil(L);
         lua_setiuservalue(L, pins_.message, 1);  // forget the previous message's data
         data_kept_ = false;
     }
+}
 
-    if (has_accept_)
-        outcome.error = call_accept(L, outcome.accepted);
-    if (!outcome.error && outcome.accepted && (has_update_ || view.assigned)) {
-        outcome.in_accept = false;
-        outcome.error = sandbox_->run([&](lua_State* L) {
-            lua_rawgeti(L, LUA_REGISTRYINDEX, message_ref_);
-            const int msg = lua_gettop(L);
-            if (has_update_ && push_callback(L, "update")) {
-                const int top = lua_gettop(L) - 1;
-                lua_pushvalue(L, msg);
-                lua_call(L, 1, LUA_MULTRET);
-                const bool returned_msg = lua_gettop(L) == top || lua_rawequal(L, top + 1, msg);
-                const nlohmann::json* hint = hint_of(view);
-                if (!returned_msg) {
-                    replacement = to_json(L, top + 1, hint);
-                } else if (view.touched && (view.assigned || !lazy_.pending())) {
-                    // msg.data may have been changed in place: compare with what was decoded.
-                    // (A table still lazy was neither written nor handed out in parts.)
-                    lua_getiuservalue(L, msg, 1);
-                    auto now = to_json(L, -1, hint);
-                    if (view.assigned || !hint || now != *hint)
-                        replacement = std::move(now);
-                }
-            } else if (view.assigned) {
-                lua_getiuservalue(L, msg, 1);
-                replacement = to_json(L, -1, hint_of(view));
-            }
-        });
-    }
+void LuaMonitor::hide(const MessageView& view) {
     // The userdata outlives the call (the registry holds it): detach it from this stack frame.
     message_box_->view = nullptr;
     // Its user value is let go before the next message, unless it is a lazy table still empty.
     data_kept_ = view.assigned || (view.touched && !lazy_.pending());
     lazy_.end_message();
-    if (!outcome.error && outcome.accepted && replacement) {
+}
+
+void LuaMonitor::rewrite(lua_State* L, const char* callback, bool present, MessageView& view,
+                         std::optional<nlohmann::json>& replacement) {
+    lua_rawgeti(L, LUA_REGISTRYINDEX, message_ref_);
+    const int msg = lua_gettop(L);
+    if (present && push_callback(L, callback)) {
+        const int top = lua_gettop(L) - 1;
+        lua_pushvalue(L, msg);
+        lua_call(L, 1, LUA_MULTRET);
+        const bool returned_msg = lua_gettop(L) == top || lua_rawequal(L, top + 1, msg);
+        const nlohmann::json* hint = hint_of(view);
+        if (!returned_msg) {
+            replacement = to_json(L, top + 1, hint);
+        } else if (view.touched && (view.assigned || !lazy_.pending())) {
+            // msg.data may have been changed in place: compare with what was decoded.
+            // (A table still lazy was neither written nor handed out in parts.)
+            lua_getiuservalue(L, msg, 1);
+            auto now = to_json(L, -1, hint);
+            if (view.assigned || !hint || now != *hint)
+                replacement = std::move(now);
+        }
+    } else if (view.assigned) {
+        lua_getiuservalue(L, msg, 1);
+        replacement = to_json(L, -1, hint_of(view));
+    }
+}
+
+MonitorBackend::Outcome LuaMonitor::reply(Message& message) {
+    Outcome outcome;
+    auto record = proto::read_record(message.record);
+    if (!record)
+        return outcome;  // checked on arrival
+    MessageView view{*record, &lazy_, std::nullopt, false, false};
+    std::optional<nlohmann::json> replacement;
+    lua_State* L = sandbox_->state();
+    show(L, view);
+    outcome.error = sandbox_->run([&](lua_State* L) { rewrite(L, "reply", has_reply_, view, replacement); });
+    hide(view);
+    if (!outcome.error && replacement) {
         message = encode_message(view.record, *replacement);
         outcome.rewritten = true;
     }

@@ -45,6 +45,7 @@ proto::Result<std::unique_ptr<Monitor>> Monitor::create(MonitorSpec spec, const 
     monitor->backend_ = std::move(*backend);
     monitor->has_accept_ = monitor->backend_->has_accept();
     monitor->has_update_ = monitor->backend_->has_update();
+    monitor->has_reply_ = monitor->backend_->has_reply();
     spdlog::info("monitor {} created from {}", monitor->description(), monitor->spec_.script.path);
     return monitor;
 }
@@ -137,6 +138,20 @@ Monitor::Verdict Monitor::process(Message& message) {
     return Verdict::pass;
 }
 
+void Monitor::reply(Message& message) {
+    if (!has_reply_ || !backend_)
+        return;
+    ++counters_.replies;
+    const MonitorBackend::Outcome outcome = backend_->reply(message);
+    if (outcome.error) {
+        failed("reply", *outcome.error);
+        return;
+    }
+    succeeded();
+    if (outcome.rewritten)
+        ++counters_.rewritten;
+}
+
 void Monitor::trig() {
     if (!backend_)
         return;
@@ -209,6 +224,7 @@ nlohmann::json Monitor::stats() const {
             {"messages", counters_.messages.load()},
             {"dropped", counters_.dropped.load()},
             {"rewritten", counters_.rewritten.load()},
+            {"replies", counters_.replies.load()},
             {"errors", counters_.errors.load()},
             {"timeouts", counters_.timeouts.load()},
             {"out_of_memory", counters_.out_of_memory.load()},

@@ -94,6 +94,7 @@ struct MonitorCounters {
     MonitorCount messages;   ///< messages the monitor saw
     MonitorCount dropped;    ///< by accept (or by a failure with the drop policy)
     MonitorCount rewritten;  ///< payloads replaced
+    MonitorCount replies;    ///< answers to calls seen by reply()
     MonitorCount errors;     ///< failed calls of any callback, timeouts included
     MonitorCount timeouts;
     MonitorCount out_of_memory;
@@ -112,6 +113,10 @@ public:
     enum class Verdict { pass, drop };
     /// Runs accept and update on a message; on pass, `message` may have been replaced.
     Verdict process(Message& message);
+    /// Runs reply on the answer to a call (request/reply); `message` may be replaced. An error
+    /// passes the answer on unchanged (and counts, as any callback's).
+    void reply(Message& message);
+    bool has_reply() const { return has_reply_; }
     void trig();
     /// getparam's table, or null when the monitor has no getparam.
     proto::Result<nlohmann::json> getparam();
@@ -171,6 +176,7 @@ private:
     std::unique_ptr<MonitorBackend> backend_;  ///< null once quarantined
     bool has_accept_ = false;
     bool has_update_ = false;
+    bool has_reply_ = false;
     MonitorCounters counters_;
     std::uint32_t consecutive_failures_ = 0;
     // Read by `plexus stats` on the daemon's thread while the worker writes them.

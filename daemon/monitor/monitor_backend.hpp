@@ -31,6 +31,13 @@ public:
     virtual bool has_update() const = 0;
     /// accept, then update on an accepted message; `message` may be replaced when it passes.
     virtual Outcome process(Message& message) = 0;
+    /// PortMonitor.reply on the answer to a call that passed this connection (request/reply):
+    /// `message` may be replaced; `accepted` is not used. A backend without it has none.
+    virtual bool has_reply() const { return false; }
+    virtual Outcome reply(Message& message) {
+        (void)message;
+        return {};
+    }
     virtual std::optional<ScriptError> trig() = 0;
     /// `result` stays null when there is no getparam.
     virtual std::optional<ScriptError> getparam(nlohmann::json& result) = 0;

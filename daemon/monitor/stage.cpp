@@ -38,6 +38,7 @@ MonitorStage::MonitorStage(std::shared_ptr<Workers> workers, asio::any_io_execut
       options_(options),
       on_space_(std::move(on_space)) {
     inline_now_ = may_run_inline();
+    sees_replies_ = chain_->has_reply();
 }
 
 bool MonitorStage::may_run_inline() const {
@@ -307,6 +308,17 @@ void MonitorStage::trig(std::uint64_t monitor_id) {
             if (monitor->id() == monitor_id)
                 monitor->trig();
         }
+    });
+}
+
+void MonitorStage::reply(Message answer, std::function<void(Message)> done) {
+    asio::post(strand_, [self = shared_from_this(), answer = std::move(answer), done = std::move(done)]() mutable {
+        {
+            std::lock_guard monitors(self->monitors_mutex_);
+            if (!self->closed_)
+                self->chain_->reply(answer);
+        }
+        asio::post(self->io_, [answer = std::move(answer), done = std::move(done)]() mutable { done(std::move(answer)); });
     });
 }
 

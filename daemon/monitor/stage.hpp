@@ -72,6 +72,8 @@ public:
     std::size_t in_flight() const override { return in_flight_; }
     std::size_t room() const override;
     void close() override;
+    bool sees_replies() const override { return sees_replies_; }
+    void reply(Message answer, std::function<void(Message)> done) override;
 
     /// Runs the trig of monitor `monitor_id` on the strand.
     void trig(std::uint64_t monitor_id);
@@ -125,6 +127,7 @@ private:
     WorkerStrand strand_;
     LoopStandIn* stand_in_;  ///< the workers' (null: never inline)
     asio::any_io_executor io_;
+    bool sees_replies_ = false;  ///< some monitor has PortMonitor.reply (fixed at creation)
     std::shared_ptr<MonitorChain> chain_;
     std::shared_ptr<arbitration::Member> member_;
     Options options_;

@@ -1,5 +1,7 @@
 #include "call_table.hpp"
 
+#include <cstring>
+
 #include <spdlog/spdlog.h>
 
 #include "framed_connection.hpp"
@@ -14,14 +16,20 @@ constexpr std::size_t remembered_calls = 4096;
 
 std::shared_ptr<CallTicket> CallTable::start(const std::shared_ptr<FramedConnection>& back,
                                              std::uint64_t back_id, Clock::time_point deadline,
-                                             std::string what, const std::shared_ptr<Port>& port) {
+                                             std::string what, const std::shared_ptr<Port>& port,
+                                             std::vector<std::shared_ptr<MessageFilter>> reply_through) {
     if (port->calls_outstanding >= max_calls_per_port) {
         ++counters_.busy;
         return nullptr;
     }
     ++port->calls_outstanding;
     const std::uint64_t id = next_id_++;
-    entries_.emplace(id, Entry{back, back_id, nullptr, deadline, std::move(what), port});
+    Entry entry{back, back_id, nullptr, deadline, std::move(what), port, {}};
+    for (auto& stage : reply_through) {
+        if (stage && stage->sees_replies())
+            entry.reply_through.push_back(stage);
+    }
+    entries_.emplace(id, std::move(entry));
     deadlines_.emplace(deadline, id);
     ++counters_.started;
     back->carry_calls(shared_from_this());
@@ -75,6 +83,13 @@ void CallTable::answer(FramedConnection& from, const proto::AnswerView& answer) 
     auto back = call.back.lock();
     if (!back || back->closed()) {
         ++counters_.caller_gone;
+    } else if (answer.outcome == proto::CallOutcome::ok && !call.reply_through.empty()) {
+        ++counters_.answered;
+        // The answer passes the monitors that look at replies (PortMonitor.reply) on its way back.
+        auto chunk = std::make_shared<Chunk>(answer.record.size());
+        std::memcpy(chunk->data(), answer.record.data(), answer.record.size());
+        const proto::ByteView record(chunk->data(), chunk->size);
+        pass_back(back, call.back_id, Message{std::move(chunk), record}, call.reply_through, 0);
     } else {
         ++counters_.answered;
         proto::Bytes frame;
@@ -85,6 +100,25 @@ void CallTable::answer(FramedConnection& from, const proto::AnswerView& answer) 
         back->send(std::move(frame));
     }
     finish(answer.id, true);
+}
+
+void CallTable::pass_back(std::weak_ptr<FramedConnection> back, std::uint64_t back_id, Message answer,
+                          std::vector<std::weak_ptr<MessageFilter>> through, std::size_t next) {
+    while (next < through.size()) {
+        if (auto stage = through[next++].lock()) {
+            stage->reply(std::move(answer), [back = std::move(back), back_id, through = std::move(through),
+                                             next](Message passed) mutable {
+                pass_back(std::move(back), back_id, std::move(passed), std::move(through), next);
+            });
+            return;
+        }
+    }
+    auto to = back.lock();
+    if (!to || to->closed())
+        return;  // the caller left while the monitors looked at its answer
+    proto::Bytes frame;
+    proto::append_answer_frame(frame, back_id, answer.record);
+    to->send(std::move(frame));
 }
 
 void CallTable::closed(const FramedConnection& connection) {

@@ -19,10 +19,12 @@
 #include <set>
 #include <string>
 #include <unordered_map>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "../core/call_ticket.hpp"
+#include "../core/message_filter.hpp"
 #include "../core/port.hpp"
 #include "asio.hpp"
 #include "plexus/proto/call.hpp"
@@ -57,9 +59,12 @@ public:
 
     /// A call arrived on `back` with id `back_id`, through `port`: its entry, and the ticket its
     /// message carries; null (nothing kept) when the port has max_calls_per_port outstanding.
+    /// `reply_through`: the monitor stages here that the answer passes on its way back, in that
+    /// order (those of the connection whose monitors have PortMonitor.reply; empty for none).
     std::shared_ptr<CallTicket> start(const std::shared_ptr<FramedConnection>& back, std::uint64_t back_id,
                                       Clock::time_point deadline, std::string what,
-                                      const std::shared_ptr<Port>& port);
+                                      const std::shared_ptr<Port>& port,
+                                      std::vector<std::shared_ptr<MessageFilter>> reply_through = {});
     /// A call is refused before it entered the table (no server, busy, a bad port): the answer
     /// goes straight back on `back`.
     void refuse(FramedConnection& back, std::uint64_t back_id, std::string_view reason);
@@ -87,7 +92,11 @@ private:
         Clock::time_point deadline;
         std::string what;  ///< "/caller -> /server", for reasons
         std::weak_ptr<Port> port;  ///< whose calls_outstanding counts it
+        std::vector<std::weak_ptr<MessageFilter>> reply_through;
     };
+    /// Sends an ok answer back on `back` with id `back_id`, after the stages of `through`, one by one.
+    static void pass_back(std::weak_ptr<FramedConnection> back, std::uint64_t back_id, Message answer,
+                          std::vector<std::weak_ptr<MessageFilter>> through, std::size_t next);
     /// Ends entry `id` with a failure sent back to its caller.
     void fail(std::uint64_t id, proto::CallOutcome outcome, std::string_view reason);
     /// Sends a failure to `back` (if it is still there).

@@ -414,7 +414,7 @@ bool Session::on_call(const InFrame& frame) {
             return true;
         }
         auto ticket = calls.start(self, call->id, deadline, link_->source() + " -> " + link_port_->name(),
-                                  link_port_);
+                                  link_port_, {link_->monitors});
         if (!ticket) {
             calls.refuse(*this, call->id,
                          "busy: " + link_port_->name() + " has " + std::to_string(CallTable::max_calls_per_port) +
@@ -445,7 +445,14 @@ bool Session::on_call(const InFrame& frame) {
                                           connection.destination + " is full");
         return true;
     }
-    auto ticket = calls.start(self, call->id, deadline, port->name() + " -> " + connection.destination, port);
+    // The answer passes back the receiving monitors of a connection within this daemon, then its
+    // sending ones.
+    std::vector<std::shared_ptr<MessageFilter>> reply_through;
+    if (const auto* inlet = dynamic_cast<const Inlet*>(connection.sink.get()))
+        reply_through.push_back(inlet->monitors);
+    reply_through.push_back(connection.send_monitors);
+    auto ticket = calls.start(self, call->id, deadline, port->name() + " -> " + connection.destination, port,
+                              std::move(reply_through));
     if (!ticket) {
         calls.refuse(*this, call->id,
                      "busy: " + port->name() + " has " + std::to_string(CallTable::max_calls_per_port) +

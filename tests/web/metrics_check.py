@@ -16,7 +16,7 @@ import sys
 from prometheus_client.parser import text_string_to_metric_families
 
 GAUGES = {'capacity', 'depth', 'bytes', 'queued', 'sessions', 'shm_bytes', 'shm_regions', 'shm_slots',
-          'memory_bytes', 'quarantined', 'monitors_inline', 'udp_reassembly_bytes'}
+          'memory_bytes', 'quarantined', 'monitors_inline', 'udp_reassembly_bytes', 'calls_outstanding', 'served'}
 CHANGED_BY_THE_CLI = {'sessions', 'sessions_accepted'}
 
 

@@ -2,6 +2,9 @@
 // caller with the caller's id; every way a call can end without the server's answer ends in an
 // answer from the daemon; answers that are not owed are counted and ignored. Raw peers, so that
 // the daemon is tested without libplexus (tests/integration/calls_test.cpp uses the library).
+#include <filesystem>
+#include <fstream>
+
 #include "hostile_peer.hpp"
 #include "plexus/proto/call.hpp"
 #include "plexus/proto/message.hpp"
@@ -383,6 +386,49 @@ TEST(Calls_test, WhenTheServersDaemonIsKilledTheCallIsLostAtOnce) {
     ASSERT_TRUE(answer.has_value());
     EXPECT_EQ(answer->outcome, CallOutcome::lost) << answer->reason;
     EXPECT_LT(Clock::now() - started, std::chrono::seconds(5));
+}
+
+TEST(Calls_test, MonitorsSeeTheRequestWithUpdateAndTheAnswerWithReply) {
+    TempDir dir;
+    const std::string scripts = dir.file("scripts");
+    std::filesystem::create_directories(scripts);
+    {
+        std::ofstream script(scripts + "/stamp.lua");
+        script << "PortMonitor = PortMonitor or {}\n"
+                  "function PortMonitor.update(msg) return {request = msg.data} end\n"
+                  "function PortMonitor.reply(msg) return {reply = msg.data, stamped = true} end\n";
+    }
+    {
+        std::ofstream script(scripts + "/refuse.lua");
+        script << "PortMonitor = PortMonitor or {}\n"
+                  "function PortMonitor.accept(msg) return msg.data ~= 'forbidden' end\n";
+    }
+    Daemon daemon(dir, "solo", "", {"--scripts", scripts});
+    RawClient server(daemon);
+    RawClient caller(daemon);
+    server.open("/svc", true);
+    server.open("/guarded", true);
+    const auto calling = caller.open("/caller");
+    const auto guarded = caller.open("/guard-caller");
+    connect(caller, "/caller", "/svc", "local+recv.portmonitor+type.lua+file.stamp");
+    connect(caller, "/guard-caller", "/guarded", "local+send.portmonitor+type.lua+file.refuse");
+
+    caller.call(calling, 1, "/caller", 41, 5000);
+    const auto call = server.next_call();
+    ASSERT_TRUE(call.has_value());
+    EXPECT_EQ(call->value, (nlohmann::json{{"request", 41}}));
+    server.answer(call->id, "/svc", 42);
+    const auto answer = caller.next_answer();
+    ASSERT_TRUE(answer.has_value());
+    EXPECT_EQ(answer->outcome, CallOutcome::ok) << answer->reason;
+    EXPECT_EQ(answer->value, (nlohmann::json{{"reply", 42}, {"stamped", true}}));
+
+    caller.call(guarded, 2, "/guard-caller", "forbidden", 5000);
+    const auto refused = caller.next_answer();
+    ASSERT_TRUE(refused.has_value());
+    EXPECT_EQ(refused->id, 2u);
+    EXPECT_EQ(refused->outcome, CallOutcome::refused);
+    EXPECT_NE(refused->reason.find("dropped by a monitor's accept"), std::string::npos) << refused->reason;
 }
 
 TEST(Calls_test, AMalformedCallOrAnswerIsAProtocolError) {
