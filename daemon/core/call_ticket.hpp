@@ -54,6 +54,9 @@ public:
     }
     /// The request left this daemon on a socket: the table now waits for its answer.
     void hand_on() { handed_on_.store(true, std::memory_order_release); }
+    /// Counts a port that passed the call on (Port::route_call); false past max_ports.
+    bool pass_port() { return ++ports_passed_ <= max_ports; }
+    static constexpr int max_ports = 8;
     /// Where the ticket reports; null once the daemon is going.
     std::shared_ptr<CallRoutes> routes() const { return routes_.lock(); }
     /// Why it is being dropped, said where that is known (the daemon's thread, before the drop).
@@ -68,6 +71,7 @@ private:
     std::weak_ptr<CallRoutes> routes_;
     std::atomic<bool> handed_on_{false};
     std::string reason_;
+    int ports_passed_ = 0;
 };
 
 }  // namespace plexus::daemon

@@ -2,15 +2,14 @@
 
 #include <algorithm>
 
+#include "call_routing.hpp"
 #include "call_ticket.hpp"
 
 namespace plexus::daemon {
 
 void Port::deliver(const Message& message) {
     if (message.call && !served) [[unlikely]] {
-        // Its ticket ends with the message: the caller is refused with this reason.
-        ++calls_refused;
-        message.call->set_drop_reason("port " + name_ + " is not served: nobody answers calls there");
+        route_call(message);
         return;
     }
     received += message.count();
@@ -20,6 +19,38 @@ void Port::deliver(const Message& message) {
     queue_.push(message);
     if (was_empty && on_readable)
         on_readable();
+}
+
+void Port::route_call(const Message& message) {
+    // A port that nobody serves but whose connections lead on (to servers, or to other such ports)
+    // passes the call on, chosen by its own arbitration: a "service" port that callers call by
+    // name, and whose events decide which server answers. Its ticket ends with the message when
+    // there is nowhere to go: the caller is refused with the reason.
+    CallTicket& ticket = *message.call;
+    if (outgoing.empty()) {
+        ++calls_refused;
+        ticket.set_drop_reason("port " + name_ + " is not served: nobody answers calls there");
+        return;
+    }
+    if (!ticket.pass_port()) {
+        ++calls_refused;
+        ticket.set_drop_reason("the call passed through " + std::to_string(CallTicket::max_ports) +
+                               " ports without reaching a server (a loop of connections?), the last " + name_);
+        return;
+    }
+    auto chosen = choose_server(*this);
+    if (const auto* why = std::get_if<std::string>(&chosen)) {
+        ++calls_refused;
+        ticket.set_drop_reason(*why);
+        return;
+    }
+    Connection& connection = *std::get<Connection*>(chosen);
+    ++connection.calls;
+    ++connection.sent;
+    if (connection.send_monitors)
+        connection.send_monitors->submit(message);
+    else
+        connection.sink->deliver(message);
 }
 
 void Port::mark_closed() {

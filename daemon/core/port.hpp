@@ -49,7 +49,8 @@ public:
     /// first connection into the port.
     std::shared_ptr<arbitration::Arbiter> arbiter;
 
-    /// Its client answers calls on it (opened to serve): a call into any other port is refused.
+    /// Its client answers calls on it (opened to serve). A call into any other port goes on along
+    /// its connections (route_call), or is refused when there are none.
     bool served = false;
     /// Calls through this port not yet answered or failed (as caller, or as the server's port).
     std::uint64_t calls_outstanding = 0;
@@ -66,6 +67,9 @@ public:
     std::shared_ptr<PortTap> tap;
 
     void mark_closed();
+    /// A call reached this port, which nobody serves: passed on to the connection its arbitration
+    /// selects (call_routing.hpp), or dropped with the reason.
+    void route_call(const Message& message);
 
     /// A connection into the port asked for `qos.prio.N`: while `connection` lives, the port's
     /// reader is served at N at least on its client's socket (Outbox's strict priority).

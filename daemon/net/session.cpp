@@ -477,6 +477,12 @@ bool Session::on_answer(const InFrame& frame) {
         fail("bad answer frame: " + answer.error().message);
         return false;
     }
+    if (answer->outcome == proto::CallOutcome::ok && !proto::read_record(answer->record)) {
+        // Passed on as it is to the caller, whose library would fail on it: refused here.
+        ++daemon_.counters().protocol_errors;
+        fail("bad answer frame: its reply is not a message record");
+        return false;
+    }
     daemon_.calls().answer(*this, *answer);
     return true;
 }

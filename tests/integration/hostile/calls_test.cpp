@@ -431,6 +431,65 @@ TEST(Calls_test, MonitorsSeeTheRequestWithUpdateAndTheAnswerWithReply) {
     EXPECT_NE(refused->reason.find("dropped by a monitor's accept"), std::string::npos) << refused->reason;
 }
 
+TEST(Calls_test, APortNobodyServesPassesTheCallToTheServerItsEventsSelect) {
+    TempDir dir;
+    const std::string scripts = dir.file("scripts");
+    std::filesystem::create_directories(scripts);
+    {
+        std::ofstream script(scripts + "/health.lua");
+        script << "PortMonitor = PortMonitor or {}\n"
+                  "function PortMonitor.accept(msg)\n"
+                  "  if msg.data == 'a' then PortMonitor.setEvent('a_ok') else PortMonitor.unsetEvent('a_ok') end\n"
+                  "  return true\n"
+                  "end\n";
+    }
+    Daemon daemon(dir, "solo", "", {"--scripts", scripts});
+    RawClient server_a(daemon);
+    RawClient server_b(daemon);
+    RawClient service(daemon);
+    RawClient health(daemon);
+    RawClient caller(daemon);
+    server_a.open("/a", true);
+    server_b.open("/b", true);
+    service.open("/nav/plan");
+    const auto health_handle = health.open("/health");
+    const auto calling = caller.open("/caller");
+    connect(caller, "/health", "/nav/plan", "local+recv.portmonitor+type.lua+file.health+aux");
+    connect(caller, "/nav/plan", "/a", "local+send.portmonitor+constraint.a_ok");
+    connect(caller, "/nav/plan", "/b", "local+send.portmonitor+constraint.not a_ok");
+    connect(caller, "/caller", "/nav/plan");
+
+    std::uint64_t seq = 0;
+    const auto say = [&](const std::string& state, bool a_ok) {
+        Bytes record;
+        proto::append_record(record, "/health", ++seq, 1, cbor(state));
+        Bytes frame;
+        proto::append_data_frame(frame, health_handle, record);
+        health.send(frame);
+        ASSERT_TRUE(eventually([&] {
+            const auto events = caller.request({{"op", "events"}, {"port", "/nav/plan"}}).body.dump();
+            return (events.find("a_ok") != std::string::npos) == a_ok;
+        })) << "the monitor never took " << state;
+    };
+    const auto expect_served_by = [&](RawClient& server, std::uint64_t id) {
+        caller.call(calling, id, "/caller", id, 5000);
+        const auto call = server.next_call();
+        ASSERT_TRUE(call.has_value()) << "call " << id << " did not reach the server the events select";
+        server.answer(call->id, "/x", id * 10);
+        const auto answer = caller.next_answer();
+        ASSERT_TRUE(answer.has_value());
+        EXPECT_EQ(answer->id, id);
+        EXPECT_EQ(answer->value, id * 10) << answer->reason;
+    };
+    say("a", true);
+    expect_served_by(server_a, 1);
+    expect_served_by(server_a, 2);
+    say("b", false);
+    expect_served_by(server_b, 3);
+    say("a", true);
+    expect_served_by(server_a, 4);
+}
+
 TEST(Calls_test, AMalformedCallOrAnswerIsAProtocolError) {
     TempDir dir;
     Daemon daemon(dir, "solo");
@@ -444,6 +503,12 @@ TEST(Calls_test, AMalformedCallOrAnswerIsAProtocolError) {
              return frame;
          }()},
         {"an answer of an unknown outcome", Bytes{0x03, static_cast<std::uint8_t>(proto::FrameType::answer), 0x01, 0x09}},
+        {"an answer whose reply is not a record",
+         [] {
+             Bytes frame;
+             proto::append_answer_frame(frame, 1, Bytes{0xff, 0xff});
+             return frame;
+         }()},
         {"a call whose record is not one",
          [] {
              Bytes frame;
