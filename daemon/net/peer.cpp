@@ -5,6 +5,7 @@
 #include "call_table.hpp"
 #include "keepalive.hpp"
 #include "plexus/proto/call.hpp"
+#include "plexus/proto/message.hpp"
 
 namespace plexus::daemon {
 
@@ -94,8 +95,9 @@ Task<bool> Peer::on_frame(InFrame frame) {
         // The answer to a call this daemon sent on the link (only a link that carried a call has
         // a table; any other answer is counted there as unknown, or refused here).
         const auto answer = proto::decode_answer(frame.fields);
-        if (!answer) {
-            fail("bad answer frame: " + answer.error().message);
+        if (!answer || (answer->outcome == proto::CallOutcome::ok && !proto::read_record(answer->record))) {
+            fail("bad answer frame: " + (answer ? std::string("its reply is not a message record")
+                                                : answer.error().message));
             co_return false;
         }
         if (auto* calls = call_table()) {
