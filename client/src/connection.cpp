@@ -54,38 +54,18 @@ Connection::WriterRegion::~WriterRegion() {
 }
 
 Connection::Connection(int fd, std::string description, bool greeted)
-    : fd_(fd), path_(std::move(description)) {
-    try {
-        in_.resize(read_chunk);
-        if (greeted)
-            return;
-        std::lock_guard lock(send_mutex_);
-        out_ = proto::encode_hello({proto::protocol_version, "client", ""});
-        send_locked();
-    } catch (...) {
-        ::close(fd_);  // no destructor runs for an object that was never constructed
-        throw;
-    }
+    : socket_(fd), path_(std::move(description)) {
+    // socket_ is constructed first: it closes the descriptor if this constructor throws.
+    in_.resize(read_chunk);
+    if (greeted)
+        return;
+    std::lock_guard lock(send_mutex_);
+    out_ = proto::encode_hello({proto::protocol_version, "client", ""});
+    send_locked();
 }
 
 std::shared_ptr<Connection> Connection::to_daemon(const std::string& socket_path) {
-    sockaddr_un address{};
-    address.sun_family = AF_UNIX;
-    if (socket_path.size() >= sizeof address.sun_path) {
-        throw Error(ErrorCode::usage, "socket path too long: " + socket_path);
-    }
-    std::memcpy(address.sun_path, socket_path.c_str(), socket_path.size() + 1);
-    const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    if (fd < 0)
-        throw Error(ErrorCode::refused, std::string("socket: ") + std::strerror(errno));
-    if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) {
-        const int error = errno;
-        ::close(fd);
-        throw Error(ErrorCode::refused,
-                    "no plexusd is running at " + socket_path + " (" + std::strerror(error) +
-                        "); start one with `plexusd --embedded-names`, or pass --socket / "
-                        "set PLEXUS_SOCKET");
-    }
+    const int fd = FrameSocket::connect_unix(socket_path);
     auto connection = std::make_shared<Connection>(fd, socket_path);
     // A wrong program on the socket is reported now rather than at the first real request.
     proto::Reply reply = connection->request(proto::NodeRequest{}.encode(), std::chrono::milliseconds(5000));
@@ -99,32 +79,7 @@ std::shared_ptr<Connection> Connection::to_daemon(const std::string& socket_path
 }
 
 std::shared_ptr<Connection> Connection::to_tcp(const std::string& address) {
-    auto endpoint = proto::parse_endpoint(address);
-    if (!endpoint)
-        throw Error(ErrorCode::usage, "bad address '" + address + "': " + endpoint.error().message);
-    addrinfo hints{};
-    hints.ai_socktype = SOCK_STREAM;
-    addrinfo* found = nullptr;
-    if (::getaddrinfo(endpoint->host.c_str(), std::to_string(endpoint->port).c_str(), &hints, &found) != 0 ||
-        !found) {
-        throw Error(ErrorCode::refused, "cannot resolve " + address);
-    }
-    int fd = -1;
-    int error = 0;
-    for (addrinfo* a = found; a; a = a->ai_next) {
-        fd = ::socket(a->ai_family, a->ai_socktype | SOCK_CLOEXEC, a->ai_protocol);
-        if (fd >= 0 && ::connect(fd, a->ai_addr, a->ai_addrlen) == 0)
-            break;
-        error = errno;
-        if (fd >= 0)
-            ::close(fd);
-        fd = -1;
-    }
-    ::freeaddrinfo(found);
-    if (fd < 0)
-        throw Error(ErrorCode::refused, "cannot reach " + address + ": " + std::strerror(error));
-    const int one = 1;
-    ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    const int fd = FrameSocket::connect_tcp(address);
     std::uint64_t max_frame = 0;
     try {
         max_frame = tcp_handshake(fd, address, std::chrono::milliseconds(10000));
@@ -155,8 +110,6 @@ Connection::~Connection() {
         ::close(fd);
     for (const auto& [id, region] : reader_regions_)
         ::munmap(const_cast<std::uint8_t*>(region.data), region.size);
-    if (fd_ >= 0)
-        ::close(fd_);
 }
 
 bool Connection::enable_shm() {
@@ -189,19 +142,17 @@ void Connection::send_locked() {
 void Connection::send_available_locked() {
     std::size_t sent = 0;
     while (sent < out_.size()) {
-        const ssize_t n = ::send(fd_, out_.data() + sent, out_.size() - sent, MSG_NOSIGNAL | MSG_DONTWAIT);
-        if (n < 0) {
-            if (errno == EINTR)
-                continue;
-            if (errno == EAGAIN || errno == EWOULDBLOCK)
-                break;
-            const std::string why = std::strerror(errno);
+        const iovec piece{out_.data() + sent, out_.size() - sent};
+        const SocketSent result = socket_.send_some(&piece, 1);
+        if (result.full)
+            break;
+        if (result.failure) {
             out_.clear();
             backlog_ = false;
-            fail(why);
+            fail(*result.failure);
             return;
         }
-        sent += static_cast<std::size_t>(n);
+        sent += result.bytes;
     }
     out_.erase(out_.begin(), out_.begin() + static_cast<std::ptrdiff_t>(sent));
 }
@@ -217,22 +168,17 @@ void Connection::send_with_payload_locked(proto::ByteView payload) {
             pieces[count++] = {out_.data() + head_sent, out_.size() - head_sent};
         pieces[count++] = {const_cast<std::uint8_t*>(payload.data()) + payload_sent,
                            payload.size() - payload_sent};
-        msghdr message{};
-        message.msg_iov = pieces;
-        message.msg_iovlen = static_cast<std::size_t>(count);
-        ssize_t n = ::sendmsg(fd_, &message, MSG_NOSIGNAL | MSG_DONTWAIT);
-        if (n < 0) {
-            if (errno == EINTR)
-                continue;
-            if (errno == EAGAIN || errno == EWOULDBLOCK) {
-                wait_for_room_locked();
-                continue;
-            }
-            const std::string why = std::strerror(errno);
+        const SocketSent result = socket_.send_some(pieces, static_cast<std::size_t>(count));
+        if (result.full) {
+            wait_for_room_locked();
+            continue;
+        }
+        if (result.failure) {
             out_.clear();
-            fail(why);
+            fail(*result.failure);
             throw_if_broken();
         }
+        const auto n = result.bytes;
         const std::size_t head_part = std::min(static_cast<std::size_t>(n), out_.size() - head_sent);
         head_sent += head_part;
         payload_sent += static_cast<std::size_t>(n) - head_part;
@@ -250,7 +196,7 @@ void Connection::wait_for_room_locked() {
         std::lock_guard lock(state_mutex_);
         someone_reads = reading_;
     }
-    pollfd ready{fd_, static_cast<short>(someone_reads ? POLLOUT : POLLOUT | POLLIN), 0};
+    pollfd ready{socket_.native_handle(), static_cast<short>(someone_reads ? POLLOUT : POLLOUT | POLLIN), 0};
     if (::poll(&ready, 1, room_poll_ms) <= 0 || (ready.revents & POLLOUT) || !(ready.revents & POLLIN))
         return;  // room now, a timeout (look again), or an error the next send reports
     receive_pending();
@@ -425,7 +371,7 @@ void Connection::enlarge_send_buffer_locked() {
     if (large_send_buffer_)
         return;
     large_send_buffer_ = true;
-    ::setsockopt(fd_, SOL_SOCKET, SO_SNDBUF, &large_message_send_buffer, sizeof large_message_send_buffer);
+    socket_.set_send_buffer(large_message_send_buffer);
 }
 
 void Connection::close_batch_locked() {
@@ -449,8 +395,7 @@ void Connection::send_backlog() {
         if (stopping_)
             return;
         lock.unlock();
-        pollfd room{fd_, POLLOUT, 0};
-        ::poll(&room, 1, backlog_poll_ms);
+        socket_.wait_writable(backlog_poll_ms);
         lock.lock();
         if (!backlog_)
             continue;

@@ -14,6 +14,7 @@
 #include <string>
 #include <thread>
 
+#include "frame_socket.hpp"
 #include "large_payload.hpp"
 #include "plexus/client.hpp"
 #include "plexus/proto/control.hpp"
@@ -76,7 +77,7 @@ public:
     /// to_daemon has it once it returns: the hello comes before the reply it waits for).
     std::uint64_t peer_max_frame() const { return peer_max_frame_.load(std::memory_order_relaxed); }
     /// The socket, for a watcher that polls it for the peer's hang-up (never read from it).
-    int native_handle() const { return fd_; }
+    int native_handle() const { return socket_.native_handle(); }
 
 private:
     /// Bytes the receive buffer grows by; it takes more when less than a quarter is free.
@@ -156,7 +157,7 @@ private:
     void fail(const std::string& why);
     void throw_if_broken() const;
 
-    int fd_ = -1;
+    FrameSocket socket_;
     std::string path_;
 
     std::mutex send_mutex_;

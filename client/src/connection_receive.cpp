@@ -18,11 +18,6 @@
 
 namespace plexus::detail {
 
-namespace {
-// Descriptors one receive can bring (the kernel sends at most 253 with one message).
-constexpr std::size_t max_received_fds = 253;
-}  // namespace
-
 void Connection::receive(Clock::time_point deadline, int flags) {
     // One blocking recv with a receive timeout, instead of poll + recv: on the latency path every
     // system call counts. The timeout is only reset when it would overshoot the deadline by more
@@ -36,7 +31,7 @@ void Connection::receive(Clock::time_point deadline, int flags) {
             receive_timeout_ < left / 2) {
             timeval tv{static_cast<time_t>(left.count() / 1000000),
                        static_cast<suseconds_t>(left.count() % 1000000)};
-            ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+            ::setsockopt(socket_.native_handle(), SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
             receive_timeout_ = left;
         }
     }
@@ -117,41 +112,10 @@ void Connection::receive(Clock::time_point deadline, int flags) {
 }
 
 std::size_t Connection::receive_into(std::uint8_t* at, std::size_t room, int flags) {
-    // recvmsg, not recv: shared-memory regions arrive as descriptors attached to the bytes, and a
-    // recv would close them unseen.
-    iovec piece{at, room};
-    alignas(cmsghdr) char control[CMSG_SPACE(sizeof(int) * max_received_fds)];
-    msghdr message{};
-    message.msg_iov = &piece;
-    message.msg_iovlen = 1;
-    message.msg_control = control;
-    message.msg_controllen = sizeof control;
-    const ssize_t n = ::recvmsg(fd_, &message, flags | MSG_CMSG_CLOEXEC);
-    if (n > 0 && message.msg_controllen > 0) {
-        for (cmsghdr* header = CMSG_FIRSTHDR(&message); header; header = CMSG_NXTHDR(&message, header)) {
-            if (header->cmsg_level != SOL_SOCKET || header->cmsg_type != SCM_RIGHTS)
-                continue;
-            const std::size_t count = (header->cmsg_len - CMSG_LEN(0)) / sizeof(int);
-            for (std::size_t i = 0; i < count; ++i) {
-                int fd = -1;
-                std::memcpy(&fd, CMSG_DATA(header) + i * sizeof(int), sizeof fd);
-                received_fds_.push_back(fd);
-            }
-        }
-        if (message.msg_flags & MSG_CTRUNC)
-            fail("descriptors from the daemon were cut off");
-    }
-    if (n == 0) {
-        fail("the daemon closed the connection");
-        return 0;
-    }
-    if (n < 0) {
-        // EAGAIN: the receive timeout passed; the caller re-checks its deadline.
-        if (errno != EINTR && errno != EAGAIN && errno != EWOULDBLOCK)
-            fail(std::strerror(errno));
-        return 0;
-    }
-    return static_cast<std::size_t>(n);
+    const SocketReceived result = socket_.receive(at, room, received_fds_, flags);
+    if (result.failure)
+        fail(*result.failure);
+    return result.bytes;
 }
 
 bool Connection::start_large_payload(std::size_t frame_size) {
