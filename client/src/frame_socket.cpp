@@ -137,6 +137,12 @@ bool FrameSocket::wait_writable(int timeout_ms) {
     return ::poll(&room, 1, timeout_ms) > 0 && (room.revents & POLLOUT);
 }
 
+void FrameSocket::set_receive_timeout(std::chrono::microseconds timeout) {
+    timeval tv{static_cast<time_t>(timeout.count() / 1000000),
+               static_cast<suseconds_t>(timeout.count() % 1000000)};
+    ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+}
+
 void FrameSocket::set_send_buffer(int bytes) {
     ::setsockopt(fd_, SOL_SOCKET, SO_SNDBUF, &bytes, sizeof bytes);
 }

@@ -8,6 +8,7 @@
 
 #include <sys/uio.h>
 
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <deque>
@@ -52,6 +53,8 @@ public:
     SocketSent send_some(const iovec* pieces, std::size_t count);
     /// Waits up to `timeout_ms` for room to send; false on a timeout (an error shows at the next send).
     bool wait_writable(int timeout_ms);
+    /// Bounds how long a blocking receive() waits (SO_RCVTIMEO; it then gives nothing).
+    void set_receive_timeout(std::chrono::microseconds timeout);
     /// Raises the kernel's send buffer (capped by net.core.wmem_max).
     void set_send_buffer(int bytes);
     /// Ends both directions: a receive blocked in another thread returns (as if the peer closed).
