@@ -1,22 +1,10 @@
 #include "connection.hpp"
 
-#include <netdb.h>
-#include <netinet/in.h>
-#include <netinet/tcp.h>
-#include <poll.h>
-#include <sys/mman.h>
-#include <sys/socket.h>
-#include <sys/uio.h>
-#include <sys/un.h>
 #include <unistd.h>
 
-#include <cerrno>
 #include <cstdlib>
 #include <cstring>
 
-#include "blob_pool.hpp"
-#include "plexus/proto/endpoint.hpp"
-#include "plexus/proto/frame.hpp"
 #include "plexus/proto/hello.hpp"
 #include "plexus/proto/message.hpp"
 #include "plexus/proto/operations.hpp"
@@ -26,67 +14,45 @@
 namespace plexus::detail {
 
 namespace {
-// Buffered writes go out once this much is waiting: large enough to batch, small enough to stream.
-constexpr std::size_t flush_threshold = 64 * 1024;
-// A batch frame is closed at this size: small enough that a strict queue of the default capacity
-// takes several before it is full, large enough to cost the daemons little per message.
-constexpr std::size_t batch_limit = 16 * 1024;
-// Payloads at least this large are sent from where they are instead of being copied into out_.
-constexpr std::size_t gather_threshold = 64 * 1024;
-// The send buffer asked for once large payloads are written (the kernel caps it at
-// net.core.wmem_max): a 1 MiB message then leaves in a few system calls instead of one per default
-// 208 KiB. Streams of small messages keep the default, so that fewer of them wait in the socket.
-constexpr int large_message_send_buffer = 4 * 1024 * 1024;
-// How long the backlog thread waits for room before it looks at its flags again.
-constexpr int backlog_poll_ms = 100;
-// How long a blocked send waits for room before it looks again whether someone reads.
-constexpr int room_poll_ms = 100;
 // Data frames larger than this are worth writing through shared memory once a region is there.
 constexpr std::size_t shm_threshold = 64 * 1024;
 // How long a write waits for a slot of a full region before it takes the socket instead.
 constexpr auto shm_room_wait = std::chrono::milliseconds(100);
-
 }  // namespace
 
-Connection::WriterRegion::~WriterRegion() {
-    ::munmap(data, size);
-    ::close(fd);
+Connection::Connection(int fd, std::string description, bool greeted, std::uint64_t peer_max_frame)
+    : path_(std::move(description)),
+      socket_(fd),  // first of the parts: it closes the descriptor if this constructor throws
+      demux_(path_, demand_),
+      shm_(demand_),
+      send_(socket_, demand_),
+      receiver_(socket_, demand_, demux_, shm_, send_) {
+    if (greeted && peer_max_frame > 0)
+        receiver_.set_peer_max_frame(peer_max_frame);
+    if (!greeted && !send_.send_frame(proto::encode_hello({proto::protocol_version, "client", ""})))
+        throw Error(ErrorCode::refused, "connection to " + path_ + " lost: " + send_.failure().value_or(""));
+    // Last: once it runs, the destructor must join it.
+    receiving_ = std::thread([this] { receiver_.run(); });
 }
 
-Connection::Connection(int fd, std::string description, bool greeted)
-    : fd_(fd), path_(std::move(description)) {
+Connection::~Connection() {
     try {
-        in_.resize(read_chunk);
-        if (greeted)
-            return;
-        std::lock_guard lock(send_mutex_);
-        out_ = proto::encode_hello({proto::protocol_version, "client", ""});
-        send_locked();
+        flush();
     } catch (...) {
-        ::close(fd_);  // no destructor runs for an object that was never constructed
-        throw;
+        // Nothing to report to in a destructor; the daemon notices the close.
     }
+    send_.stop();
+    demand_.stop();
+    // Wakes the receiving thread from its blocking read (it reads an end of stream and stops);
+    // only then may the parts it feeds go. It runs no callbacks (nothing of a component's code
+    // runs on it), so this destructor never runs on it and never waits for itself.
+    socket_.shutdown();
+    if (receiving_.joinable())
+        receiving_.join();
 }
 
 std::shared_ptr<Connection> Connection::to_daemon(const std::string& socket_path) {
-    sockaddr_un address{};
-    address.sun_family = AF_UNIX;
-    if (socket_path.size() >= sizeof address.sun_path) {
-        throw Error(ErrorCode::usage, "socket path too long: " + socket_path);
-    }
-    std::memcpy(address.sun_path, socket_path.c_str(), socket_path.size() + 1);
-    const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-    if (fd < 0)
-        throw Error(ErrorCode::refused, std::string("socket: ") + std::strerror(errno));
-    if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) {
-        const int error = errno;
-        ::close(fd);
-        throw Error(ErrorCode::refused,
-                    "no plexusd is running at " + socket_path + " (" + std::strerror(error) +
-                        "); start one with `plexusd --embedded-names`, or pass --socket / "
-                        "set PLEXUS_SOCKET");
-    }
-    auto connection = std::make_shared<Connection>(fd, socket_path);
+    auto connection = std::make_shared<Connection>(FrameSocket::connect_unix(socket_path), socket_path);
     // A wrong program on the socket is reported now rather than at the first real request.
     proto::Reply reply = connection->request(proto::NodeRequest{}.encode(), std::chrono::milliseconds(5000));
     if (reply.code != proto::ReplyCode::ok || !proto::NodeReply::decode(reply.body))
@@ -99,32 +65,7 @@ std::shared_ptr<Connection> Connection::to_daemon(const std::string& socket_path
 }
 
 std::shared_ptr<Connection> Connection::to_tcp(const std::string& address) {
-    auto endpoint = proto::parse_endpoint(address);
-    if (!endpoint)
-        throw Error(ErrorCode::usage, "bad address '" + address + "': " + endpoint.error().message);
-    addrinfo hints{};
-    hints.ai_socktype = SOCK_STREAM;
-    addrinfo* found = nullptr;
-    if (::getaddrinfo(endpoint->host.c_str(), std::to_string(endpoint->port).c_str(), &hints, &found) != 0 ||
-        !found) {
-        throw Error(ErrorCode::refused, "cannot resolve " + address);
-    }
-    int fd = -1;
-    int error = 0;
-    for (addrinfo* a = found; a; a = a->ai_next) {
-        fd = ::socket(a->ai_family, a->ai_socktype | SOCK_CLOEXEC, a->ai_protocol);
-        if (fd >= 0 && ::connect(fd, a->ai_addr, a->ai_addrlen) == 0)
-            break;
-        error = errno;
-        if (fd >= 0)
-            ::close(fd);
-        fd = -1;
-    }
-    ::freeaddrinfo(found);
-    if (fd < 0)
-        throw Error(ErrorCode::refused, "cannot reach " + address + ": " + std::strerror(error));
-    const int one = 1;
-    ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    const int fd = FrameSocket::connect_tcp(address);
     std::uint64_t max_frame = 0;
     try {
         max_frame = tcp_handshake(fd, address, std::chrono::milliseconds(10000));
@@ -132,340 +73,21 @@ std::shared_ptr<Connection> Connection::to_tcp(const std::string& address) {
         ::close(fd);
         throw;
     }
-    auto connection = std::make_shared<Connection>(fd, address, true);
-    if (max_frame > 0)
-        connection->peer_max_frame_.store(max_frame, std::memory_order_relaxed);
-    return connection;
-}
-
-Connection::~Connection() {
-    try {
-        flush();
-    } catch (...) {
-        // Nothing to report to in a destructor; the daemon notices the close.
-    }
-    {
-        std::lock_guard lock(send_mutex_);
-        stopping_ = true;
-    }
-    backlog_changed_.notify_all();
-    if (backlog_thread_.joinable())
-        backlog_thread_.join();
-    for (const int fd : received_fds_)
-        ::close(fd);
-    for (const auto& [id, region] : reader_regions_)
-        ::munmap(const_cast<std::uint8_t*>(region.data), region.size);
-    if (fd_ >= 0)
-        ::close(fd_);
+    return std::make_shared<Connection>(fd, address, true, max_frame);
 }
 
 bool Connection::enable_shm() {
     const proto::Reply reply = request(proto::ShmRequest{}.encode(), std::chrono::milliseconds(5000));
-    std::lock_guard lock(shm_mutex_);
-    shm_ = reply.code == proto::ReplyCode::ok;
-    return shm_;
+    const bool on = reply.code == proto::ReplyCode::ok;
+    shm_.enable(on);
+    return on;
 }
 
-void Connection::throw_if_broken() const {
-    if (!is_broken_.load(std::memory_order_acquire))
-        return;  // every write checks: no lock on the way when all is well
-    std::lock_guard lock(state_mutex_);
-    if (!broken_.empty())
-        throw Error(ErrorCode::refused, broken_);
-}
-
-void Connection::fail(const std::string& why) {
-    std::lock_guard lock(state_mutex_);
-    if (broken_.empty())
-        broken_ = "connection to " + path_ + " lost: " + why;
-    is_broken_.store(true, std::memory_order_release);
-    changed_.notify_all();
-}
-
-void Connection::send_locked() {
-    send_with_payload_locked({});
-}
-
-void Connection::send_available_locked() {
-    std::size_t sent = 0;
-    while (sent < out_.size()) {
-        const ssize_t n = ::send(fd_, out_.data() + sent, out_.size() - sent, MSG_NOSIGNAL | MSG_DONTWAIT);
-        if (n < 0) {
-            if (errno == EINTR)
-                continue;
-            if (errno == EAGAIN || errno == EWOULDBLOCK)
-                break;
-            const std::string why = std::strerror(errno);
-            out_.clear();
-            backlog_ = false;
-            fail(why);
-            return;
-        }
-        sent += static_cast<std::size_t>(n);
-    }
-    out_.erase(out_.begin(), out_.begin() + static_cast<std::ptrdiff_t>(sent));
-}
-
-void Connection::send_with_payload_locked(proto::ByteView payload) {
-    backlog_ = false;
-    std::size_t head_sent = 0;
-    std::size_t payload_sent = 0;
-    while (head_sent < out_.size() || payload_sent < payload.size()) {
-        iovec pieces[2];
-        int count = 0;
-        if (head_sent < out_.size())
-            pieces[count++] = {out_.data() + head_sent, out_.size() - head_sent};
-        pieces[count++] = {const_cast<std::uint8_t*>(payload.data()) + payload_sent,
-                           payload.size() - payload_sent};
-        msghdr message{};
-        message.msg_iov = pieces;
-        message.msg_iovlen = static_cast<std::size_t>(count);
-        ssize_t n = ::sendmsg(fd_, &message, MSG_NOSIGNAL | MSG_DONTWAIT);
-        if (n < 0) {
-            if (errno == EINTR)
-                continue;
-            if (errno == EAGAIN || errno == EWOULDBLOCK) {
-                wait_for_room_locked();
-                continue;
-            }
-            const std::string why = std::strerror(errno);
-            out_.clear();
-            fail(why);
-            throw_if_broken();
-        }
-        const std::size_t head_part = std::min(static_cast<std::size_t>(n), out_.size() - head_sent);
-        head_sent += head_part;
-        payload_sent += static_cast<std::size_t>(n) - head_part;
-    }
-    out_.clear();
-}
-
-void Connection::wait_for_room_locked() {
-    // The socket is full: the daemon is not reading it, perhaps because a strict queue that this
-    // very client reads is full. The thread that would read for this client may be waiting for
-    // send_mutex_, held here: then, unless someone reads meanwhile, both would wait forever. So
-    // when nobody is reading, what has arrived is read here, into the inboxes, while waiting.
-    bool someone_reads = false;
-    {
-        std::lock_guard lock(state_mutex_);
-        someone_reads = reading_;
-    }
-    pollfd ready{fd_, static_cast<short>(someone_reads ? POLLOUT : POLLOUT | POLLIN), 0};
-    if (::poll(&ready, 1, room_poll_ms) <= 0 || (ready.revents & POLLOUT) || !(ready.revents & POLLIN))
-        return;  // room now, a timeout (look again), or an error the next send reports
-    receive_pending();
-}
-
-void Connection::receive_pending() {
-    {
-        std::lock_guard lock(state_mutex_);
-        if (reading_ || !broken_.empty())
-            return;
-        reading_ = true;
-    }
-    try {
-        receive(Clock::now(), MSG_DONTWAIT);
-    } catch (...) {
-        std::lock_guard lock(state_mutex_);
-        reading_ = false;
-        changed_.notify_all();
-        throw;
-    }
-    std::lock_guard lock(state_mutex_);
-    reading_ = false;
-    changed_.notify_all();
-}
-
-void Connection::write(std::uint64_t handle, const std::string& source, std::uint64_t seq,
-                       proto::ByteView payload, proto::ByteView tail, bool flush) {
-    if (!tail.empty() && payload.size() + tail.size() < gather_threshold) {
-        // Not the large payload a tail is for: one piece, as any other.
-        proto::Bytes whole(payload.begin(), payload.end());
-        whole.insert(whole.end(), tail.begin(), tail.end());
-        return write(handle, source, seq, whole, {}, flush);
-    }
-    throw_if_broken();
-    const auto now = std::chrono::system_clock::now().time_since_epoch();
-    const auto time_ns =
-        static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(now).count());
-    const std::size_t payload_size = payload.size() + tail.size();
-    if (payload_size >= shm_threshold && write_through_shm(handle, source, seq, time_ns, payload, tail))
+void Connection::check_sent(bool sent) {
+    if (sent)
         return;
-    std::lock_guard lock(send_mutex_);
-    if (!flush && payload_size < gather_threshold) {
-        if (batch_count_ > 0 && batch_handle_ != handle)
-            close_batch_locked();
-        proto::append_batch_record(batch_, source, seq, time_ns, payload);
-        batch_handle_ = handle;
-        if (++batch_count_ == proto::max_batch_count || batch_.size() >= batch_limit)
-            close_batch_locked();
-        if (out_.size() >= flush_threshold)
-            send_locked();
-        throw_if_broken();
-        return;
-    }
-    close_batch_locked();      // what was buffered goes first
-    append_releases_locked();  // here, not for buffered writes: those do not send out_ now
-    proto::append_data_frame_prefix(out_, handle, proto::record_size(source, seq, time_ns, payload_size));
-    if (payload_size >= gather_threshold) {
-        enlarge_send_buffer_locked();
-        proto::append_record(out_, source, seq, time_ns, {});  // the record's head; the payload ends it
-        if (tail.empty()) {
-            send_with_payload_locked(payload);
-        } else {
-            out_.insert(out_.end(), payload.begin(), payload.end());
-            send_with_payload_locked(tail);
-        }
-        return;
-    }
-    proto::append_record(out_, source, seq, time_ns, payload);
-    send_now_or_backlog_locked();
-    throw_if_broken();
-}
-
-void Connection::send_now_or_backlog_locked() {
-    if (out_.size() >= flush_threshold) {
-        send_locked();
-    } else if (!backlog_) {
-        send_available_locked();
-        if (!out_.empty()) {
-            backlog_ = true;
-            start_backlog_thread_locked();
-            backlog_changed_.notify_one();
-        }
-    }
-}
-
-bool Connection::write_through_shm(std::uint64_t handle, const std::string& source, std::uint64_t seq,
-                                   std::uint64_t time_ns, proto::ByteView payload, proto::ByteView tail) {
-    const std::size_t length = payload.size() + tail.size();
-    if (length > proto::default_max_frame)
-        return false;  // the daemon takes no payload larger than a frame, however it comes
-    WriterRegion* region = writer_region(handle, length);
-    if (!region || length > region->size)
-        return false;  // no region, or one sized for smaller payloads than this one
-    const auto offset = allocate_slot(*region, length);
-    if (!offset)
-        return false;
-    std::memcpy(region->data + *offset, payload.data(), payload.size());
-    if (!tail.empty())
-        std::memcpy(region->data + *offset + payload.size(), tail.data(), tail.size());
-    proto::Bytes place;
-    proto::append_shm_place(place, {region->id, *offset, length}, source, seq, time_ns);
-    std::lock_guard lock(send_mutex_);
-    close_batch_locked();  // what was buffered goes first
-    append_releases_locked();
-    proto::append_shm_frame_prefix(out_, handle, place.size());
-    out_.insert(out_.end(), place.begin(), place.end());
-    send_now_or_backlog_locked();
-    throw_if_broken();
-    return true;
-}
-
-Connection::WriterRegion* Connection::writer_region(std::uint64_t handle, std::size_t payload_size) {
-    {
-        std::lock_guard lock(shm_mutex_);
-        if (!shm_)
-            return nullptr;
-        const auto known = port_regions_.find(handle);
-        if (known != port_regions_.end()) {
-            if (!known->second)
-                return nullptr;
-            const auto region = writer_regions_.find(*known->second);
-            return region == writer_regions_.end() ? nullptr : region->second.get();
-        }
-    }
-    // The first large write on this port asks for its region. The region's frame (and its
-    // descriptor) comes before the reply, so it is here once the reply is.
-    const proto::Reply reply =
-        request(proto::ShmRequest{handle, payload_size}.encode(), std::chrono::milliseconds(5000));
-    std::lock_guard lock(shm_mutex_);
-    auto& known = port_regions_[handle];
-    known.reset();
-    if (reply.code != proto::ReplyCode::ok)
-        return nullptr;  // shared memory used up or off: this port writes through the socket
-    const auto answer = proto::ShmReply::decode(reply.body);
-    if (!answer)
-        return nullptr;  // not an answer this library understands: the socket will do
-    const auto id = answer->region.value_or(0);
-    const auto region = writer_regions_.find(id);
-    if (region == writer_regions_.end())
-        return nullptr;
-    known = id;
-    return region->second.get();
-}
-
-std::optional<std::size_t> Connection::allocate_slot(WriterRegion& region, std::size_t length) {
-    std::optional<std::size_t> offset;
-    bool wait = false;
-    auto room = [&] {
-        std::lock_guard lock(shm_mutex_);
-        offset = region.slots.allocate(length);
-        wait = !region.stalled;
-        return offset.has_value();
-    };
-    // The daemon's frees for earlier slots may be waiting unread: take them first (one system call
-    // that finds nothing when all is taken), so that the lowest, warmest slots are reused.
-    receive_pending();
-    if (room() || !wait)
-        return offset;
-    // Full: the readers are behind, or their releases (and the daemon's frees) are still on the
-    // way, perhaps unread in this socket. Waiting for them costs less than the socket path; a
-    // region that stays full past the wait is marked stalled and writes go through the socket,
-    // without waiting, until a slot comes free.
-    std::unique_lock lock(state_mutex_);
-    if (!wait_until(lock, room, Clock::now() + shm_room_wait)) {
-        std::lock_guard shm_lock(shm_mutex_);
-        region.stalled = true;
-    }
-    return offset;
-}
-
-void Connection::enlarge_send_buffer_locked() {
-    if (large_send_buffer_)
-        return;
-    large_send_buffer_ = true;
-    ::setsockopt(fd_, SOL_SOCKET, SO_SNDBUF, &large_message_send_buffer, sizeof large_message_send_buffer);
-}
-
-void Connection::close_batch_locked() {
-    if (batch_count_ == 0)
-        return;
-    proto::append_batch_frame_prefix(out_, batch_handle_, batch_count_, batch_.size());
-    out_.insert(out_.end(), batch_.begin(), batch_.end());
-    batch_.clear();
-    batch_count_ = 0;
-}
-
-void Connection::start_backlog_thread_locked() {
-    if (!backlog_thread_.joinable())
-        backlog_thread_ = std::thread([this] { send_backlog(); });
-}
-
-void Connection::send_backlog() {
-    std::unique_lock lock(send_mutex_);
-    for (;;) {
-        backlog_changed_.wait(lock, [&] { return backlog_ || stopping_; });
-        if (stopping_)
-            return;
-        lock.unlock();
-        pollfd room{fd_, POLLOUT, 0};
-        ::poll(&room, 1, backlog_poll_ms);
-        lock.lock();
-        if (!backlog_)
-            continue;
-        send_available_locked();
-        if (out_.empty())
-            backlog_ = false;
-    }
-}
-
-void Connection::flush() {
-    std::lock_guard lock(send_mutex_);
-    close_batch_locked();
-    append_releases_locked();
-    if (!out_.empty())
-        send_locked();
+    demux_.fail(send_.failure().value_or("sending failed"));
+    demux_.throw_if_broken();
 }
 
 proto::Reply Connection::request(nlohmann::json body, std::chrono::milliseconds timeout) {
@@ -474,109 +96,80 @@ proto::Reply Connection::request(nlohmann::json body, std::chrono::milliseconds 
         throw Error(ErrorCode::usage, "the request nests arrays and maps deeper than " +
                                           std::to_string(proto::max_cbor_depth) + " levels");
     }
-    std::uint64_t id = 0;
-    {
-        std::lock_guard state(state_mutex_);
-        id = next_id_++;
-        replies_[id];
+    const std::uint64_t id = demux_.expect_reply();
+    if (!send_.send_frame(proto::encode_request({id, std::move(body)}))) {
+        demux_.cancel_reply(id);  // no reply will come for a request that was not sent
+        check_sent(false);
     }
-    try {
-        std::lock_guard lock(send_mutex_);
-        close_batch_locked();  // data written before the request reaches the daemon before it
-        append_releases_locked();
-        auto frame = proto::encode_request({id, std::move(body)});
-        out_.insert(out_.end(), frame.begin(), frame.end());
-        send_locked();
-    } catch (...) {
-        std::lock_guard state(state_mutex_);
-        replies_.erase(id);  // no reply will come for a request that was not sent
-        throw;
-    }
-    std::unique_lock lock(state_mutex_);
-    const bool answered = wait_until(
-        lock, [&] { return replies_[id].has_value(); }, Clock::now() + timeout);
-    auto node = replies_.extract(id);
-    if (answered)
-        return std::move(*node.mapped());
-    if (!broken_.empty())
-        throw Error(ErrorCode::refused, broken_);
-    throw Error(ErrorCode::timeout, path_ + " did not answer in time");
+    auto reply = demux_.wait_reply(id, Clock::now() + timeout);
+    if (!reply)
+        throw Error(ErrorCode::timeout, path_ + " did not answer in time");
+    return std::move(*reply);
 }
 
-bool Connection::read_all(std::uint64_t handle, std::chrono::milliseconds timeout,
-                          std::deque<InboxSegment>& into) {
-    std::unique_lock lock(state_mutex_);
-    auto ready = inbox_.find(handle);
-    if (ready == inbox_.end() || ready->second.empty()) {
-        // Only now is the clock read: it costs as much as the rest of a read. The entry is looked up
-        // again after every wait, because forget() may erase it meanwhile.
-        if (!wait_until(
-                lock,
-                [&] {
-                    // find, not []: forget() may have erased the entry, and must stay erased.
-                    const auto entry = inbox_.find(handle);
-                    return entry != inbox_.end() && !entry->second.empty();
-                },
-                Clock::now() + timeout)) {
-            if (!broken_.empty())
-                throw Error(ErrorCode::refused, broken_);
-            return false;
-        }
-        ready = inbox_.find(handle);
+void Connection::write(std::uint64_t handle, const std::string& source, std::uint64_t seq,
+                       proto::ByteView payload, proto::ByteView tail, bool flush) {
+    if (!tail.empty() && payload.size() + tail.size() < SendBuffer::gather_threshold) {
+        // Not the large payload a tail is for: one piece, as any other.
+        proto::Bytes whole(payload.begin(), payload.end());
+        whole.insert(whole.end(), tail.begin(), tail.end());
+        return write(handle, source, seq, whole, {}, flush);
     }
-    into.swap(ready->second);
-    return true;
+    demux_.throw_if_broken();
+    const auto now = std::chrono::system_clock::now().time_since_epoch();
+    const auto time_ns =
+        static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(now).count());
+    const std::size_t payload_size = payload.size() + tail.size();
+    if (payload_size >= shm_threshold && write_through_shm(handle, source, seq, time_ns, payload, tail))
+        return;
+    check_sent(send_.write(handle, source, seq, time_ns, payload, tail, flush));
+    demux_.throw_if_broken();
+}
+
+void Connection::flush() {
+    check_sent(send_.flush());
 }
 
 void Connection::forget(std::uint64_t handle) {
-    {
-        std::lock_guard lock(state_mutex_);
-        inbox_.erase(handle);
-        closed_handles_.insert(handle);
-    }
-    // The port's region goes with it (the daemon drops its side when the port closes); frees
-    // that still come for it are ignored.
-    std::lock_guard lock(shm_mutex_);
-    const auto known = port_regions_.find(handle);
-    if (known == port_regions_.end())
-        return;
-    if (known->second)
-        writer_regions_.erase(*known->second);
-    port_regions_.erase(known);
+    demux_.close(handle);
+    shm_.forget(handle);
 }
 
-template <typename Ready>
-bool Connection::wait_until(std::unique_lock<std::mutex>& lock, Ready ready, Clock::time_point deadline) {
-    // A deadline already past (read(0ms): a poll) still looks at the socket once, without
-    // blocking: otherwise a poll would only ever see what another call happened to receive.
-    bool polled = false;
-    while (!ready()) {
-        if (!broken_.empty())
-            return false;
-        const bool late = Clock::now() >= deadline;
-        if (late && (polled || reading_))
-            return false;
-        if (reading_) {
-            changed_.wait_until(lock, deadline);
-            continue;
-        }
-        reading_ = true;
-        polled = late;
-        lock.unlock();
-        try {
-            receive(deadline, late ? MSG_DONTWAIT : 0);
-            flush_releases();
-        } catch (...) {
-            lock.lock();
-            reading_ = false;
-            changed_.notify_all();
-            throw;
-        }
-        lock.lock();
-        reading_ = false;
-        changed_.notify_all();
-    }
+bool Connection::write_through_shm(std::uint64_t handle, const std::string& source, std::uint64_t seq,
+                                   std::uint64_t time_ns, proto::ByteView payload, proto::ByteView tail) {
+    const std::size_t length = payload.size() + tail.size();
+    if (length > proto::default_max_frame)
+        return false;  // the daemon takes no payload larger than a frame, however it comes
+    const auto region = writer_region(handle, length);
+    if (!region || length > region->size)
+        return false;  // no region, or one sized for smaller payloads than this one
+    const auto offset = shm_.allocate(*region, length, shm_room_wait);
+    if (!offset)
+        return false;
+    std::memcpy(region->data + *offset, payload.data(), payload.size());
+    if (!tail.empty())
+        std::memcpy(region->data + *offset + payload.size(), tail.data(), tail.size());
+    proto::Bytes place;
+    proto::append_shm_place(place, {region->id, *offset, length}, source, seq, time_ns);
+    check_sent(send_.write_shm(handle, place));
+    demux_.throw_if_broken();
     return true;
+}
+
+std::shared_ptr<WriterRegion> Connection::writer_region(std::uint64_t handle, std::size_t payload_size) {
+    if (auto known = shm_.writer_region(handle))
+        return *known;
+    // The first large write on this port asks for its region. The region's frame (and its
+    // descriptor) comes before the reply, and the receiving thread handles frames in order: it is
+    // in shm_ once the reply is here.
+    const proto::Reply reply =
+        request(proto::ShmRequest{handle, payload_size}.encode(), std::chrono::milliseconds(5000));
+    std::optional<std::uint64_t> id;
+    if (reply.code == proto::ReplyCode::ok) {  // else shared memory is used up or off: the socket
+        if (const auto answer = proto::ShmReply::decode(reply.body))
+            id = answer->region.value_or(0);  // not an answer this library understands: the socket
+    }
+    return shm_.assign(handle, id);
 }
 
 }  // namespace plexus::detail

@@ -1,9 +1,11 @@
 #pragma once
 // Threading: every DaemonLink member is safe to call from any thread. One thread of its own (the
 // watcher) notices that the daemon went away, reconnects with back-off, and restores ports and
-// connections. Lock order: DaemonLink::mutex_ before PortRecord::mutex; neither is held while
-// waiting for a reply from the daemon (a record's mutex is held while its held messages are written
-// to the new connection, so that a port's own writes cannot overtake them).
+// connections. Lock order: DaemonLink::mutex_ before PortRecord::mutex, never the other way;
+// DaemonLink::mutex_ is never held across a call into a Connection. A record's mutex is held while
+// its held messages are written to the new connection, so that a port's own writes cannot overtake
+// them (that write may block on the socket, or wait for a shared-memory region's reply: safe, as
+// the connection's receiving thread takes neither lock). The whole order: client/src/LOCK_ORDER.md.
 //
 // This is the layer above Connection that STYLE.md item 4 asks for: Connection stays one socket
 // that breaks for good; reconnection replaces it with a new one.

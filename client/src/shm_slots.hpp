@@ -1,5 +1,5 @@
 #pragma once
-// Threading: none; the connection guards it with its shm mutex.
+// Threading: none; ShmRegions guards it with its mutex (client/src/LOCK_ORDER.md).
 
 #include <cstddef>
 #include <cstdint>

@@ -2,8 +2,8 @@
 // libplexus: the thin client library components link to talk to their local plexusd.
 //
 // Threading: a Client may be used from several threads, and so may different Ports of one Client
-// (writes are serialized by a lock; reads are done by whichever thread is waiting, the others are
-// handed what it reads). One Port is used by one thread at a time for writing and one for reading:
+// (writes are serialized by a lock; a thread of the Client reads the socket and hands each port
+// what came for it). One Port is used by one thread at a time for writing and one for reading:
 // its sequence number and its read buffer are its own, without a lock.
 //
 // A Client outlives its daemon: when the daemon goes away, a thread of the Client reconnects to the

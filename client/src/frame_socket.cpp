@@ -1,0 +1,154 @@
+#include "frame_socket.hpp"
+
+#include <netdb.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+
+#include "plexus/client.hpp"
+#include "plexus/proto/endpoint.hpp"
+
+namespace plexus::detail {
+
+namespace {
+// Descriptors one receive can bring (the kernel sends at most 253 with one message).
+constexpr std::size_t max_received_fds = 253;
+}  // namespace
+
+int FrameSocket::connect_unix(const std::string& path) {
+    sockaddr_un address{};
+    address.sun_family = AF_UNIX;
+    if (path.size() >= sizeof address.sun_path)
+        throw Error(ErrorCode::usage, "socket path too long: " + path);
+    std::memcpy(address.sun_path, path.c_str(), path.size() + 1);
+    const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    if (fd < 0)
+        throw Error(ErrorCode::refused, std::string("socket: ") + std::strerror(errno));
+    if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) {
+        const int error = errno;
+        ::close(fd);
+        throw Error(ErrorCode::refused,
+                    "no plexusd is running at " + path + " (" + std::strerror(error) +
+                        "); start one with `plexusd --embedded-names`, or pass --socket / "
+                        "set PLEXUS_SOCKET");
+    }
+    return fd;
+}
+
+int FrameSocket::connect_tcp(const std::string& address) {
+    auto endpoint = proto::parse_endpoint(address);
+    if (!endpoint)
+        throw Error(ErrorCode::usage, "bad address '" + address + "': " + endpoint.error().message);
+    addrinfo hints{};
+    hints.ai_socktype = SOCK_STREAM;
+    addrinfo* found = nullptr;
+    if (::getaddrinfo(endpoint->host.c_str(), std::to_string(endpoint->port).c_str(), &hints, &found) != 0 ||
+        !found) {
+        throw Error(ErrorCode::refused, "cannot resolve " + address);
+    }
+    int fd = -1;
+    int error = 0;
+    for (addrinfo* a = found; a; a = a->ai_next) {
+        fd = ::socket(a->ai_family, a->ai_socktype | SOCK_CLOEXEC, a->ai_protocol);
+        if (fd >= 0 && ::connect(fd, a->ai_addr, a->ai_addrlen) == 0)
+            break;
+        error = errno;
+        if (fd >= 0)
+            ::close(fd);
+        fd = -1;
+    }
+    ::freeaddrinfo(found);
+    if (fd < 0)
+        throw Error(ErrorCode::refused, "cannot reach " + address + ": " + std::strerror(error));
+    const int one = 1;
+    ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    return fd;
+}
+
+FrameSocket::~FrameSocket() {
+    if (fd_ >= 0)
+        ::close(fd_);
+}
+
+SocketReceived FrameSocket::receive(std::uint8_t* at, std::size_t room, std::deque<int>& fds, int flags) {
+    // recvmsg, not recv: shared-memory regions arrive as descriptors attached to the bytes, and a
+    // recv would close them unseen.
+    iovec piece{at, room};
+    alignas(cmsghdr) char control[CMSG_SPACE(sizeof(int) * max_received_fds)];
+    msghdr message{};
+    message.msg_iov = &piece;
+    message.msg_iovlen = 1;
+    message.msg_control = control;
+    message.msg_controllen = sizeof control;
+    const ssize_t n = ::recvmsg(fd_, &message, flags | MSG_CMSG_CLOEXEC);
+    SocketReceived result;
+    if (n > 0 && message.msg_controllen > 0) {
+        for (cmsghdr* header = CMSG_FIRSTHDR(&message); header; header = CMSG_NXTHDR(&message, header)) {
+            if (header->cmsg_level != SOL_SOCKET || header->cmsg_type != SCM_RIGHTS)
+                continue;
+            const std::size_t count = (header->cmsg_len - CMSG_LEN(0)) / sizeof(int);
+            for (std::size_t i = 0; i < count; ++i) {
+                int fd = -1;
+                std::memcpy(&fd, CMSG_DATA(header) + i * sizeof(int), sizeof fd);
+                fds.push_back(fd);
+            }
+        }
+        if (message.msg_flags & MSG_CTRUNC)
+            result.failure = "descriptors from the daemon were cut off";
+    }
+    if (n == 0) {
+        result.failure = "the daemon closed the connection";
+        return result;
+    }
+    if (n < 0) {
+        // EAGAIN: a receive timeout passed, or MSG_DONTWAIT found nothing.
+        if (errno != EINTR && errno != EAGAIN && errno != EWOULDBLOCK)
+            result.failure = std::strerror(errno);
+        return result;
+    }
+    result.bytes = static_cast<std::size_t>(n);
+    return result;
+}
+
+SocketSent FrameSocket::send_some(const iovec* pieces, std::size_t count) {
+    msghdr message{};
+    message.msg_iov = const_cast<iovec*>(pieces);
+    message.msg_iovlen = count;
+    for (;;) {
+        const ssize_t n = ::sendmsg(fd_, &message, MSG_NOSIGNAL | MSG_DONTWAIT);
+        if (n >= 0)
+            return {static_cast<std::size_t>(n), false, std::nullopt};
+        if (errno == EINTR)
+            continue;
+        if (errno == EAGAIN || errno == EWOULDBLOCK)
+            return {0, true, std::nullopt};
+        return {0, false, std::string(std::strerror(errno))};
+    }
+}
+
+bool FrameSocket::wait_writable(int timeout_ms) {
+    pollfd room{fd_, POLLOUT, 0};
+    return ::poll(&room, 1, timeout_ms) > 0 && (room.revents & POLLOUT);
+}
+
+void FrameSocket::set_receive_timeout(std::chrono::microseconds timeout) {
+    timeval tv{static_cast<time_t>(timeout.count() / 1000000),
+               static_cast<suseconds_t>(timeout.count() % 1000000)};
+    ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+}
+
+void FrameSocket::set_send_buffer(int bytes) {
+    ::setsockopt(fd_, SOL_SOCKET, SO_SNDBUF, &bytes, sizeof bytes);
+}
+
+void FrameSocket::shutdown() {
+    ::shutdown(fd_, SHUT_RDWR);
+}
+
+}  // namespace plexus::detail
