@@ -1,5 +1,6 @@
 #include <spdlog/fmt/fmt.h>
 
+#include "callers.hpp"
 #include "connection.hpp"
 #include "daemon_link.hpp"
 #include "large_payload.hpp"
@@ -309,7 +310,8 @@ Client::Client() : Client(Options{}) {}
 
 Client::Client(Options options)
     : socket_(options.socket.empty() ? proto::default_socket() : options.socket),
-      link_(std::make_shared<detail::DaemonLink>(socket_)) {}
+      link_(std::make_shared<detail::DaemonLink>(socket_)),
+      callers_(std::make_shared<Callers>()) {}
 
 std::optional<Value> Client::ask_names(const std::string& names_address, const Value& body) {
     auto connection = detail::Connection::to_tcp(names_address);

@@ -24,15 +24,34 @@ Connection::Connection(int fd, std::string description, bool greeted, std::uint6
     : path_(std::move(description)),
       socket_(fd),  // first of the parts: it closes the descriptor if this constructor throws
       demux_(path_, demand_),
+      calls_(demand_),
       shm_(demand_),
       send_(socket_, demand_),
-      receiver_(socket_, demand_, demux_, shm_, send_) {
+      receiver_(socket_, demand_, demux_, calls_, shm_, send_) {
     if (greeted && peer_max_frame > 0)
         receiver_.set_peer_max_frame(peer_max_frame);
     if (!greeted && !send_.send_frame(proto::encode_hello({proto::protocol_version, "client", ""})))
         throw Error(ErrorCode::refused, "connection to " + path_ + " lost: " + send_.failure().value_or(""));
     // Last: once it runs, the destructor must join it.
-    receiving_ = std::thread([this] { receiver_.run(); });
+    receiving_ = std::thread([this] {
+        receiver_.run();
+        fail_calls();
+    });
+}
+
+void Connection::fail_calls() {
+    std::string why = "connection to " + path_ + " closed";
+    try {
+        demux_.throw_if_broken();
+    } catch (const Error& e) {
+        why = e.what();
+    }
+    calls_.fail_all(why);
+}
+
+void Connection::send_frame(proto::ByteView frame) {
+    demux_.throw_if_broken();
+    check_sent(send_.send_frame(frame));
 }
 
 Connection::~Connection() {
@@ -47,8 +66,15 @@ Connection::~Connection() {
     // only then may the parts it feeds go. It runs no callbacks (nothing of a component's code
     // runs on it), so this destructor never runs on it and never waits for itself.
     socket_.shutdown();
-    if (receiving_.joinable())
-        receiving_.join();
+    if (receiving_.joinable()) {
+        // The completion of an asynchronous call runs on the receiving thread: one that let go of
+        // the last Client there would end up here, on the thread to join (LOCK_ORDER.md).
+        if (receiving_.get_id() == std::this_thread::get_id())
+            receiving_.detach();
+        else
+            receiving_.join();
+    }
+    fail_calls();  // what is left waiting hears that the connection is gone
 }
 
 std::shared_ptr<Connection> Connection::to_daemon(const std::string& socket_path) {
@@ -87,6 +113,7 @@ void Connection::check_sent(bool sent) {
     if (sent)
         return;
     demux_.fail(send_.failure().value_or("sending failed"));
+    fail_calls();
     demux_.throw_if_broken();
 }
 

@@ -11,6 +11,7 @@
 //   ReadDemand   whether anyone needs the socket read now: the receiving thread reads only then
 //   Receiver     the receiving thread's work: frames decoded and handed on
 //   Demux        replies to their requesters, records to their ports, the broken state
+//   CallBook     calls made, waiting for their answers; calls that reached served ports
 //   ShmRegions   the shared-memory regions written into and copied out of
 
 #include <chrono>
@@ -20,6 +21,7 @@
 #include <string>
 #include <thread>
 
+#include "call_book.hpp"
 #include "demux.hpp"
 #include "frame_socket.hpp"
 #include "inbox.hpp"
@@ -72,6 +74,11 @@ public:
     std::uint64_t peer_max_frame() const { return receiver_.peer_max_frame(); }
     /// The socket, for a watcher that polls it for the peer's hang-up (never read from it).
     int native_handle() const { return socket_.native_handle(); }
+    /// The calls this client made and those that reached its served ports (request/reply).
+    CallBook& calls() { return calls_; }
+    /// Sends a whole frame now (a call, an answer), after what was buffered; throws Error when the
+    /// connection is broken.
+    void send_frame(proto::ByteView frame);
 
 private:
     /// Writes a large payload into the port's region and sends where it is; false when there is
@@ -83,6 +90,8 @@ private:
     std::shared_ptr<WriterRegion> writer_region(std::uint64_t handle, std::size_t payload_size);
     /// After a send: when sending failed, marks the connection broken and throws.
     void check_sent(bool sent);
+    /// Ends every call still waiting with the reason the connection broke (or closed).
+    void fail_calls();
 
     // Declared in the order they depend on each other: destroyed in reverse, each part after
     // everything that refers to it. The receiving thread is joined in the destructor's body,
@@ -91,6 +100,7 @@ private:
     FrameSocket socket_;
     ReadDemand demand_;
     Demux demux_;
+    CallBook calls_;
     ShmRegions shm_;
     SendBuffer send_;
     Receiver receiver_;

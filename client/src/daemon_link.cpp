@@ -31,6 +31,7 @@ nlohmann::json open_body(const std::string& name, const PortOptions& options) {
     open.policy = options.policy == QueuePolicy::strict ? "strict" : "latest";
     if (options.capacity > 0)
         open.capacity = options.capacity;
+    open.serve = options.serve;
     return open.encode();
 }
 

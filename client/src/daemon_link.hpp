@@ -61,6 +61,8 @@ struct PortRecord {
     /// Changes whenever `connection` or `handle` change (the daemon went, or the port was opened
     /// again). A Port compares it with the value it cached: one load per message when all is well.
     std::atomic<std::uint64_t> generation{0};
+    /// The last sequence number a call on this port used (calls may come from several threads).
+    std::atomic<std::uint64_t> call_seq{0};
 
     std::mutex mutex;                        ///< guards what follows
     std::shared_ptr<Connection> connection;  ///< null while the daemon is away

@@ -7,6 +7,7 @@
 
 #include "blob_pool.hpp"
 #include "large_payload.hpp"
+#include "plexus/proto/call.hpp"
 #include "plexus/proto/control.hpp"
 #include "plexus/proto/hello.hpp"
 #include "plexus/proto/message.hpp"
@@ -19,8 +20,9 @@ namespace {
 constexpr std::size_t read_chunk = 256 * 1024;
 }  // namespace
 
-Receiver::Receiver(FrameSocket& socket, ReadDemand& demand, Demux& demux, ShmRegions& shm, SendBuffer& send)
-    : socket_(socket), demand_(demand), demux_(demux), shm_(shm), send_(send) {
+Receiver::Receiver(FrameSocket& socket, ReadDemand& demand, Demux& demux, CallBook& calls, ShmRegions& shm,
+                   SendBuffer& send)
+    : socket_(socket), demand_(demand), demux_(demux), calls_(calls), shm_(shm), send_(send) {
     in_.resize(read_chunk);
 }
 
@@ -220,6 +222,25 @@ void Receiver::dispatch(proto::FrameType type, proto::ByteView fields) {
             if (auto bad = shm_.on_frame(type, fields, received_fds_))
                 fail(*bad);
             return;
+        case proto::FrameType::call: {
+            // A call to one of this client's served ports: kept for its Service, by handle.
+            const auto call = proto::decode_call(fields);
+            if (!call)
+                return fail("bad call frame: " + call.error().message);
+            return calls_.deliver(call->handle,
+                                  IncomingCall{call->id, call->timeout_ms,
+                                               proto::Bytes(call->record.begin(), call->record.end())});
+        }
+        case proto::FrameType::answer: {
+            // The answer to a call this client made; its completion runs here, with no lock held.
+            const auto answer = proto::decode_answer(fields);
+            if (!answer)
+                return fail("bad answer frame: " + answer.error().message);
+            calls_.complete(answer->id,
+                            CallAnswer{answer->outcome, proto::Bytes(answer->record.begin(), answer->record.end()),
+                                       std::string(answer->reason)});
+            return;
+        }
         default:
             return fail("unexpected frame type " + proto::frame_type_name(static_cast<std::uint8_t>(type)));
     }

@@ -14,6 +14,7 @@
 #include <optional>
 #include <vector>
 
+#include "call_book.hpp"
 #include "demux.hpp"
 #include "frame_socket.hpp"
 #include "plexus/proto/frame.hpp"
@@ -26,7 +27,8 @@ namespace plexus::detail {
 class Receiver {
 public:
     /// Feeds `demux`, `shm` and `send` from `socket` while `demand` asks for it; all must outlive it.
-    Receiver(FrameSocket& socket, ReadDemand& demand, Demux& demux, ShmRegions& shm, SendBuffer& send);
+    Receiver(FrameSocket& socket, ReadDemand& demand, Demux& demux, CallBook& calls, ShmRegions& shm,
+             SendBuffer& send);
     /// Closes descriptors received for frames that never came.
     ~Receiver();
     Receiver(const Receiver&) = delete;
@@ -64,6 +66,7 @@ private:
     FrameSocket& socket_;
     ReadDemand& demand_;
     Demux& demux_;
+    CallBook& calls_;
     ShmRegions& shm_;
     SendBuffer& send_;
     std::atomic<std::uint64_t> peer_max_frame_{proto::default_max_frame};

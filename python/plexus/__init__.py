@@ -18,7 +18,7 @@ made by ``plexus record`` (docs/RECORDING.md).
 
 from . import _asyncio
 from ._errors import Error, NotFoundError, RefusedError, TimeoutError, UsageError
-from ._plexus import Client, Envelope, Message, Port, RecordedMessage, Recording
+from ._plexus import Client, Envelope, Message, Port, RecordedMessage, Recording, Service
 
 _asyncio.install()
 
@@ -31,6 +31,7 @@ __all__ = [
     "Port",
     "RecordedMessage",
     "Recording",
+    "Service",
     "RefusedError",
     "TimeoutError",
     "UsageError",

@@ -1,7 +1,7 @@
 """Type stubs for plexus (the compiled _plexus and the Python modules around it)."""
 
 import builtins
-from typing import Any, Iterator, Literal, Optional, Union
+from typing import Any, Callable, Iterator, Literal, Optional, Union, overload
 
 import numpy
 
@@ -108,5 +108,24 @@ class Client:
         """The arbitration of an input port."""
     def ping(self, port: str) -> dict[str, Any]:
         """Node and address of the daemon hosting `port`."""
+    @overload
     def request(self, body: dict[str, Any]) -> Any:
         """Any control request; the reply body."""
+    @overload
+    def request(self, port: str, value: Any, timeout: float = 10.0) -> Any:
+        """Calls the service at `port`; the answer's value (docs/CALLS.md)."""
+    async def request_async(self, port: str, value: Any, timeout: float = 10.0) -> Any:
+        """The same without blocking the event loop."""
+    def serve(self, port: str, handler: Callable[[Any], Any]) -> Service:
+        """Opens `port` to serve it: each call is answered with handler(value)."""
+
+class Service:
+    """Answers the calls of one served port until closed."""
+
+    @property
+    def port(self) -> str: ...
+    @property
+    def calls(self) -> int: ...
+    def close(self) -> None: ...
+    def __enter__(self) -> Service: ...
+    def __exit__(self, *args: object) -> None: ...

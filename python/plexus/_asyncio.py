@@ -12,7 +12,7 @@ from __future__ import annotations
 import asyncio
 import concurrent.futures
 
-from ._plexus import Message, Port
+from ._plexus import Client, Message, Port
 
 _SLICE = 0.1  # seconds a reader thread waits before looking again whether anyone still waits
 
@@ -59,8 +59,31 @@ async def _anext(self: Port) -> Message:
         raise
 
 
+async def request_async(self: Client, port: str, value, timeout: float = 10.0):
+    """Calls the service at `port` without blocking the event loop; the answer's value, or the
+    exception request() would raise. No thread per call: the client's receiving thread completes
+    the future through the loop (many calls may be outstanding at once)."""
+    loop = asyncio.get_running_loop()
+    future = loop.create_future()
+
+    def settle(result, error) -> None:
+        if future.done():  # cancelled meanwhile: the answer has nobody to go to
+            return
+        if error is not None:
+            future.set_exception(error)
+        else:
+            future.set_result(result)
+
+    def done(result, error) -> None:  # on a thread of the client, with the GIL
+        loop.call_soon_threadsafe(settle, result, error)
+
+    self._request_then(port, value, timeout, done)
+    return await future
+
+
 def install() -> None:
-    """Adds the asyncio methods to Port (they are Python; the rest of Port is compiled)."""
+    """Adds the asyncio methods to Port and Client (they are Python; the rest is compiled)."""
+    Client.request_async = request_async
     Port.read_async = read_async
     Port.__aiter__ = _aiter
     Port.__anext__ = _anext

@@ -6,6 +6,7 @@
 #include <optional>
 #include <plexus/proto/port_name.hpp>
 
+#include "call_binding.hpp"
 #include "conversion.hpp"
 #include "plexus/proto/name_operations.hpp"
 #include "plexus/proto/operations.hpp"
@@ -91,11 +92,12 @@ bool exists(Client& client, const std::string& port, const std::optional<std::st
 }  // namespace
 
 void bind_client(py::module_& module) {
-    py::class_<Client>(module, "Client",
+    py::class_<Client> client(module, "Client",
                        "A connection to the local daemon. socket: its Unix socket (None: $PLEXUS_SOCKET, "
                        "else the per-user runtime path, as the C++ Client and the CLI). Raises RefusedError "
                        "saying where it looked if no daemon runs there. Reconnects by itself if the daemon "
-                       "restarts.")
+                       "restarts.");
+    client
         .def(py::init(&make_client), py::arg("socket") = py::none(), py::arg("request_timeout") = 10.0,
              "Connects to the local daemon.")
         .def_property_readonly("socket_path", &Client::socket_path,
@@ -176,6 +178,7 @@ void bind_client(py::module_& module) {
             "request", [](Client& client, py::handle body) { return ask(client, to_value(body)); },
             py::arg("body"), "Sends any control request (a dict with \"op\") and returns the reply.")
         .def("__repr__", [](const Client& client) { return "<plexus.Client " + client.socket_path() + ">"; });
+    bind_calls(module, client);
 }
 
 }  // namespace plexus::python

@@ -30,6 +30,7 @@ CommandLine::CommandLine()
     add_app_commands();
     add_what_if_command();
     add_recording_commands();
+    add_call_commands();
 }
 
 // Commands that make connections and move messages.
@@ -248,6 +249,33 @@ void CommandLine::add_recording_commands() {
         ->transform(seconds(0, 3600))
         ->capture_default_str();
     play_cmd->callback([this] { status_ = plexus::cli::play(common_, play_options_); });
+}
+
+// Request/reply (docs/CALLS.md).
+void CommandLine::add_call_commands() {
+    auto& call = call_options_;
+    auto* call_cmd = app_.add_subcommand(
+        "call",
+        "call the service at PORT with VALUE and print its answer as one JSON line (exit 3: no answer in "
+        "time; 4: refused or failed, with the reason)");
+    call_cmd->add_option("PORT", call.port, "a served port, or a port whose connections lead to servers")
+        ->required();
+    call_cmd->add_option("VALUE", call.value, "the request: JSON if it parses, else a string")->required();
+    call_cmd->add_option("--timeout", call.timeout, "seconds to wait for the answer")
+        ->transform(seconds(0.001, 86'400))
+        ->capture_default_str();
+    call_cmd->callback([this] { status_ = plexus::cli::call(common_, call_options_); });
+
+    auto& serve = serve_options_;
+    auto* serve_cmd = app_.add_subcommand(
+        "serve", "open PORT to serve it and answer each call, until Ctrl-C (or SIGTERM)");
+    serve_cmd->add_option("PORT", serve.port, "the port to open and serve")->required();
+    serve_cmd->add_flag("--echo", serve.echo, "answer each request with the request itself");
+    serve_cmd->add_option("--exec", serve.exec,
+                          "answer with the standard output of this shell command, given the request as one "
+                          "JSON line on its standard input (JSON if the output parses, else a string); a "
+                          "command that fails fails the call with its standard error");
+    serve_cmd->callback([this] { status_ = plexus::cli::serve(common_, serve_options_); });
 }
 
 // Commands on application files (docs/APPLICATIONS.md).

@@ -30,6 +30,7 @@ private:
     void add_app_commands();
     void add_what_if_command();
     void add_recording_commands();
+    void add_call_commands();
 
     CLI::App app_;
     Common common_;
@@ -57,6 +58,8 @@ private:
     WhatIfArgs what_if_args_;
     RecordOptions record_options_;
     PlayOptions play_options_;
+    CallOptions call_options_;
+    ServeOptions serve_options_;
 };
 
 }  // namespace plexus::cli

@@ -66,6 +66,22 @@ struct RecordOptions {
     bool json = false;
 };
 
+struct CallOptions {
+    std::string port;
+    std::string value;     ///< JSON if it parses, else a string
+    double timeout = 10;  ///< seconds
+};
+/// `plexus call`: one request to the service at PORT; its answer as one JSON line.
+int call(const Common& common, const CallOptions& options);
+
+struct ServeOptions {
+    std::string port;
+    bool echo = false;
+    std::string exec;  ///< a shell command: the request on its stdin, the answer from its stdout
+};
+/// `plexus serve`: answers the calls of PORT until SIGINT/SIGTERM.
+int serve(const Common& common, const ServeOptions& options);
+
 struct PlayOptions {
     std::string file;
     double rate = 1.0;

@@ -14,6 +14,7 @@
 #include <chrono>
 #include <cstdint>
 #include <functional>
+#include <future>
 #include <memory>
 #include <optional>
 #include <span>
@@ -83,6 +84,7 @@ enum class QueuePolicy {
 struct PortOptions {
     QueuePolicy policy = QueuePolicy::strict;
     std::size_t capacity = 0;  ///< 0: the daemon's default
+    bool serve = false;        ///< its client answers calls on it (Client::serve sets it)
 };
 
 /// The state of a Client's link to its daemon, as told to Client::on_state.
@@ -93,6 +95,8 @@ enum class ConnectionState {
 };
 
 namespace detail {
+class CallBook;
+struct CallMaker;
 class Connection;
 class DaemonLink;
 struct Inbox;
@@ -132,6 +136,21 @@ public:
     void write_encoded(std::span<const std::uint8_t> cbor, bool flush = true);
     /// Sends what write(..., false) buffered.
     void flush();
+    /// Calls a server: sends `value` as a request along this port's connections to the one server
+    /// its arbitration selects now (the first connection to a served port whose route constraint,
+    /// `send.portmonitor+constraint.X`, holds over this port's events), and waits up to `timeout`
+    /// for the answer. Throws Error: ErrorCode::timeout when no answer came in time; refused with
+    /// the reason when no server was selectable, the server's handler failed, or the server, its
+    /// daemon or the link went away with the call. Safe from several threads at once.
+    Received request(const Value& value, std::chrono::milliseconds timeout);
+    /// The same without waiting: the future holds the answer, or the Error. It is always completed:
+    /// by the answer, by the daemon's timeout, or by the loss of the daemon.
+    std::future<Received> request_async(const Value& value, std::chrono::milliseconds timeout);
+    /// The same, calling `done` once with the answer (`reply` set) or the Error (`error` set). It
+    /// runs on the client's receiving thread (or on this one, when the call cannot be sent): keep
+    /// it short, never wait there for another answer, and never destroy the Client there.
+    void request_then(const Value& value, std::chrono::milliseconds timeout,
+                      std::function<void(Received* reply, const Error* error)> done);
     /// Waits up to `timeout` for the next message delivered to this port (also while the daemon is
     /// away: then it waits for the reconnection rather than throwing).
     std::optional<Received> read(std::chrono::milliseconds timeout);
@@ -143,6 +162,10 @@ public:
 
 private:
     friend class Client;
+    friend class Service;
+    friend struct detail::CallMaker;
+    /// The connection and handle the port lives on now; null connection while the daemon is away.
+    std::pair<std::shared_ptr<detail::Connection>, std::uint64_t> current() const;
     Port(std::shared_ptr<detail::DaemonLink> link, std::shared_ptr<detail::PortRecord> record);
     /// Writes one encoded message, or holds it while the daemon is away.
     void send(std::uint64_t seq, std::span<const std::uint8_t> payload, std::span<const std::uint8_t> tail,
@@ -167,6 +190,59 @@ private:
     /// Messages taken from the connection in one go and not yet read: one lock per batch of
     /// messages instead of one per message.
     std::unique_ptr<detail::Inbox> ready_;
+};
+
+/// A call that reached a served port: the request, and the way to answer it. Answer once, from any
+/// thread, now or later; a Call destroyed unanswered fails the call (its caller hears that the
+/// handler returned without answering). Movable, not copyable.
+class Call {
+public:
+    Call(Call&&) noexcept;
+    Call& operator=(Call&&) noexcept;
+    Call(const Call&) = delete;
+    Call& operator=(const Call&) = delete;
+    ~Call();
+
+    /// The request: its data and envelope (the caller's port, seq, time).
+    const Received& request() const { return request_; }
+    /// The port it reached.
+    const std::string& port() const { return port_; }
+    /// Answers with `value`. Throws Error (usage) if already answered.
+    void reply(const Value& value);
+    /// Answers with a failure: the caller's Error says `reason`. Throws Error (usage) if already answered.
+    void fail(const std::string& reason);
+    bool answered() const { return answered_; }
+
+private:
+    friend struct detail::CallMaker;
+    Call(std::shared_ptr<detail::Connection> connection, std::uint64_t id, std::string port, Received request);
+    /// Sends the answer frame; marks the call answered first (a second answer throws).
+    void send(const std::vector<std::uint8_t>& frame);
+    std::shared_ptr<detail::Connection> connection_;
+    bool answered_ = false;
+    std::uint64_t id_ = 0;
+    std::string port_;
+    Received request_;
+};
+
+/// Answers the calls of one served port, each on the Service's thread, until destroyed (which
+/// closes the port: calls on their way are then answered by the daemon as lost).
+class Service {
+public:
+    ~Service();
+    Service(Service&&) noexcept;
+    Service& operator=(Service&&) = delete;
+    Service(const Service&) = delete;
+    Service& operator=(const Service&) = delete;
+    const std::string& port() const;
+    /// Calls handed to the handler so far.
+    std::uint64_t calls() const;
+
+private:
+    friend class Client;
+    struct State;
+    explicit Service(std::unique_ptr<State> state);
+    std::unique_ptr<State> state_;
 };
 
 /// Calls a function for every message of a port, on a thread of its own, until destroyed. The
@@ -215,6 +291,20 @@ public:
     Value ping(const std::string& port);
     /// Sends any control request and returns the reply body; throws Error when refused.
     Value request(const Value& body);
+    /// Calls the service at `port` (a served port anywhere, or a port whose connections lead to
+    /// servers) from a port of this client's own, `/plexus/call/...`, connected to it on first use
+    /// and kept; as Port::request otherwise.
+    Received request(const std::string& port, const Value& value, std::chrono::milliseconds timeout);
+    std::future<Received> request_async(const std::string& port, const Value& value,
+                                        std::chrono::milliseconds timeout);
+    void request_then(const std::string& port, const Value& value, std::chrono::milliseconds timeout,
+                      std::function<void(Received* reply, const Error* error)> done);
+    /// Opens `port` to serve it: each call is answered with handler(request), on the Service's
+    /// thread, one at a time; a handler that throws fails the call with what() as the reason.
+    Service serve(const std::string& port, std::function<Value(const Received&)> handler);
+    /// The same, but the handler takes the Call and answers it when it likes, from any thread (it
+    /// may hand it to a pool and return at once).
+    Service serve_calls(const std::string& port, std::function<void(Call)> handler);
     /// Asks a name server directly over TCP (works without a local daemon): {"op": "list"} or
     /// {"op": "lookup", "port": ...}. Returns the reply body; nullopt for a "no" answer.
     static std::optional<Value> ask_names(const std::string& names_address, const Value& body);
@@ -229,8 +319,13 @@ public:
     ConnectionState state() const;
 
 private:
+    /// The port of this client that calls `target`, opened and connected on first use.
+    Port& caller_for(const std::string& target);
+
     std::string socket_;
     std::shared_ptr<detail::DaemonLink> link_;
+    struct Callers;
+    std::shared_ptr<Callers> callers_;  ///< the ports Client::request made, by target
 };
 
 }  // namespace plexus
