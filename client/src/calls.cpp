@@ -37,7 +37,8 @@ Received received_of(proto::ByteView record) {
         throw Error(ErrorCode::refused, "bad record in an answer: " + view.error().message);
     auto data = proto::decode_cbor(view->payload);
     if (!data)
-        throw Error(ErrorCode::refused, "bad payload from " + std::string(view->source) + ": " + data.error().message);
+        throw Error(ErrorCode::refused,
+                    "bad payload from " + std::string(view->source) + ": " + data.error().message);
     return Received{{std::string(view->source), view->seq, view->time_ns}, std::move(*data)};
 }
 
@@ -138,13 +139,15 @@ Received Port::request(const Value& value, std::chrono::milliseconds timeout) {
     // wait here is only a last guard against a daemon that stopped answering without going away.
     constexpr auto guard = std::chrono::seconds(2);
     if (future.wait_for(timeout + guard) != std::future_status::ready)
-        throw Error(ErrorCode::timeout, fmt::format("call on {}: no answer within {} ms", name_, timeout.count()));
+        throw Error(ErrorCode::timeout,
+                    fmt::format("call on {}: no answer within {} ms", name_, timeout.count()));
     return future.get();
 }
 
 // --- Call ---
 
-Call::Call(std::shared_ptr<detail::Connection> connection, std::uint64_t id, std::string port, Received request)
+Call::Call(std::shared_ptr<detail::Connection> connection, std::uint64_t id, std::string port,
+           Received request)
     : connection_(std::move(connection)), id_(id), port_(std::move(port)), request_(std::move(request)) {}
 
 Call::Call(Call&& other) noexcept
@@ -212,7 +215,8 @@ struct Service::State {
     std::atomic<std::uint64_t> calls{0};
     std::jthread thread;
 
-    State(Port opened, std::function<void(Call)> handle) : port(std::move(opened)), handler(std::move(handle)) {}
+    State(Port opened, std::function<void(Call)> handle)
+        : port(std::move(opened)), handler(std::move(handle)) {}
 
     /// The Service's thread: takes the calls of its port from whichever connection it lives on now.
     void run(std::stop_token stop) {
@@ -300,7 +304,8 @@ Received Client::request(const std::string& port, const Value& value, std::chron
     auto future = request_async(port, value, timeout);
     constexpr auto guard = std::chrono::seconds(2);  // as Port::request
     if (future.wait_for(timeout + guard) != std::future_status::ready)
-        throw Error(ErrorCode::timeout, fmt::format("call to {}: no answer within {} ms", port, timeout.count()));
+        throw Error(ErrorCode::timeout,
+                    fmt::format("call to {}: no answer within {} ms", port, timeout.count()));
     return future.get();
 }
 

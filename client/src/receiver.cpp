@@ -236,9 +236,9 @@ void Receiver::dispatch(proto::FrameType type, proto::ByteView fields) {
             const auto answer = proto::decode_answer(fields);
             if (!answer)
                 return fail("bad answer frame: " + answer.error().message);
-            calls_.complete(answer->id,
-                            CallAnswer{answer->outcome, proto::Bytes(answer->record.begin(), answer->record.end()),
-                                       std::string(answer->reason)});
+            calls_.complete(answer->id, CallAnswer{answer->outcome,
+                                                   proto::Bytes(answer->record.begin(), answer->record.end()),
+                                                   std::string(answer->reason)});
             return;
         }
         default:

@@ -68,8 +68,8 @@ proto::Result<std::optional<Constraint>> route_constraint(const proto::Carrier& 
             if (param.key != "constraint")
                 continue;
             if (found)
-                return proto::Error{"two send-side constraints on one connection ('" + found->text() + "' and '" +
-                                    param.value.value_or("") + "'): combine them with and/or"};
+                return proto::Error{"two send-side constraints on one connection ('" + found->text() +
+                                    "' and '" + param.value.value_or("") + "'): combine them with and/or"};
             auto parsed = Constraint::parse(param.value.value_or(""));
             if (!parsed)
                 return parsed.error();

@@ -6,8 +6,8 @@
 
 #include <spdlog/spdlog.h>
 
-#include "control_plane.hpp"
 #include "arbitration/carrier_rules.hpp"
+#include "control_plane.hpp"
 #include "core/router.hpp"
 #include "names/name_client.hpp"
 #include "net/carriers/carrier_table.hpp"

@@ -10,7 +10,7 @@
 
 namespace plexus::daemon {
 
-struct ShmSlot;  // net/shm_region.hpp
+struct ShmSlot;    // net/shm_region.hpp
 class CallTicket;  // call_ticket.hpp
 
 /// A block of bytes read from a socket, left uninitialized on allocation: zero-filling a 1 MiB

@@ -35,7 +35,8 @@ void Port::route_call(const Message& message) {
     if (!ticket.pass_port()) {
         ++calls_refused;
         ticket.set_drop_reason("the call passed through " + std::to_string(CallTicket::max_ports) +
-                               " ports without reaching a server (a loop of connections?), the last " + name_);
+                               " ports without reaching a server (a loop of connections?), the last " +
+                               name_);
         return;
     }
     auto chosen = choose_server(*this);

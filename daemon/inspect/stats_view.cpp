@@ -1,9 +1,9 @@
 #include "stats_view.hpp"
 
 #include "core/router.hpp"
-#include "net/call_table.hpp"
 #include "inlet_counters.hpp"
 #include "monitor/stage.hpp"
+#include "net/call_table.hpp"
 #include "net/udp_socket.hpp"
 #include "script_host.hpp"
 

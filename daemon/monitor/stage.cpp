@@ -312,14 +312,17 @@ void MonitorStage::trig(std::uint64_t monitor_id) {
 }
 
 void MonitorStage::reply(Message answer, std::function<void(Message)> done) {
-    asio::post(strand_, [self = shared_from_this(), answer = std::move(answer), done = std::move(done)]() mutable {
-        {
-            std::lock_guard monitors(self->monitors_mutex_);
-            if (!self->closed_)
-                self->chain_->reply(answer);
-        }
-        asio::post(self->io_, [answer = std::move(answer), done = std::move(done)]() mutable { done(std::move(answer)); });
-    });
+    asio::post(strand_,
+               [self = shared_from_this(), answer = std::move(answer), done = std::move(done)]() mutable {
+                   {
+                       std::lock_guard monitors(self->monitors_mutex_);
+                       if (!self->closed_)
+                           self->chain_->reply(answer);
+                   }
+                   asio::post(self->io_, [answer = std::move(answer), done = std::move(done)]() mutable {
+                       done(std::move(answer));
+                   });
+               });
 }
 
 Task<void> MonitorStage::run(const std::function<void()>& work) {

@@ -35,16 +35,17 @@ class FramedConnection;
 
 /// How calls ended here, for `plexus stats` (the daemon's "calls" entry).
 struct CallCounters {
-    std::uint64_t started = 0;       ///< calls that entered this daemon
-    std::uint64_t answered = 0;      ///< answers passed back (ok or failed by the server's handler)
-    std::uint64_t refused = 0;       ///< not delivered: dropped on the way, no server, busy
-    std::uint64_t busy = 0;          ///< of those: a port had max_calls_per_port outstanding
-    std::uint64_t timed_out = 0;     ///< no answer by the deadline
-    std::uint64_t lost = 0;          ///< the socket the call left on closed first
-    std::uint64_t caller_gone = 0;   ///< answers (or failures) with nobody left to take them
-    std::uint64_t late_answers = 0;  ///< answers after the call had timed out or failed
+    std::uint64_t started = 0;            ///< calls that entered this daemon
+    std::uint64_t answered = 0;           ///< answers passed back (ok or failed by the server's handler)
+    std::uint64_t refused = 0;            ///< not delivered: dropped on the way, no server, busy
+    std::uint64_t busy = 0;               ///< of those: a port had max_calls_per_port outstanding
+    std::uint64_t timed_out = 0;          ///< no answer by the deadline
+    std::uint64_t lost = 0;               ///< the socket the call left on closed first
+    std::uint64_t caller_gone = 0;        ///< answers (or failures) with nobody left to take them
+    std::uint64_t late_answers = 0;       ///< answers after the call had timed out or failed
     std::uint64_t duplicate_answers = 0;  ///< a second answer to a call already answered
-    std::uint64_t unknown_answers = 0;    ///< answers to ids never seen, or from a socket the call did not go to
+    std::uint64_t unknown_answers =
+        0;  ///< answers to ids never seen, or from a socket the call did not go to
 };
 
 class CallTable final : public CallRoutes, public std::enable_shared_from_this<CallTable> {
@@ -90,7 +91,7 @@ private:
         std::uint64_t back_id = 0;
         const FramedConnection* out = nullptr;  ///< compared only; the socket the request left on
         Clock::time_point deadline;
-        std::string what;  ///< "/caller -> /server", for reasons
+        std::string what;          ///< "/caller -> /server", for reasons
         std::weak_ptr<Port> port;  ///< whose calls_outstanding counts it
         std::vector<std::weak_ptr<MessageFilter>> reply_through;
     };

@@ -2,11 +2,11 @@
 
 #include <algorithm>
 
-#include "plexus/proto/message.hpp"
+#include "call_table.hpp"
 #include "plexus/proto/call.hpp"
+#include "plexus/proto/message.hpp"
 #include "plexus/proto/shm.hpp"
 #include "plexus/proto/varint.hpp"
-#include "call_table.hpp"
 #include "shm_region.hpp"
 
 namespace plexus::daemon {

@@ -96,8 +96,8 @@ Task<bool> Peer::on_frame(InFrame frame) {
         // a table; any other answer is counted there as unknown, or refused here).
         const auto answer = proto::decode_answer(frame.fields);
         if (!answer || (answer->outcome == proto::CallOutcome::ok && !proto::read_record(answer->record))) {
-            fail("bad answer frame: " + (answer ? std::string("its reply is not a message record")
-                                                : answer.error().message));
+            fail("bad answer frame: " +
+                 (answer ? std::string("its reply is not a message record") : answer.error().message));
             co_return false;
         }
         if (auto* calls = call_table()) {

@@ -417,8 +417,8 @@ bool Session::on_call(const InFrame& frame) {
                                   link_port_, {link_->monitors});
         if (!ticket) {
             calls.refuse(*this, call->id,
-                         "busy: " + link_port_->name() + " has " + std::to_string(CallTable::max_calls_per_port) +
-                             " calls outstanding, the limit");
+                         "busy: " + link_port_->name() + " has " +
+                             std::to_string(CallTable::max_calls_per_port) + " calls outstanding, the limit");
             return true;
         }
         Message message = request;
@@ -441,8 +441,9 @@ bool Session::on_call(const InFrame& frame) {
     }
     Connection& connection = *std::get<Connection*>(chosen);
     if (connection.room() == 0) {
-        calls.refuse(*this, call->id, "busy: the connection " + connection.source + " -> " +
-                                          connection.destination + " is full");
+        calls.refuse(
+            *this, call->id,
+            "busy: the connection " + connection.source + " -> " + connection.destination + " is full");
         return true;
     }
     // The answer passes back the receiving monitors of a connection within this daemon, then its

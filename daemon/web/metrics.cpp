@@ -11,11 +11,21 @@ namespace {
 using Labels = std::vector<std::pair<std::string, std::string>>;
 
 /// Fields that are levels, not counts: they go up and down.
-const std::set<std::string> gauges{"capacity",         "depth",           "bytes",
-                                   "queued",           "sessions",        "shm_bytes",
-                                   "shm_regions",      "shm_slots",       "memory_bytes",
-                                   "quarantined",      "monitors_inline", "udp_reassembly_bytes",
-                                   "connections_open", "stream_clients",  "calls_outstanding",
+const std::set<std::string> gauges{"capacity",
+                                   "depth",
+                                   "bytes",
+                                   "queued",
+                                   "sessions",
+                                   "shm_bytes",
+                                   "shm_regions",
+                                   "shm_slots",
+                                   "memory_bytes",
+                                   "quarantined",
+                                   "monitors_inline",
+                                   "udp_reassembly_bytes",
+                                   "connections_open",
+                                   "stream_clients",
+                                   "calls_outstanding",
                                    "served"};
 
 std::string escaped(const std::string& value) {

@@ -64,7 +64,9 @@ void bind_calls(py::module_& module, py::class_<Client>& client) {
             "calls", [](const PythonService& s) { return s.service ? s.service->calls() : 0; },
             "Calls handed to the handler so far.")
         .def("close", &PythonService::close, "Stops answering and closes the port.")
-        .def("__enter__", [](PythonService& s) -> PythonService& { return s; }, py::return_value_policy::reference)
+        .def(
+            "__enter__", [](PythonService& s) -> PythonService& { return s; },
+            py::return_value_policy::reference)
         .def("__exit__", [](PythonService& s, py::args) { s.close(); });
 
     client
@@ -93,10 +95,11 @@ void bind_calls(py::module_& module, py::class_<Client>& client) {
                 const Value request = to_value(value);
                 const auto wait = milliseconds_of(timeout);
                 // Released wherever the last copy goes (the receiving thread): with the GIL.
-                auto callback = std::shared_ptr<py::function>(new py::function(std::move(done)), [](py::function* f) {
-                    py::gil_scoped_acquire gil;
-                    delete f;
-                });
+                auto callback =
+                    std::shared_ptr<py::function>(new py::function(std::move(done)), [](py::function* f) {
+                        py::gil_scoped_acquire gil;
+                        delete f;
+                    });
                 py::gil_scoped_release release;
                 client.request_then(port, request, wait, [callback](Received* reply, const Error* error) {
                     py::gil_scoped_acquire gil;
@@ -117,10 +120,11 @@ void bind_calls(py::module_& module, py::class_<Client>& client) {
             "serve",
             [](Client& client, const std::string& port, py::function handler) {
                 require_port_name(port);
-                auto shared = std::shared_ptr<py::function>(new py::function(std::move(handler)), [](py::function* f) {
-                    py::gil_scoped_acquire gil;
-                    delete f;
-                });
+                auto shared =
+                    std::shared_ptr<py::function>(new py::function(std::move(handler)), [](py::function* f) {
+                        py::gil_scoped_acquire gil;
+                        delete f;
+                    });
                 auto service = std::make_unique<PythonService>();
                 service->port = port;
                 py::gil_scoped_release release;

@@ -92,11 +92,12 @@ bool exists(Client& client, const std::string& port, const std::optional<std::st
 }  // namespace
 
 void bind_client(py::module_& module) {
-    py::class_<Client> client(module, "Client",
-                       "A connection to the local daemon. socket: its Unix socket (None: $PLEXUS_SOCKET, "
-                       "else the per-user runtime path, as the C++ Client and the CLI). Raises RefusedError "
-                       "saying where it looked if no daemon runs there. Reconnects by itself if the daemon "
-                       "restarts.");
+    py::class_<Client> client(
+        module, "Client",
+        "A connection to the local daemon. socket: its Unix socket (None: $PLEXUS_SOCKET, "
+        "else the per-user runtime path, as the C++ Client and the CLI). Raises RefusedError "
+        "saying where it looked if no daemon runs there. Reconnects by itself if the daemon "
+        "restarts.");
     client
         .def(py::init(&make_client), py::arg("socket") = py::none(), py::arg("request_timeout") = 10.0,
              "Connects to the local daemon.")

@@ -28,8 +28,9 @@ std::unique_ptr<Process> start_server(const TempDir& dir, const Daemon& daemon, 
     std::string log = "server" + port;
     std::replace(log.begin(), log.end(), '/', '_');
     auto process = std::make_unique<Process>(argv, daemon.env(), dir.file(log));
-    EXPECT_TRUE(eventually([&] { return process->out().find("serving") != std::string::npos || !process->running(); }))
-        << process->err();
+    EXPECT_TRUE(eventually([&] {
+        return process->out().find("serving") != std::string::npos || !process->running();
+    })) << process->err();
     EXPECT_TRUE(process->running()) << process->err();
     return process;
 }
@@ -48,7 +49,8 @@ std::string test_scripts(const TempDir& dir) {
 }
 
 bool has_event(Client& client, const std::string& port, const std::string& event) {
-    return client.request({{"op", "events"}, {"port", port}}).dump().find("\"" + event + "\"") != std::string::npos;
+    return client.request({{"op", "events"}, {"port", port}}).dump().find("\"" + event + "\"") !=
+           std::string::npos;
 }
 
 std::vector<Value> every_payload_type() {
@@ -87,13 +89,15 @@ TEST(Calls_test, EveryPayloadTypeAcrossTwoHostsWithAMonitorOnEachSide) {
     auto service = server_client.serve("/echo", [](const Received& request) { return request.data; });
     Client caller_client({caller_side.socket()});
     Port caller = caller_client.open("/caller");
-    caller_client.connect("/caller", "/echo",
-                          "tcp+send.portmonitor+type.lua+file.count_calls+recv.portmonitor+type.lua+file.count_calls");
+    caller_client.connect(
+        "/caller", "/echo",
+        "tcp+send.portmonitor+type.lua+file.count_calls+recv.portmonitor+type.lua+file.count_calls");
 
     const auto payloads = every_payload_type();
     for (const auto& payload : payloads) {
-        SCOPED_TRACE(payload.is_binary() ? "a blob of " + std::to_string(payload.get_binary().size()) + " bytes"
-                                         : payload.dump());
+        SCOPED_TRACE(payload.is_binary()
+                         ? "a blob of " + std::to_string(payload.get_binary().size()) + " bytes"
+                         : payload.dump());
         const Received reply = caller.request(payload, std::chrono::seconds(20));
         EXPECT_EQ(reply.data, payload);
         EXPECT_EQ(reply.envelope.source, "/echo");
@@ -132,7 +136,8 @@ struct TwoServers {
         client.connect("/s2/health", "/caller", "tcp+recv.portmonitor+type.lua+file.health+event.s2_ok+aux");
         client.connect("/caller", "/s1", "tcp+send.portmonitor+constraint.s1_ok");
         client.connect("/caller", "/s2", "tcp+send.portmonitor+constraint.s2_ok and not s1_ok");
-        EXPECT_TRUE(eventually([&] { return has_event(client, "/caller", "s1_ok"); })) << "s1's health never came";
+        EXPECT_TRUE(eventually([&] { return has_event(client, "/caller", "s1_ok"); }))
+            << "s1's health never came";
     }
     /// Who answers a call now ("" when it failed).
     std::string answered_by() {
@@ -232,12 +237,16 @@ TEST(Calls_test, CallsGoWhereTheEventsSayAndSwitchWhenTheyChange) {
     auto b = start_server(dir, daemon, "/planner/b", {"--health", dir.file("b-well")});
     Client service_owner({daemon.socket()});
     Port service = service_owner.open("/nav/plan");  // nobody serves it: it passes calls on
-    service_owner.connect("/planner/a/health", "/nav/plan", "local+recv.portmonitor+type.lua+file.health+event.a_ok+aux");
-    service_owner.connect("/planner/b/health", "/nav/plan", "local+recv.portmonitor+type.lua+file.health+event.b_ok+aux");
+    service_owner.connect("/planner/a/health", "/nav/plan",
+                          "local+recv.portmonitor+type.lua+file.health+event.a_ok+aux");
+    service_owner.connect("/planner/b/health", "/nav/plan",
+                          "local+recv.portmonitor+type.lua+file.health+event.b_ok+aux");
     service_owner.connect("/nav/plan", "/planner/a", "local+send.portmonitor+constraint.a_ok");
     service_owner.connect("/nav/plan", "/planner/b", "local+send.portmonitor+constraint.b_ok and not a_ok");
     Client caller({daemon.socket()});
-    const auto by = [&] { return caller.request("/nav/plan", "go", std::chrono::seconds(5)).data.value("by", ""); };
+    const auto by = [&] {
+        return caller.request("/nav/plan", "go", std::chrono::seconds(5)).data.value("by", "");
+    };
 
     ASSERT_TRUE(eventually([&] { return has_event(service_owner, "/nav/plan", "a_ok"); }));
     for (int i = 0; i < 20; ++i)
@@ -285,16 +294,17 @@ TEST(Calls_test, TenThousandConcurrentCallsFromTenCallersEachEndOnceAndMemoryCom
         threads.emplace_back([&, c] {
             for (int k = 0; k < per_caller; ++k) {
                 const int n = c * per_caller + k;
-                clients[c]->request_then("/svc", n, std::chrono::seconds(60), [&, n](Received* reply, const Error*) {
-                    {
-                        std::lock_guard lock(mutex);
-                        ++ended[n];
-                    }
-                    if (reply && reply->data != n)
-                        ++wrong;
-                    ++(reply ? answered : failed);
-                    ++done;
-                });
+                clients[c]->request_then("/svc", n, std::chrono::seconds(60),
+                                         [&, n](Received* reply, const Error*) {
+                                             {
+                                                 std::lock_guard lock(mutex);
+                                                 ++ended[n];
+                                             }
+                                             if (reply && reply->data != n)
+                                                 ++wrong;
+                                             ++(reply ? answered : failed);
+                                             ++done;
+                                         });
             }
         });
     }
@@ -306,7 +316,8 @@ TEST(Calls_test, TenThousandConcurrentCallsFromTenCallersEachEndOnceAndMemoryCom
     EXPECT_EQ(wrong, 0) << "answers that are not their call's";
     {
         std::lock_guard lock(mutex);
-        EXPECT_EQ(std::count(ended.begin(), ended.end(), 1), callers * per_caller) << "a call ended twice or never";
+        EXPECT_EQ(std::count(ended.begin(), ended.end(), 1), callers * per_caller)
+            << "a call ended twice or never";
     }
     const auto stats = clients[0]->stats();
     EXPECT_EQ(stats["daemon"].value("calls_outstanding", -1), 0) << stats.dump();

@@ -267,8 +267,8 @@ void CommandLine::add_call_commands() {
     call_cmd->callback([this] { status_ = plexus::cli::call(common_, call_options_); });
 
     auto& serve = serve_options_;
-    auto* serve_cmd = app_.add_subcommand(
-        "serve", "open PORT to serve it and answer each call, until Ctrl-C (or SIGTERM)");
+    auto* serve_cmd =
+        app_.add_subcommand("serve", "open PORT to serve it and answer each call, until Ctrl-C (or SIGTERM)");
     serve_cmd->add_option("PORT", serve.port, "the port to open and serve")->required();
     serve_cmd->add_flag("--echo", serve.echo, "answer each request with the request itself");
     serve_cmd->add_option("--exec", serve.exec,

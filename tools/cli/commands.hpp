@@ -68,7 +68,7 @@ struct RecordOptions {
 
 struct CallOptions {
     std::string port;
-    std::string value;     ///< JSON if it parses, else a string
+    std::string value;    ///< JSON if it parses, else a string
     double timeout = 10;  ///< seconds
 };
 /// `plexus call`: one request to the service at PORT; its answer as one JSON line.

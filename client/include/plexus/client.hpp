@@ -215,7 +215,8 @@ public:
 
 private:
     friend struct detail::CallMaker;
-    Call(std::shared_ptr<detail::Connection> connection, std::uint64_t id, std::string port, Received request);
+    Call(std::shared_ptr<detail::Connection> connection, std::uint64_t id, std::string port,
+         Received request);
     /// Sends the answer frame; marks the call answered first (a second answer throws).
     void send(const std::vector<std::uint8_t>& frame);
     std::shared_ptr<detail::Connection> connection_;

@@ -439,7 +439,8 @@ TEST(Calls_test, APortNobodyServesPassesTheCallToTheServerItsEventsSelect) {
         std::ofstream script(scripts + "/health.lua");
         script << "PortMonitor = PortMonitor or {}\n"
                   "function PortMonitor.accept(msg)\n"
-                  "  if msg.data == 'a' then PortMonitor.setEvent('a_ok') else PortMonitor.unsetEvent('a_ok') end\n"
+                  "  if msg.data == 'a' then PortMonitor.setEvent('a_ok') else "
+                  "PortMonitor.unsetEvent('a_ok') end\n"
                   "  return true\n"
                   "end\n";
     }
@@ -469,7 +470,8 @@ TEST(Calls_test, APortNobodyServesPassesTheCallToTheServerItsEventsSelect) {
         ASSERT_TRUE(eventually([&] {
             const auto events = caller.request({{"op", "events"}, {"port", "/nav/plan"}}).body.dump();
             return (events.find("a_ok") != std::string::npos) == a_ok;
-        })) << "the monitor never took " << state;
+        })) << "the monitor never took "
+            << state;
     };
     const auto expect_served_by = [&](RawClient& server, std::uint64_t id) {
         caller.call(calling, id, "/caller", id, 5000);
@@ -502,7 +504,8 @@ TEST(Calls_test, AMalformedCallOrAnswerIsAProtocolError) {
              proto::append_call_frame(frame, 1, 1, proto::max_call_timeout_ms + 1, {});
              return frame;
          }()},
-        {"an answer of an unknown outcome", Bytes{0x03, static_cast<std::uint8_t>(proto::FrameType::answer), 0x01, 0x09}},
+        {"an answer of an unknown outcome",
+         Bytes{0x03, static_cast<std::uint8_t>(proto::FrameType::answer), 0x01, 0x09}},
         {"an answer whose reply is not a record",
          [] {
              Bytes frame;

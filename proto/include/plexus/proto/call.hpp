@@ -53,7 +53,7 @@ Result<CallView> decode_call(ByteView fields);
 struct AnswerView {
     std::uint64_t id = 0;
     CallOutcome outcome = CallOutcome::ok;
-    ByteView record;     ///< when ok: the reply's record, undecoded
+    ByteView record;          ///< when ok: the reply's record, undecoded
     std::string_view reason;  ///< otherwise: why, for a person
 };
 
