@@ -17,6 +17,7 @@
 #include <set>
 #include <string>
 
+#include "plexus/client.hpp"
 #include "plexus/proto/bytes.hpp"
 #include "plexus/proto/call.hpp"
 #include "read_demand.hpp"
@@ -36,6 +37,10 @@ struct IncomingCall {
     std::uint64_t timeout_ms = 0;
     proto::Bytes record;
 };
+
+/// A record as the Received it carries (a message read, a call's request or answer); Error
+/// (refused) when it does not decode.
+Received received_of(proto::ByteView record);
 
 class CallBook {
 public:

@@ -28,19 +28,18 @@ struct CallMaker {
     }
 };
 
-namespace {
-
-/// A record as the Received it carries; Error (refused) when it does not decode.
 Received received_of(proto::ByteView record) {
     auto view = proto::decode_record(record);
     if (!view)
-        throw Error(ErrorCode::refused, "bad record in an answer: " + view.error().message);
+        throw Error(ErrorCode::refused, "bad message record: " + view.error().message);
     auto data = proto::decode_cbor(view->payload);
     if (!data)
         throw Error(ErrorCode::refused,
                     "bad payload from " + std::string(view->source) + ": " + data.error().message);
     return Received{{std::string(view->source), view->seq, view->time_ns}, std::move(*data)};
 }
+
+namespace {
 
 std::uint64_t now_ns() {
     const auto now = std::chrono::system_clock::now().time_since_epoch();

@@ -261,14 +261,7 @@ std::optional<Received> Port::read(std::chrono::milliseconds timeout) {
         inbox.segments.pop_front();
         inbox.next = 0;
     }
-    auto view = proto::decode_record(record);
-    if (!view)
-        throw Error(ErrorCode::refused, "bad message record: " + view.error().message);
-    auto data = proto::decode_cbor(view->payload);
-    if (!data)
-        throw Error(ErrorCode::refused,
-                    "bad payload from " + std::string(view->source) + ": " + data.error().message);
-    return Received{{std::string(view->source), view->seq, view->time_ns}, std::move(*data)};
+    return detail::received_of(record);
 }
 
 void Port::close() {

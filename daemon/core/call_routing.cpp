@@ -38,4 +38,13 @@ std::variant<Connection*, std::string> choose_server(const Port& source) {
     return "no server of " + source.name() + " is selectable now" + waiting;
 }
 
+void send_call(Connection& connection, const Message& call) {
+    ++connection.calls;
+    ++connection.sent;
+    if (connection.send_monitors)
+        connection.send_monitors->submit(call);
+    else
+        connection.sink->deliver(call);
+}
+
 }  // namespace plexus::daemon

@@ -19,4 +19,7 @@ bool route_holds(const Port& source, const Connection& connection);
 /// for a person: each candidate and what it waits for.
 std::variant<Connection*, std::string> choose_server(const Port& source);
 
+/// Sends a call along `connection` (through its send-side monitors, if any), counted as sent.
+void send_call(Connection& connection, const Message& call);
+
 }  // namespace plexus::daemon

@@ -46,12 +46,7 @@ void Port::route_call(const Message& message) {
         return;
     }
     Connection& connection = *std::get<Connection*>(chosen);
-    ++connection.calls;
-    ++connection.sent;
-    if (connection.send_monitors)
-        connection.send_monitors->submit(message);
-    else
-        connection.sink->deliver(message);
+    send_call(connection, message);
 }
 
 void Port::mark_closed() {

@@ -462,12 +462,7 @@ bool Session::on_call(const InFrame& frame) {
     }
     Message message = request;
     message.call = std::move(ticket);
-    ++connection.calls;
-    ++connection.sent;
-    if (connection.send_monitors)
-        connection.send_monitors->submit(message);
-    else
-        connection.sink->deliver(message);
+    send_call(connection, message);
     return true;
 }
 

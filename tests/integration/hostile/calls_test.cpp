@@ -98,28 +98,24 @@ public:
 
 private:
     std::optional<proto::Reply> reply_to(std::uint64_t id) {
-        const auto deadline = Clock::now() + exchange_timeout;
-        for (;;) {
-            for (auto it = kept_.begin(); it != kept_.end(); ++it) {
-                if (it->type != proto::FrameType::reply)
-                    continue;
-                auto reply = proto::decode_reply(it->fields);
-                if (reply && reply->id == id) {
-                    kept_.erase(it);
-                    return *reply;
-                }
-            }
-            auto frame = stream_.next_frame(deadline);
-            if (!frame)
-                return std::nullopt;
-            kept_.push_back(std::move(*frame));
-        }
+        const auto frame = next_matching(
+            [id](const Frame& frame) {
+                const auto reply = proto::decode_reply(frame.fields);
+                return frame.type == proto::FrameType::reply && reply && reply->id == id;
+            },
+            exchange_timeout);
+        return frame ? std::optional(*proto::decode_reply(frame->fields)) : std::nullopt;
     }
     std::optional<Frame> next_of(proto::FrameType type, std::chrono::milliseconds wait) {
+        return next_matching([type](const Frame& frame) { return frame.type == type; }, wait);
+    }
+    /// The first frame `match` takes, from those kept or read now (the others are kept).
+    std::optional<Frame> next_matching(const std::function<bool(const Frame&)>& match,
+                                       std::chrono::milliseconds wait) {
         const auto deadline = Clock::now() + wait;
         for (;;) {
             for (auto it = kept_.begin(); it != kept_.end(); ++it) {
-                if (it->type == type) {
+                if (match(*it)) {
                     Frame frame = std::move(*it);
                     kept_.erase(it);
                     return frame;
