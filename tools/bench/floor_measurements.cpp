@@ -30,10 +30,14 @@ void check_payload(const FloorFrame& frame, std::size_t size) {
     }
 }
 
+/// What a ping-pong reports: half the round trip (latency) or all of it (a call's floor).
+enum class Timed { half_round_trip, round_trip };
+
 class FloorLatency : public Measurement {
 public:
-    FloorLatency(FloorEnds ends, const Options& options)
+    FloorLatency(FloorEnds ends, const Options& options, Timed timed)
         : pids_(std::move(ends.pids)),
+          divisor_(timed == Timed::half_round_trip ? 2.0 : 1.0),
           size_(options.size),
           count_(latency_count(options)),
           payload_(options.size, 0x5a),
@@ -72,7 +76,7 @@ private:
             throw std::runtime_error("floor: echo of the wrong frame");
         ++seq_;
         check_payload(*reply, size_);
-        return std::chrono::duration<double, std::micro>(back - sent).count() / 2;
+        return std::chrono::duration<double, std::micro>(back - sent).count() / divisor_;
     }
 
     void echo(const std::stop_token& stop) {
@@ -92,6 +96,7 @@ private:
     }
 
     std::vector<pid_t> pids_;
+    double divisor_;
     std::size_t size_;
     std::size_t count_;
     std::vector<std::uint8_t> payload_;
@@ -183,7 +188,11 @@ FloorEnds relay_ends(const Topology& topology) {
 }  // namespace
 
 std::unique_ptr<Measurement> floor_latency(const Topology& topology, const Options& options) {
-    return std::make_unique<FloorLatency>(relay_ends(topology), options);
+    return std::make_unique<FloorLatency>(relay_ends(topology), options, Timed::half_round_trip);
+}
+
+std::unique_ptr<Measurement> floor_round_trip(const Topology& topology, const Options& options) {
+    return std::make_unique<FloorLatency>(relay_ends(topology), options, Timed::round_trip);
 }
 
 std::unique_ptr<Measurement> floor_throughput(const Topology& topology, const Options& options) {
@@ -191,7 +200,11 @@ std::unique_ptr<Measurement> floor_throughput(const Topology& topology, const Op
 }
 
 std::unique_ptr<Measurement> floor_latency_between(FloorEnds ends, const Options& options) {
-    return std::make_unique<FloorLatency>(std::move(ends), options);
+    return std::make_unique<FloorLatency>(std::move(ends), options, Timed::half_round_trip);
+}
+
+std::unique_ptr<Measurement> floor_round_trip_between(FloorEnds ends, const Options& options) {
+    return std::make_unique<FloorLatency>(std::move(ends), options, Timed::round_trip);
 }
 
 std::unique_ptr<Measurement> floor_throughput_between(FloorEnds ends, const Options& options) {

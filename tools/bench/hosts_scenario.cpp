@@ -1,6 +1,5 @@
 #include "hosts_scenario.hpp"
 
-#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -9,9 +8,7 @@
 #include <condition_variable>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
-#include <map>
 #include <mutex>
 #include <stdexcept>
 #include <thread>
@@ -20,10 +17,12 @@
 
 #include "child_process.hpp"
 #include "floor_measurements.hpp"
+#include "hosts_deployment.hpp"
 #include "hosts_floor.hpp"
 #include "hosts_network.hpp"
 #include "plexus/client.hpp"
 #include "plexus_measurements.hpp"
+#include "process_stats.hpp"
 #include "run_deadline.hpp"
 #include "topology.hpp"
 
@@ -59,177 +58,7 @@ Counts counts_for(const HostsOptions& options) {
     return {200, 10, 5000, 16, 100, 4, 5};
 }
 
-// --- the deployments ---------------------------------------------------------------------
-
-/// start_when_ready for a wrapped argv (`ip netns exec NS PROGRAM ...`): its 4th and 5th words
-/// say what and where.
-std::string start_ready(std::vector<std::unique_ptr<ChildProcess>>& processes,
-                        const std::vector<std::string>& argv, const std::string& ready_file,
-                        const std::string& log) {
-    return start_when_ready(processes, argv, ready_file, log, argv.at(4) + " on " + argv.at(3));
-}
-
-/// plexus-names on host 0 and plexusd on some hosts, with or without the deployment secret.
-class Deployment {
-public:
-    Deployment(const HostsNetwork& network, const TempDir& dir, const HostsOptions& options,
-               const std::string& tag, const std::string& secret_file, const std::vector<int>& hosts,
-               int names_port, const std::string& mcast_range, int mcast_port) {
-        std::vector<std::string> trust = secret_file.empty()
-                                             ? std::vector<std::string>{"--insecure"}
-                                             : std::vector<std::string>{"--secret-file", secret_file};
-        const std::string names_ready = dir.file(tag + "-names.ready");
-        std::vector<std::string> names_argv{options.plexus_names,
-                                            "--listen",
-                                            network.address(0) + ":" + std::to_string(names_port),
-                                            "--ready-file",
-                                            names_ready,
-                                            "--discovery",
-                                            "off",
-                                            "--mcast-range",
-                                            mcast_range,
-                                            "--mcast-port",
-                                            std::to_string(mcast_port),
-                                            "--log-level",
-                                            "warn"};
-        names_argv.insert(names_argv.end(), trust.begin(), trust.end());
-        names_ = nlohmann::json::parse(
-                     start(network.wrap(0, names_argv), names_ready, dir.file(tag + "-names.log")))
-                     .at("names")
-                     .get<std::string>();
-        for (const int k : hosts) {
-            const std::string node = tag + "-h" + std::to_string(k);
-            const std::string socket = dir.file(node + ".sock");
-            const std::string ready_file = dir.file(node + ".ready");
-            std::vector<std::string> argv{options.plexusd, "--listen", network.address(k) + ":0",
-                                          "--names",       names_,     "--socket",
-                                          socket,          "--node",   node,
-                                          "--ready-file",  ready_file, "--log-level",
-                                          "warn"};
-            argv.insert(argv.end(), trust.begin(), trust.end());
-            const auto ready =
-                nlohmann::json::parse(start(network.wrap(k, argv), ready_file, dir.file(node + ".log")));
-            sockets_[k] = ready.value("socket", socket);
-            pids_[k] = processes_.back()->pid();
-        }
-    }
-
-    /// The daemons of hosts a and b as a Topology for plexus_measurements.hpp (a near, b far).
-    std::unique_ptr<Topology> pair(int a, int b) const {
-        return Topology::existing({sockets_.at(a), sockets_.at(b)}, {pids_.at(a), pids_.at(b)});
-    }
-    const std::string& socket(int k) const { return sockets_.at(k); }
-
-private:
-    std::string start(const std::vector<std::string>& argv, const std::string& ready_file,
-                      const std::string& log) {
-        return start_ready(processes_, argv, ready_file, log);
-    }
-
-    std::vector<std::unique_ptr<ChildProcess>> processes_;
-    std::string names_;
-    std::map<int, std::string> sockets_;
-    std::map<int, pid_t> pids_;
-};
-
-/// The relay floor across hosts: relay.cpp's two relays linked by tcp, one on host a and one on
-/// host b, with the clients on Unix sockets: the same processes and socket hops as Plexus, less
-/// everything Plexus does beyond forwarding frames. One per measurement (a relay pairs one client).
-class RelayPair {
-public:
-    /// `udp`: the relays exchange frames as datagrams (the udp carrier's floor; latency only).
-    RelayPair(const HostsNetwork& network, const TempDir& dir, const std::string& tag, int a, int b,
-              bool udp = false) {
-        std::vector<std::string> link_mode;
-        if (udp)
-            link_mode.push_back("--udp-link");
-        const std::string self = std::filesystem::read_symlink("/proc/self/exe").string();
-        const std::string near_socket = dir.file(tag + "-relay-a.sock");
-        const std::string far_socket = dir.file(tag + "-relay-b.sock");
-        const std::string near_ready = dir.file(tag + "-relay-a.ready");
-        const std::string far_ready = dir.file(tag + "-relay-b.ready");
-        const auto near = nlohmann::json::parse(start_ready(
-            processes_,
-            network.wrap(a,
-                         with(link_mode, {self, "relay", "--socket", near_socket, "--ready-file", near_ready,
-                                          "--link-listen", "--link-address", network.address(a)})),
-            near_ready, dir.file(tag + "-relay-a.log")));
-        start_ready(
-            processes_,
-            network.wrap(b, with(link_mode, {self, "relay", "--socket", far_socket, "--ready-file", far_ready,
-                                             "--link-connect", near.at("link").get<std::string>()})),
-            far_ready, dir.file(tag + "-relay-b.log"));
-        topology_ =
-            Topology::existing({near_socket, far_socket}, {processes_[0]->pid(), processes_[1]->pid()});
-    }
-    const Topology& topology() const { return *topology_; }
-
-private:
-    static std::vector<std::string> with(const std::vector<std::string>& extra,
-                                         std::vector<std::string> command) {
-        command.insert(command.end(), extra.begin(), extra.end());
-        return command;
-    }
-    std::vector<std::unique_ptr<ChildProcess>> processes_;
-    std::unique_ptr<Topology> topology_;
-};
-
-std::string write_secret(const TempDir& dir) {
-    const std::string path = dir.file("secret");
-    std::string secret;
-    std::ifstream random("/dev/urandom", std::ios::binary);
-    for (int i = 0; i < 32; ++i)
-        secret += "0123456789abcdef"[static_cast<unsigned char>(random.get()) % 16];
-    {
-        std::ofstream out(path, std::ios::trunc);
-        out << secret << '\n';
-    }
-    ::chmod(path.c_str(), 0600);  // plexusd refuses a secret others may read
-    return path;
-}
-
 // --- running and collecting --------------------------------------------------------------
-
-/// One scenario on several systems, medians of each; systems[0] is Plexus with the secret.
-struct Row {
-    std::string scenario;  ///< "latency" or "throughput"
-    std::string carrier;
-    std::size_t size = 0;
-    std::size_t count = 0;
-    std::vector<std::pair<std::string, RunResult>> systems;  ///< "plexus", "floor", "plexus_insecure"
-
-    const RunResult* find(const std::string& system) const {
-        for (const auto& [name, result] : systems) {
-            if (name == system)
-                return &result;
-        }
-        return nullptr;
-    }
-};
-
-/// Runs every system once per round, `repeat` rounds, so that drift on the machine hits all alike;
-/// each round starts with the next system, so that none always runs first (or right after another).
-Row alternate(Row row, const std::vector<std::pair<std::string, Measurement*>>& systems, int repeat) {
-    std::vector<std::vector<RunResult>> runs(systems.size());
-    for (int round = 0; round < repeat; ++round) {
-        for (std::size_t j = 0; j < systems.size(); ++j) {
-            const std::size_t i = (j + static_cast<std::size_t>(round)) % systems.size();
-            RunDeadline deadline;
-            runs[i].push_back(systems[i].second->run());
-        }
-    }
-    for (std::size_t i = 0; i < systems.size(); ++i)
-        row.systems.emplace_back(systems[i].first, median_of(runs[i]));
-    return row;
-}
-
-Options options_for(std::size_t size, std::size_t count, const std::string& carrier) {
-    Options options;
-    options.size = size;
-    options.count = count;
-    options.carrier = carrier;
-    return options;
-}
 
 /// What the writer's host put on the wire while one port sent `messages` to readers on 3 hosts.
 struct Fanout {
@@ -551,11 +380,6 @@ void print_tables(const HostsOptions& options, const std::vector<Row>& rows,
     std::fflush(stdout);
 }
 
-std::string load_average() {
-    const std::string text = read_file("/proc/loadavg");  // "1min 5min 15min running/total last-pid"
-    return text.substr(0, text.find(' ', text.find(' ', text.find(' ') + 1) + 1));
-}
-
 }  // namespace
 
 int run_hosts(const HostsOptions& given) {
@@ -581,6 +405,8 @@ int run_hosts(const HostsOptions& given) {
         std::cerr << "plexus-bench hosts: " << e.what() << "; nothing measured\n";
         return hosts_unavailable_status;
     }
+    if (options.calls)
+        return run_hosts_calls(options, *network, dir);
     const std::string secret = write_secret(dir);
     // Different groups and group ports: the two deployments share hosts 1 and 2.
     const Deployment secure(*network, dir, options, "s", secret, {1, 2, 3, 4}, 10100, "239.255.81.0/24",

@@ -18,11 +18,18 @@ struct HostsOptions {
     bool json = false;         ///< one JSON object per line instead of tables
     std::string plexusd;       ///< the daemon binary
     std::string plexus_names;  ///< the name server binary; "": next to plexusd's
+    bool calls = false;        ///< instead of the other parts: call round trips (hosts_calls.cpp)
 };
 
 /// Exit status when network namespaces cannot be made here: nothing was measured.
 inline constexpr int hosts_unavailable_status = 77;
 
 int run_hosts(const HostsOptions& options);
+
+class HostsNetwork;
+class TempDir;
+/// The calls part (--calls): a caller on host 1's daemon, a served port on host 2's, against the
+/// relay floor with the same hops and a direct TCP ping-pong; on hosts `run_hosts` has made.
+int run_hosts_calls(const HostsOptions& options, const HostsNetwork& network, const TempDir& dir);
 
 }  // namespace plexus::bench

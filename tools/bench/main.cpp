@@ -49,6 +49,12 @@ int main(int argc, char** argv) {
     auto* latency = app.add_subcommand("latency", "ping-pong: p50/p99 of round trip / 2");
     add_common(latency);
     latency->callback([&] { status = run_latency(options); });
+    auto* calls = app.add_subcommand(
+        "calls",
+        "request/reply: p50/p99/mean call round trip, a served port answering with the request, one "
+        "call at a time; the floor is the ping-pong through the same hops");
+    add_common(calls);
+    calls->callback([&] { status = run_calls(options); });
     auto* throughput =
         app.add_subcommand("throughput", "one writer streams, one reader reads all (strict queue)");
     add_common(throughput);
@@ -208,6 +214,9 @@ int main(int argc, char** argv) {
     hosts->add_option("--plexusd", hosts_options.plexusd, "the plexusd binary")->capture_default_str();
     hosts->add_option("--plexus-names", hosts_options.plexus_names,
                       "the plexus-names binary (default: next to plexusd)");
+    hosts->add_flag("--calls", hosts_options.calls,
+                    "instead of the other parts: call round trips from host 1 to a port served on host 2 "
+                    "at 64 B, 64 KiB and 1 MiB, against the relay floor with the same hops and direct TCP");
     hosts->callback([&] { status = run_hosts(hosts_options); });
 
 #ifdef PLEXUS_BENCH_PEERS

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <functional>
+#include <numeric>
 #include <stdexcept>
 
 namespace plexus::bench {
@@ -32,6 +33,9 @@ RunResult summarize(std::vector<double>& latencies_us, std::size_t messages, std
     RunResult result;
     result.p50_us = percentile(latencies_us, 0.50);
     result.p99_us = percentile(latencies_us, 0.99);
+    result.mean_us = latencies_us.empty() ? 0
+                                          : std::accumulate(latencies_us.begin(), latencies_us.end(), 0.0) /
+                                                static_cast<double>(latencies_us.size());
     result.msgs_per_s = static_cast<double>(messages) / seconds;
     result.mb_per_s = result.msgs_per_s * static_cast<double>(payload_size) / 1e6;
     result.cpu_us_per_msg = cpu_seconds * 1e6 / static_cast<double>(messages);
@@ -45,8 +49,9 @@ RunResult median_of(const std::vector<RunResult>& runs) {
             values.push_back(run.*member);
         return median(std::move(values));
     };
-    return {figure(&RunResult::p50_us),   figure(&RunResult::p99_us),         figure(&RunResult::msgs_per_s),
-            figure(&RunResult::mb_per_s), figure(&RunResult::cpu_us_per_msg), figure(&RunResult::lost)};
+    return {figure(&RunResult::p50_us),     figure(&RunResult::p99_us),   figure(&RunResult::mean_us),
+            figure(&RunResult::msgs_per_s), figure(&RunResult::mb_per_s), figure(&RunResult::cpu_us_per_msg),
+            figure(&RunResult::lost)};
 }
 
 RunResult time_round_trips(std::size_t count, std::size_t payload_size, const std::vector<pid_t>& broker_pids,

@@ -14,6 +14,7 @@ namespace plexus::bench {
 struct RunResult {
     double p50_us = 0;  ///< latency: round trip / 2; throughput: write call to read return, under load
     double p99_us = 0;
+    double mean_us = 0;         ///< the mean of the same samples (calls report it beside p50/p99)
     double msgs_per_s = 0;      ///< messages carried by the broker per second
     double mb_per_s = 0;        ///< payload bytes of those messages, in 10^6 bytes per second
     double cpu_us_per_msg = 0;  ///< CPU time of the broker processes (daemons or relays) per message

@@ -153,6 +153,49 @@ private:
     std::jthread echo_;  // last: joined before the ports and clients it uses are destroyed
 };
 
+/// Calls, one at a time: A's caller port, connected to a port B serves (Client::serve, on the
+/// Service's thread, answering with the request's data), so that each request goes A -> daemon(s)
+/// -> B and each answer B -> daemon(s) -> A: the hops of the ping-pong above, with the daemons
+/// keeping each call's entry and routing its answer back.
+class PlexusCalls : public Measurement {
+public:
+    PlexusCalls(const Topology& topology, const Options& options)
+        : pids_(topology.pids()),
+          size_(options.size),
+          count_(latency_count(options)),
+          payload_(blob(options.size)),
+          caller_client_(connect_client(topology.near_socket())),
+          server_client_(connect_client(topology.far_socket())),
+          service_(server_client_.serve("/bench/" + carrier_tag(options) + "served",
+                                        [](const Received& request) { return request.data; })),
+          caller_(caller_client_.open("/bench/" + carrier_tag(options) + "caller", queue(options))) {
+        connect_when_registered(caller_client_, caller_.name(), service_.port(), options.carrier);
+    }
+
+    RunResult run() override {
+        return time_round_trips(count_, size_, pids_, [this] { return call(); });
+    }
+
+private:
+    /// One call and its answer; returns the whole round trip in microseconds.
+    double call() {
+        const auto sent = Clock::now();
+        const Received answer = caller_.request(payload_, stall_timeout);
+        const auto back = Clock::now();
+        check_payload(answer, size_);
+        return std::chrono::duration<double, std::micro>(back - sent).count();
+    }
+
+    std::vector<pid_t> pids_;
+    std::size_t size_;
+    std::size_t count_;
+    Value payload_;
+    Client caller_client_;
+    Client server_client_;
+    Service service_;  // after its client: closed (and its thread joined) before the client goes
+    Port caller_;
+};
+
 class PlexusThroughput : public Measurement {
 public:
     PlexusThroughput(const Topology& topology, const Options& options, StreamSpec spec)
@@ -277,6 +320,10 @@ private:
 
 std::unique_ptr<Measurement> plexus_latency(const Topology& topology, const Options& options) {
     return std::make_unique<PlexusLatency>(topology, options);
+}
+
+std::unique_ptr<Measurement> plexus_calls(const Topology& topology, const Options& options) {
+    return std::make_unique<PlexusCalls>(topology, options);
 }
 
 std::unique_ptr<Measurement> plexus_throughput(const Topology& topology, const Options& options) {

@@ -26,6 +26,11 @@ void connect_when_registered(Client& client, const std::string& source, const st
 /// With options.carrier, over that carrier and with the carrier in the names (/bench/udp-ping).
 std::unique_ptr<Measurement> plexus_latency(const Topology& topology, const Options& options);
 
+/// Calls: A's /bench/caller, connected to /bench/served that B serves (Client::serve, answering
+/// with the request), calls it one call at a time with a blob of --size bytes; the figures are the
+/// whole round trip. With options.carrier, over that carrier (/bench/tcp-caller).
+std::unique_ptr<Measurement> plexus_calls(const Topology& topology, const Options& options);
+
 /// Streaming: A writes /bench/source (batched) -> B's /bench/sink (strict queue); B reads all.
 /// With options.carrier, over that carrier (/bench/udp-source); udp and mcast streams are lossy.
 std::unique_ptr<Measurement> plexus_throughput(const Topology& topology, const Options& options);

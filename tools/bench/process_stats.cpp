@@ -8,6 +8,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "child_process.hpp"
+
 namespace plexus::bench {
 
 namespace {
@@ -65,6 +67,11 @@ long rss_kib(pid_t pid) {
 
 long peak_rss_kib(pid_t pid) {
     return status_kib(pid, "VmHWM:");
+}
+
+std::string load_average() {
+    const std::string text = read_file("/proc/loadavg");  // "1min 5min 15min running/total last-pid"
+    return text.substr(0, text.find(' ', text.find(' ', text.find(' ') + 1) + 1));
 }
 
 }  // namespace plexus::bench

@@ -1,8 +1,10 @@
 #pragma once
-// CPU time and resident memory of other processes (the daemons, the relays), read from the kernel.
+// CPU time and resident memory of other processes (the daemons, the relays), and the load on the
+// machine around a measurement, read from the kernel.
 
 #include <sys/types.h>
 
+#include <string>
 #include <vector>
 
 namespace plexus::bench {
@@ -17,5 +19,8 @@ long rss_kib(pid_t pid);
 
 /// Peak resident memory (VmHWM) of a process in KiB; -1 if unknown.
 long peak_rss_kib(pid_t pid);
+
+/// The load average over 1, 5 and 15 minutes, as /proc/loadavg says it ("1.20 0.90 0.75").
+std::string load_average();
 
 }  // namespace plexus::bench

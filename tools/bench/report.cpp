@@ -22,6 +22,7 @@ nlohmann::ordered_json as_json(const std::string& system, const std::string& sce
             {"size", size},
             {"p50_us", rounded(run.p50_us)},
             {"p99_us", rounded(run.p99_us)},
+            {"mean_us", rounded(run.mean_us)},
             {"msgs_per_s", rounded(run.msgs_per_s)},
             {"mb_per_s", rounded(run.mb_per_s)},
             {"cpu_us_per_msg", rounded(run.cpu_us_per_msg)}};
@@ -45,7 +46,9 @@ void print(const ScenarioResult& result, bool json) {
                 (result.plexus_label + "/" + result.floor_label).c_str());
     row(("p50 " + result.latency_label + " (us)").c_str(), result.plexus.p50_us, result.floor.p50_us);
     row(("p99 " + result.latency_label + " (us)").c_str(), result.plexus.p99_us, result.floor.p99_us);
-    row("messages/s", result.plexus.msgs_per_s, result.floor.msgs_per_s);
+    if (result.show_mean)
+        row(("mean " + result.latency_label + " (us)").c_str(), result.plexus.mean_us, result.floor.mean_us);
+    row(result.messages_label.c_str(), result.plexus.msgs_per_s, result.floor.msgs_per_s);
     row("MB/s (payload, 10^6 B)", result.plexus.mb_per_s, result.floor.mb_per_s);
     row("broker CPU us/message", result.plexus.cpu_us_per_msg, result.floor.cpu_us_per_msg);
     std::printf("  plexusd peak RSS (MiB):");

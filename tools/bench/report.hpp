@@ -22,6 +22,10 @@ struct ScenarioResult {
     /// Another pair compares Plexus with itself (`plexus-bench web`: "web" against "no_http").
     std::string plexus_label = "plexus";
     std::string floor_label = "floor";
+    /// The table's row of RunResult::msgs_per_s ("messages/s (2 per call)" for calls).
+    std::string messages_label = "messages/s";
+    /// The table also shows the mean latency (the JSON always has `mean_us`).
+    bool show_mean = false;
     std::vector<double> plexusd_peak_rss_mb;  ///< VmHWM of each daemon at the end (table only)
 };
 

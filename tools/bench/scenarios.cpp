@@ -3,6 +3,7 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <cstdio>
 #include <cstring>
 #include <functional>
 #include <memory>
@@ -63,6 +64,24 @@ int run_latency(const Options& options) {
                    " B: " + std::to_string(latency_count(options)) + " round trips per run, median of " +
                    std::to_string(options.repeat) + " runs";
     print(result, options.json);
+    return 0;
+}
+
+int run_calls(const Options& options) {
+    const std::string load_before = load_average();
+    auto result = compare(options, plexus_calls, floor_round_trip);
+    result.scenario = "calls_" + std::to_string(options.hops) + "hop";
+    result.latency_label = "round trip";
+    result.messages_label = "messages/s (2 per call)";
+    result.show_mean = true;
+    result.title = "calls, " + hops_text(options.hops) + ", " + std::to_string(options.size) +
+                   " B echoed: " + std::to_string(latency_count(options)) +
+                   " calls per run, one at a time, median of " + std::to_string(options.repeat) + " runs";
+    print(result, options.json);
+    // The machine is shared: a reader of the figures needs to know how busy it was.
+    if (!options.json)
+        std::printf("  load average (1, 5, 15 min) before: %s, after: %s\n", load_before.c_str(),
+                    load_average().c_str());
     return 0;
 }
 

@@ -7,6 +7,9 @@ namespace plexus::bench {
 
 /// Ping-pong latency on Plexus and on the floor, in the same run. Returns the exit status.
 int run_latency(const Options& options);
+/// Call round trips (request/reply, issue 29) on Plexus and on the floor with the same hops (the
+/// ping-pong's, timed whole), in the same run.
+int run_calls(const Options& options);
 /// Streaming throughput on Plexus and on the floor, in the same run.
 int run_throughput(const Options& options);
 /// Resident memory of one plexusd, idle and with `options.ports` ports open.
