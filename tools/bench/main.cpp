@@ -187,7 +187,8 @@ int main(int argc, char** argv) {
         ->delimiter(',');
     peers
         ->add_option("--scenarios", peers_options.scenarios,
-                     "pingpong, rate_1khz, throughput, fanout_8 (default: all)")
+                     "pingpong, rate_1khz, throughput, fanout_8 (default: these four), requestreply (Plexus "
+                     "calls against NATS requests: --systems plexus,nats)")
         ->delimiter(',');
     peers
         ->add_option("--count", peers_options.count, "messages or round trips per run (default: by scenario)")

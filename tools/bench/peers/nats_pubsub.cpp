@@ -116,6 +116,52 @@ private:
     Owned<natsSubscription> subscription_;  // declared after the connection: destroyed before it
 };
 
+/// Answers each request on `subject` with its own payload, from nats.c's delivery thread.
+class NatsResponder final : public Responder {
+public:
+    NatsResponder(int port, const std::string& subject) : connection_(port, true) {
+        natsSubscription* subscription = nullptr;
+        check(natsConnection_Subscribe(&subscription, connection_.get(), subject.c_str(),
+                                       &NatsResponder::answer, nullptr),
+              "subscribe the responder");
+        subscription_.reset(subscription);
+        check(natsConnection_FlushTimeout(connection_.get(), flush_timeout_ms), "flush the subscription");
+    }
+
+private:
+    static void answer(natsConnection* connection, natsSubscription*, natsMsg* raw, void*) {
+        const Owned<natsMsg> message(raw);
+        if (const char* reply = natsMsg_GetReply(raw); reply != nullptr)
+            natsConnection_Publish(connection, reply, natsMsg_GetData(raw), natsMsg_GetDataLength(raw));
+    }
+
+    NatsConnection connection_;
+    Owned<natsSubscription> subscription_;  // declared after the connection: destroyed before it
+};
+
+/// natsConnection_Request: publishes with a reply subject of its own and waits for the answer.
+class NatsRequester final : public Requester {
+public:
+    NatsRequester(int port, std::string subject) : connection_(port, true), subject_(std::move(subject)) {}
+
+    bool request(std::string_view payload, std::string& answer, std::chrono::milliseconds timeout) override {
+        natsMsg* raw = nullptr;
+        const natsStatus status =
+            natsConnection_Request(&raw, connection_.get(), subject_.c_str(), payload.data(),
+                                   static_cast<int>(payload.size()), std::max<int64_t>(timeout.count(), 1));
+        if (status == NATS_TIMEOUT || status == NATS_NO_RESPONDERS)
+            return false;  // NATS_NO_RESPONDERS: the responder's subscription is not in effect yet
+        check(status, "request");
+        const Owned<natsMsg> message(raw);
+        answer.assign(natsMsg_GetData(raw), static_cast<std::size_t>(natsMsg_GetDataLength(raw)));
+        return true;
+    }
+
+private:
+    NatsConnection connection_;
+    std::string subject_;
+};
+
 void write_config(const std::string& path, int port) {
     std::ofstream config(path, std::ios::trunc);
     // max_payload defaults to 1MB (1,048,576 bytes, headers included): a 1 MiB payload sits exactly at
@@ -151,6 +197,14 @@ public:
 
     std::unique_ptr<Subscriber> subscriber(const std::string& topic) override {
         return std::make_unique<NatsSubscriber>(port_, topic);
+    }
+
+    std::unique_ptr<Responder> responder(const std::string& service) override {
+        return std::make_unique<NatsResponder>(port_, service);
+    }
+
+    std::unique_ptr<Requester> requester(const std::string& service) override {
+        return std::make_unique<NatsRequester>(port_, service);
     }
 
 private:

@@ -271,11 +271,69 @@ PeerResult pingpong(Broker& broker, const Workload& workload) {
     return result;
 }
 
+/// A request and its answer, one at a time, through the system's own request/reply.
+PeerResult requestreply(Broker& broker, const Workload& workload) {
+    auto responder = broker.responder("service");
+    auto requester = broker.requester("service");
+    if (!responder || !requester)
+        throw std::runtime_error("this system has no request/reply in the bench");
+    std::string message(workload.size, 'q');
+    std::string answer;
+    // Until the responder's subscription is in effect, requests may go unanswered.
+    const auto ready_by = Clock::now() + ping_pong_answer_wait;
+    while (!requester->request(message, answer, std::chrono::milliseconds(200))) {
+        if (Clock::now() > ready_by)
+            throw std::runtime_error("no answer to a request within 5 s");
+    }
+    auto round_trip = [&](std::uint64_t seq) {
+        put_stamp(message, {Kind::data, 0, seq, 0});
+        const auto sent = Clock::now();
+        if (!requester->request(message, answer, ping_pong_answer_wait))
+            throw std::runtime_error("a request was not answered within 5 s");
+        const double took = microseconds(Clock::now() - sent);
+        if (answer.size() != message.size() || get_stamp(answer).seq != seq)
+            throw std::runtime_error("an answer that is not its request's");
+        return took;
+    };
+    std::uint64_t seq = 0;
+    const std::size_t warm_rounds = std::min<std::size_t>(workload.count / 10 + 1, 1000);
+    for (std::size_t i = 0; i < warm_rounds; ++i)
+        round_trip(seq++);
+    std::vector<double> samples;
+    samples.reserve(workload.count);
+    const double cpu_before = cpu_seconds(broker.pids());
+    for (std::size_t i = 0; i < workload.count; ++i)
+        samples.push_back(round_trip(seq++));
+    const double cpu = cpu_seconds(broker.pids()) - cpu_before;
+
+    PeerResult result;
+    double total_us = 0;
+    for (const double sample : samples)
+        total_us += sample;
+    std::sort(samples.begin(), samples.end());
+    const double messages = 2.0 * static_cast<double>(workload.count);
+    result.p50_us = percentile(samples, 0.50);
+    result.p99_us = percentile(samples, 0.99);
+    result.p999_us = percentile(samples, 0.999);
+    result.msgs_per_s = messages / (total_us / 1e6);
+    result.mb_per_s = result.msgs_per_s * static_cast<double>(workload.size) / 1e6;
+    result.cpu_us_per_msg = cpu * 1e6 / messages;
+    result.rss_mb = peak_rss_mb(broker.pids());
+    return result;
+}
+
 }  // namespace
 
 const std::vector<Scenario>& all_scenarios() {
     static const std::vector<Scenario> scenarios{Scenario::pingpong, Scenario::rate_1khz,
                                                  Scenario::throughput, Scenario::fanout_8};
+    return scenarios;
+}
+
+const std::vector<Scenario>& known_scenarios() {
+    static const std::vector<Scenario> scenarios{Scenario::pingpong, Scenario::rate_1khz,
+                                                 Scenario::throughput, Scenario::fanout_8,
+                                                 Scenario::requestreply};
     return scenarios;
 }
 
@@ -289,6 +347,8 @@ std::string name_of(Scenario scenario) {
             return "throughput";
         case Scenario::fanout_8:
             return "fanout_8";
+        case Scenario::requestreply:
+            return "requestreply";
     }
     return "?";
 }
@@ -306,6 +366,8 @@ PeerResult run_scenario(Scenario scenario, Broker& broker, const Workload& workl
             return stream(broker, workload, 1, Clock::duration::zero());
         case Scenario::fanout_8:
             return stream(broker, workload, fanout_subscribers, Clock::duration::zero());
+        case Scenario::requestreply:
+            return requestreply(broker, workload);
     }
     throw std::logic_error("unknown scenario");
 }
@@ -315,6 +377,7 @@ std::size_t default_count(Scenario scenario, std::size_t size, bool quick) {
     std::size_t count = 0;
     switch (scenario) {
         case Scenario::pingpong:
+        case Scenario::requestreply:
             count = std::clamp<std::size_t>((8u << 20) / bytes, 100, 5000);
             break;
         case Scenario::rate_1khz:

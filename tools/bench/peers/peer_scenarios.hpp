@@ -11,14 +11,19 @@
 namespace plexus::bench::peers {
 
 enum class Scenario {
-    pingpong,    ///< request on one topic, answer on another, one at a time: p50/p99 of round trip / 2
-    rate_1khz,   ///< one publisher at a fixed 1 kHz, one subscriber: one-way latency p50/p99/p99.9
-    throughput,  ///< one publisher as fast as it can, one subscriber: messages/s at the subscriber
-    fanout_8,    ///< one publisher as fast as it can, 8 subscribers: deliveries/s, the last one's p99
+    pingpong,      ///< request on one topic, answer on another, one at a time: p50/p99 of round trip / 2
+    rate_1khz,     ///< one publisher at a fixed 1 kHz, one subscriber: one-way latency p50/p99/p99.9
+    throughput,    ///< one publisher as fast as it can, one subscriber: messages/s at the subscriber
+    fanout_8,      ///< one publisher as fast as it can, 8 subscribers: deliveries/s, the last one's p99
+    requestreply,  ///< a request and its answer through the system's own request/reply, one at a
+                   ///< time: p50/p99 of the whole round trip (not halved); only when asked for
 };
 
+/// The scenarios run when none is named (pub/sub: every system has it).
 const std::vector<Scenario>& all_scenarios();
-/// The JSON `scenario` name: "pingpong", "rate_1khz", "throughput", "fanout_8".
+/// Those and the ones only some systems have (requestreply: Plexus calls, NATS requests).
+const std::vector<Scenario>& known_scenarios();
+/// The JSON `scenario` name: "pingpong", "rate_1khz", "throughput", "fanout_8", "requestreply".
 std::string name_of(Scenario scenario);
 
 /// The figures of one run (or the medians of several) of one system.

@@ -44,11 +44,11 @@ std::vector<Scenario> chosen_scenarios(const std::vector<std::string>& names) {
         return all_scenarios();
     std::vector<Scenario> chosen;
     for (const auto& name : names) {
-        auto found = std::find_if(all_scenarios().begin(), all_scenarios().end(),
+        auto found = std::find_if(known_scenarios().begin(), known_scenarios().end(),
                                   [&](Scenario s) { return name_of(s) == name; });
-        if (found == all_scenarios().end())
+        if (found == known_scenarios().end())
             throw std::invalid_argument("unknown scenario '" + name +
-                                        "' (pingpong, rate_1khz, throughput, fanout_8)");
+                                        "' (pingpong, rate_1khz, throughput, fanout_8, requestreply)");
         chosen.push_back(*found);
     }
     return chosen;
@@ -95,6 +95,8 @@ std::string what_is_measured(Scenario scenario) {
             return "one subscriber, as fast as possible; latency = send to receive under load";
         case Scenario::fanout_8:
             return "8 subscribers; msgs/s = deliveries to all; latency of the subscriber that finished last";
+        case Scenario::requestreply:
+            return "a request and its answer, one at a time; latency = the whole round trip (not halved)";
     }
     return "";
 }

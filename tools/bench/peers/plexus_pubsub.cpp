@@ -55,6 +55,46 @@ private:
     Port port_;
 };
 
+/// A served port that answers each call with the request itself.
+class PlexusResponder : public Responder {
+public:
+    PlexusResponder(const std::string& socket, const std::string& port)
+        : client_(connect_client(socket)),
+          service_(client_.serve(port, [](const Received& request) { return request.data; })) {}
+
+private:
+    Client client_;
+    Service service_;
+};
+
+/// A caller port connected to the served port: each request is one call.
+class PlexusRequester : public Requester {
+public:
+    PlexusRequester(Client& control, const std::string& socket, const std::string& port,
+                    const std::string& service)
+        : client_(connect_client(socket)), port_(client_.open(port)) {
+        connect_when_registered(control, port, service);
+    }
+
+    bool request(std::string_view payload, std::string& answer, std::chrono::milliseconds timeout) override {
+        try {
+            const Received reply = port_.request(
+                Value::binary(std::vector<std::uint8_t>(payload.begin(), payload.end())), timeout);
+            const auto& bytes = reply.data.get_binary();
+            answer.assign(bytes.begin(), bytes.end());
+            return true;
+        } catch (const Error& e) {
+            if (e.code() == ErrorCode::timeout)
+                return false;
+            throw;
+        }
+    }
+
+private:
+    Client client_;
+    Port port_;
+};
+
 class PlexusBroker : public Broker {
 public:
     explicit PlexusBroker(const BrokerSetup& setup)
@@ -77,6 +117,15 @@ public:
         auto& ports = topics_[topic];
         join(name, ports.subscribers, ports.publishers, false);
         return subscriber;
+    }
+
+    std::unique_ptr<Responder> responder(const std::string& service) override {
+        return std::make_unique<PlexusResponder>(topology_->near_socket(), "/peers/" + service);
+    }
+
+    std::unique_ptr<Requester> requester(const std::string& service) override {
+        return std::make_unique<PlexusRequester>(control_, topology_->near_socket(),
+                                                 port_name(service, "caller"), "/peers/" + service);
     }
 
 private:

@@ -42,6 +42,22 @@ public:
     virtual bool receive(std::string& payload, std::chrono::milliseconds timeout) = 0;
 };
 
+/// Asks a service and waits for its answer (request/reply: NATS requests, Plexus calls).
+class Requester {
+public:
+    virtual ~Requester() = default;
+    /// Sends `payload` and waits up to `timeout` for the answer; false when none came in time.
+    virtual bool request(std::string_view payload, std::string& answer,
+                         std::chrono::milliseconds timeout) = 0;
+};
+
+/// Answers every request of a service with the request itself, from the library's own threads,
+/// until destroyed.
+class Responder {
+public:
+    virtual ~Responder() = default;
+};
+
 /// What a publisher is for, so that a client library with a documented faster mode for one of
 /// them can use it (nats.c: "send ASAP" for latency instead of its flusher thread's batching).
 enum class Traffic {
@@ -60,6 +76,16 @@ public:
     /// A new client subscribed to `topic`. Messages published before the subscription took
     /// effect may be missed (the scenarios warm up until a message gets through).
     virtual std::unique_ptr<Subscriber> subscriber(const std::string& topic) = 0;
+    /// Request/reply on `service`, for the systems that have it (null otherwise: the
+    /// requestreply scenario then fails for that system, saying so). The responder first.
+    virtual std::unique_ptr<Responder> responder(const std::string& service) {
+        (void)service;
+        return nullptr;
+    }
+    virtual std::unique_ptr<Requester> requester(const std::string& service) {
+        (void)service;
+        return nullptr;
+    }
 };
 
 /// Where a system's programs are and where it may write its files.
