@@ -8,6 +8,7 @@
 #include <atomic>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <mutex>
 
 #include "harness.hpp"
@@ -325,9 +326,16 @@ TEST(Calls_test, TenThousandConcurrentCallsFromTenCallersEachEndOnceAndMemoryCom
     // A call that failed was refused as busy (a port at its limit, a full connection), and counted.
     EXPECT_EQ(stats["daemon"].value("calls_refused", 0), failed.load()) << stats.dump();
     std::cout << answered << " answered, " << failed << " refused as busy\n";
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+    // The daemon's malloc is then the sanitizer's, which keeps what it freed (a TSan plexusd kept
+    // 55 MiB after the burst, idle 28 MiB): glibc's trim, which this checks, is not in use.
+    std::cout << "built with a sanitizer: plexusd keeps " << daemon.rss_kib() << " KiB after the burst (idle "
+              << idle_kib << " KiB); not checked\n";
+#else
     const long near_idle_kib = idle_kib + 24 * 1024;
     EXPECT_TRUE(eventually([&] { return daemon.rss_kib() < near_idle_kib; }, 20s))
         << "after the burst plexusd keeps " << daemon.rss_kib() << " KiB (idle " << idle_kib << " KiB)";
+#endif
 }
 
 }  // namespace
