@@ -207,6 +207,47 @@ PeerResult stream(Broker& broker, const Workload& workload, std::size_t subscrib
     return result;
 }
 
+/// The samples of `count` timed rounds (after count/10 + 1, at most 1,000, untimed ones), and
+/// the servers' CPU seconds during the timed ones. `round(seq)` does one round and returns its time.
+struct Timed {
+    std::vector<double> samples;
+    double cpu = 0;
+};
+Timed time_rounds(Broker& broker, std::size_t count, const std::function<double(std::uint64_t)>& round) {
+    std::uint64_t seq = 0;
+    const std::size_t warm_rounds = std::min<std::size_t>(count / 10 + 1, 1000);
+    for (std::size_t i = 0; i < warm_rounds; ++i)
+        round(seq++);
+    Timed timed;
+    timed.samples.reserve(count);
+    const double cpu_before = cpu_seconds(broker.pids());
+    for (std::size_t i = 0; i < count; ++i)
+        timed.samples.push_back(round(seq++));
+    timed.cpu = cpu_seconds(broker.pids()) - cpu_before;
+    return timed;
+}
+
+/// The figures of one request-and-answer run: each sample is `round_trip_per_sample` of a round
+/// trip's time (2: a half round trip), and a round trip is two messages.
+PeerResult result_of_rounds(Timed timed, double round_trip_per_sample, const Workload& workload,
+                            Broker& broker) {
+    auto& samples = timed.samples;
+    PeerResult result;
+    double total_us = 0;
+    for (const double sample : samples)
+        total_us += round_trip_per_sample * sample;
+    std::sort(samples.begin(), samples.end());
+    const double messages = 2.0 * static_cast<double>(workload.count);
+    result.p50_us = percentile(samples, 0.50);
+    result.p99_us = percentile(samples, 0.99);
+    result.p999_us = percentile(samples, 0.999);
+    result.msgs_per_s = messages / (total_us / 1e6);
+    result.mb_per_s = result.msgs_per_s * static_cast<double>(workload.size) / 1e6;
+    result.cpu_us_per_msg = timed.cpu * 1e6 / messages;
+    result.rss_mb = peak_rss_mb(broker.pids());
+    return result;
+}
+
 /// Request on "ping", answer on "pong", one at a time; the echo runs on its own thread.
 PeerResult pingpong(Broker& broker, const Workload& workload) {
     auto echo_in = broker.subscriber("ping");
@@ -242,33 +283,10 @@ PeerResult pingpong(Broker& broker, const Workload& workload) {
         ping_out->sync();  // outside the timed part: e.g. reads Redis's answer to PUBLISH
         return half;
     };
-    std::uint64_t seq = 0;
-    const std::size_t warm_rounds = std::min<std::size_t>(workload.count / 10 + 1, 1000);
-    for (std::size_t i = 0; i < warm_rounds; ++i)
-        half_round_trip(seq++);
-    std::vector<double> samples;
-    samples.reserve(workload.count);
-    const double cpu_before = cpu_seconds(broker.pids());
-    for (std::size_t i = 0; i < workload.count; ++i)
-        samples.push_back(half_round_trip(seq++));
-    const double cpu = cpu_seconds(broker.pids()) - cpu_before;
+    Timed timed = time_rounds(broker, workload.count, half_round_trip);
     stop = true;
     echo.join();
-
-    PeerResult result;
-    double total_us = 0;
-    for (const double sample : samples)
-        total_us += 2 * sample;
-    std::sort(samples.begin(), samples.end());
-    const double messages = 2.0 * static_cast<double>(workload.count);
-    result.p50_us = percentile(samples, 0.50);
-    result.p99_us = percentile(samples, 0.99);
-    result.p999_us = percentile(samples, 0.999);
-    result.msgs_per_s = messages / (total_us / 1e6);
-    result.mb_per_s = result.msgs_per_s * static_cast<double>(workload.size) / 1e6;
-    result.cpu_us_per_msg = cpu * 1e6 / messages;
-    result.rss_mb = peak_rss_mb(broker.pids());
-    return result;
+    return result_of_rounds(std::move(timed), 2, workload, broker);
 }
 
 /// A request and its answer, one at a time, through the system's own request/reply.
@@ -295,31 +313,7 @@ PeerResult requestreply(Broker& broker, const Workload& workload) {
             throw std::runtime_error("an answer that is not its request's");
         return took;
     };
-    std::uint64_t seq = 0;
-    const std::size_t warm_rounds = std::min<std::size_t>(workload.count / 10 + 1, 1000);
-    for (std::size_t i = 0; i < warm_rounds; ++i)
-        round_trip(seq++);
-    std::vector<double> samples;
-    samples.reserve(workload.count);
-    const double cpu_before = cpu_seconds(broker.pids());
-    for (std::size_t i = 0; i < workload.count; ++i)
-        samples.push_back(round_trip(seq++));
-    const double cpu = cpu_seconds(broker.pids()) - cpu_before;
-
-    PeerResult result;
-    double total_us = 0;
-    for (const double sample : samples)
-        total_us += sample;
-    std::sort(samples.begin(), samples.end());
-    const double messages = 2.0 * static_cast<double>(workload.count);
-    result.p50_us = percentile(samples, 0.50);
-    result.p99_us = percentile(samples, 0.99);
-    result.p999_us = percentile(samples, 0.999);
-    result.msgs_per_s = messages / (total_us / 1e6);
-    result.mb_per_s = result.msgs_per_s * static_cast<double>(workload.size) / 1e6;
-    result.cpu_us_per_msg = cpu * 1e6 / messages;
-    result.rss_mb = peak_rss_mb(broker.pids());
-    return result;
+    return result_of_rounds(time_rounds(broker, workload.count, round_trip), 1, workload, broker);
 }
 
 }  // namespace
