@@ -264,6 +264,23 @@ std::optional<Received> Port::read(std::chrono::milliseconds timeout) {
     return detail::received_of(record);
 }
 
+bool Port::report(const Value& counters) {
+    if (!link_)
+        throw Error(ErrorCode::usage, "port is closed");
+    const auto [connection, handle] = current();
+    if (!connection)
+        return false;
+    try {
+        checked(connection->request(proto::ReportRequest{handle, counters}.encode(), control_timeout));
+    } catch (const Error&) {
+        if (!connection->broken())
+            throw;
+        link_->lost(connection);
+        return false;
+    }
+    return true;
+}
+
 void Port::close() {
     if (!link_)
         return;

@@ -32,6 +32,7 @@ const ControlPlane::Operation ControlPlane::operations_[] = {
     {Op::record_start, Callers::any, &ControlPlane::record_start},
     {Op::record_status, Callers::any, &ControlPlane::record_status},
     {Op::record_stop, Callers::any, &ControlPlane::record_stop},
+    {Op::report, Callers::client, &ControlPlane::report},
 };
 
 const ControlPlane::Operation* ControlPlane::find_operation(Op op, const std::string& role) {

@@ -136,6 +136,8 @@ private:
     Task<proto::Reply> record_start(std::shared_ptr<Session> session, const proto::Request& request);
     Task<proto::Reply> record_status(std::shared_ptr<Session> session, const proto::Request& request);
     Task<proto::Reply> record_stop(std::shared_ptr<Session> session, const proto::Request& request);
+    /// A client's own counters for one of its ports (a bridge's drops), kept for `stats`.
+    Task<proto::Reply> report(std::shared_ptr<Session> session, const proto::Request& request);
     /// Stops recordings whose client went away or that cannot go on; runs while there are some.
     Task<void> sweep_recordings(std::weak_ptr<void> alive);
     struct Recording {

@@ -53,6 +53,17 @@ Task<proto::Reply> ControlPlane::close_port(std::shared_ptr<Session> session, co
     co_return ok(proto::CloseReply{});
 }
 
+Task<proto::Reply> ControlPlane::report(std::shared_ptr<Session> session, const proto::Request& request) {
+    const auto asked = proto::ReportRequest::decode(request.body);
+    if (!asked)
+        co_return malformed(asked.error());
+    auto port = session->port(asked->handle);
+    if (!port)
+        co_return refuse("no open port with handle " + std::to_string(asked->handle));
+    port->reported = asked->counters;
+    co_return ok(proto::ReportReply{});
+}
+
 Task<proto::Reply> ControlPlane::shm(std::shared_ptr<Session> session, const proto::Request& request) {
     const auto& config = host_.config();
     if (config.shm_region_bytes == 0)

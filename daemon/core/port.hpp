@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "../arbitration/arbiter.hpp"
 #include "connection.hpp"
 #include "message_sampler.hpp"
@@ -55,6 +57,10 @@ public:
     /// Calls through this port not yet answered or failed (as caller, or as the server's port).
     std::uint64_t calls_outstanding = 0;
     std::uint64_t calls_refused = 0;  ///< calls into it while it was not served
+
+    /// Counters its client keeps about it and reports (`report`): a bridge's conversion and
+    /// delivery failures. An empty map until the client reports.
+    nlohmann::json reported = nlohmann::json::object();
 
     std::uint64_t written = 0;      ///< messages its client wrote into it
     std::uint64_t unconnected = 0;  ///< of those, written while no connection went out of it

@@ -72,6 +72,7 @@ nlohmann::json stats_view(ControlHost& host, const ShmUsage& shm, const std::str
                          {"served", port->served},
                          {"calls_outstanding", port->calls_outstanding},
                          {"calls_refused", port->calls_refused},
+                         {"reported", port->reported},
                          {"outgoing", connections},
                          {"inbound", inbound}});
     }

@@ -36,6 +36,11 @@ public:
     /// Every port still open, forgotten (the session is closing).
     std::vector<std::shared_ptr<Port>> take_ports();
     bool has_port(std::uint64_t handle) const { return ports_.contains(handle); }
+    /// The port of `handle`; null if this client has none with it.
+    std::shared_ptr<Port> port(std::uint64_t handle) const {
+        const auto it = ports_.find(handle);
+        return it == ports_.end() ? nullptr : it->second;
+    }
 
     /// The client said it maps shared-memory regions: it may now be sent data_shm frames.
     void enable_shm() { maps_shm_ = true; }

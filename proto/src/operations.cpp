@@ -71,6 +71,25 @@ Result<CloseRequest> CloseRequest::decode(const json& body) {
     return in.result(out);
 }
 
+// report
+
+json ReportRequest::encode() const {
+    return request_with(op, {{"handle", handle}, {"counters", counters}});
+}
+Result<ReportRequest> ReportRequest::decode(const json& body) {
+    ReportRequest out;
+    Reader in(body, request_of(op));
+    in.whole("handle", out.handle);
+    in.map("counters", out.counters);
+    if (out.counters.size() > max_counters)
+        in.wrong("counters", "a map of at most 64 counters");
+    for (const auto& [name, value] : out.counters.items()) {
+        if (name.empty() || name.size() > max_name || !body::is_whole(value))
+            in.wrong("counters", "a map of names (1 to 64 bytes) to whole numbers");
+    }
+    return in.result(std::move(out));
+}
+
 // shm
 
 json ShmRequest::encode() const {

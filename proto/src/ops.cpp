@@ -7,7 +7,7 @@ namespace plexus::proto {
 
 namespace {
 // In the enum's order: op_name indexes it.
-constexpr std::array<std::pair<Op, std::string_view>, 25> names{{
+constexpr std::array<std::pair<Op, std::string_view>, 26> names{{
     {Op::open, "open"},
     {Op::close, "close"},
     {Op::shm, "shm"},
@@ -26,6 +26,7 @@ constexpr std::array<std::pair<Op, std::string_view>, 25> names{{
     {Op::record_start, "record_start"},
     {Op::record_status, "record_status"},
     {Op::record_stop, "record_stop"},
+    {Op::report, "report"},
     {Op::register_node, "register_node"},
     {Op::register_port, "register_port"},
     {Op::unregister_port, "unregister_port"},

@@ -288,6 +288,14 @@ int stats(const Common& common, const std::string& port, bool json) {
         if (counter(p, "unconnected") > 0)
             std::cout << "    written with no connection out (went nowhere): " << counter(p, "unconnected")
                       << '\n';
+        // Counters the port's own client reported (a bridge: what it could not convert or deliver).
+        const auto reported = p.value("reported", Value::object());
+        if (!reported.empty()) {
+            std::cout << "    reported by its client:";
+            for (const auto& [name, value] : reported.items())
+                std::cout << ' ' << name << ' ' << value.dump();
+            std::cout << '\n';
+        }
         for (const auto& c : p.value("outgoing", Value::array())) {
             std::cout << "    -> " << pad(c.value("destination", ""), 24) << pad(c.value("carrier", ""), 10)
                       << "sent " << counter(c, "sent") << ", dropped by monitors "

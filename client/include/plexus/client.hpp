@@ -156,6 +156,11 @@ public:
     std::optional<Received> read(std::chrono::milliseconds timeout);
     /// Messages written while the daemon was away and dropped (the oldest) beyond the bound.
     std::uint64_t dropped_while_disconnected() const;
+    /// Tells the daemon counters this client keeps about the port (a map of names to whole
+    /// numbers, at most 64), shown by `plexus stats` under the port as "reported"; each report
+    /// replaces the last. A bridge reports what it could not convert or deliver. Returns false
+    /// while the daemon is away (report again later: the port opened again starts with none).
+    bool report(const Value& counters);
     /// Closes the port now (after flushing); further use throws.
     void close();
     bool is_open() const { return link_ != nullptr; }

@@ -54,6 +54,20 @@ struct CloseRequest {
 };
 using CloseReply = EmptyReply;
 
+/// `report`: counters a client keeps about one of its ports (what a bridge could not convert or
+/// deliver), replacing those it reported before; `plexus stats` shows them under the port as
+/// "reported". At most `max_counters`, each a name of at most `max_name` bytes and a whole number.
+struct ReportRequest {
+    static constexpr Op op = Op::report;
+    static constexpr std::size_t max_counters = 64;
+    static constexpr std::size_t max_name = 64;
+    std::uint64_t handle = 0;                                         ///< the handle `open` gave
+    nlohmann::json counters = nlohmann::json::object();               ///< name -> whole number
+    nlohmann::json encode() const;                                    ///< the request body
+    static Result<ReportRequest> decode(const nlohmann::json& body);  ///< from a request body
+};
+using ReportReply = EmptyReply;
+
 /// `shm`: without a handle, "this client maps regions"; with one, a region for that port.
 struct ShmRequest {
     static constexpr Op op = Op::shm;

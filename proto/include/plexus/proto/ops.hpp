@@ -31,6 +31,7 @@ enum class Op {
     record_start,   ///< `plexus record`: this daemon records ports into a file of its own
     record_status,  ///< how a recording goes
     record_stop,    ///< ends a recording; the answer says what it kept and lost
+    report,         ///< a client's own counters for one of its ports (a bridge's drops), shown by stats
     // The name server's.
     register_node,
     register_port,
