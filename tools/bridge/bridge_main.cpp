@@ -2,15 +2,16 @@
 // Plexus's monitors and arbitration can coordinate programs that were never written for it
 // (docs/BRIDGES.md).
 //
-//     plexus-bridge ros2 --in /chatter=/ros/chatter:std_msgs/msg/String --out /robot/cmd_vel=/cmd_vel:geometry_msgs/msg/Twist
-//     plexus-bridge mqtt --broker localhost:1883 --in 'sensors/+/temp=/mqtt/temp' --out '/robot/state=robot/state'
+//     plexus-bridge ros2 --in /chatter=/ros/chatter:std_msgs/msg/String --out
+//     /robot/cmd_vel=/cmd_vel:geometry_msgs/msg/Twist plexus-bridge mqtt --broker localhost:1883 --in
+//     'sensors/+/temp=/mqtt/temp' --out '/robot/state=robot/state'
 //
 // Exit codes as the CLI's: 0 stopped by SIGINT/SIGTERM, 2 a usage mistake (an unknown type, a
 // malformed mapping), 4 the daemon or the other system refused.
 #include <iostream>
 
-#include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
+#include <CLI/CLI.hpp>
 
 #include "mapping.hpp"
 #include "mqtt_bridge.hpp"
@@ -19,9 +20,10 @@
 #include "stop_signal.hpp"
 
 int main(int argc, char** argv) {
-    CLI::App app{"plexus-bridge: maps ROS 2 topics (over Cyclone DDS) or MQTT topics to Plexus ports and "
-                 "back. Messages it cannot convert or deliver are counted on its ports (plexus stats PORT, "
-                 "\"reported\") and each reason is logged once. docs/BRIDGES.md explains."};
+    CLI::App app{
+        "plexus-bridge: maps ROS 2 topics (over Cyclone DDS) or MQTT topics to Plexus ports and "
+        "back. Messages it cannot convert or deliver are counted on its ports (plexus stats PORT, "
+        "\"reported\") and each reason is logged once. docs/BRIDGES.md explains."};
     app.require_subcommand(1);
     std::string log_level = "info";
     app.add_option("--log-level", log_level, "trace, debug, info, warn, error")->capture_default_str();

@@ -29,8 +29,8 @@ Mapping parse_mapping(const std::string& text, const std::string& flag, bool wit
 }
 
 void require_port(const std::string& name, const std::string& where) {
-    bool ok = name.size() > 1 && name.front() == '/' && name.back() != '/' &&
-              name.find("//") == std::string::npos;
+    bool ok =
+        name.size() > 1 && name.front() == '/' && name.back() != '/' && name.find("//") == std::string::npos;
     for (const char c : name)
         ok = ok && c > ' ' && c != ':' && c != '+' && c != 0x7f;
     if (!ok)

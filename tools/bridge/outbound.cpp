@@ -17,7 +17,8 @@ Outbound::Outbound(Client& client, const std::string& port, std::string peer, st
       own_ports_(std::move(own_ports)) {}
 
 void Outbound::start(Send send) {
-    subscription_ = std::make_unique<Subscription>(port_, [this, send = std::move(send)](const Received& message) {
+    subscription_ = std::make_unique<Subscription>(port_, [this,
+                                                           send = std::move(send)](const Received& message) {
         if (own_ports_.contains(message.envelope.source)) {
             counters_.dropped("own_message", "it came from " + message.envelope.source +
                                                  ", which this bridge writes: sending it back would loop");

@@ -4,7 +4,8 @@
 
 namespace plexus::bridge {
 
-PortCounters::PortCounters(std::string port, std::string peer) : port_(std::move(port)), peer_(std::move(peer)) {}
+PortCounters::PortCounters(std::string port, std::string peer)
+    : port_(std::move(port)), peer_(std::move(peer)) {}
 
 void PortCounters::dropped(const std::string& reason, const std::string& detail) {
     std::uint64_t count = 0;
@@ -13,9 +14,10 @@ void PortCounters::dropped(const std::string& reason, const std::string& detail)
         count = ++dropped_[reason];
     }
     if (count == 1)
-        spdlog::warn("{} <-> {}: a message was not passed on ({}): {}; further ones for this reason are "
-                     "counted (plexus stats {}), not logged",
-                     port_, peer_, reason, detail, port_);
+        spdlog::warn(
+            "{} <-> {}: a message was not passed on ({}): {}; further ones for this reason are "
+            "counted (plexus stats {}), not logged",
+            port_, peer_, reason, detail, port_);
 }
 
 std::uint64_t PortCounters::dropped_count(const std::string& reason) const {

@@ -12,9 +12,9 @@
 namespace plexus::bridge {
 
 struct Ros2Options {
-    int domain = -1;              ///< -1: $ROS_DOMAIN_ID, else 0
-    std::vector<std::string> in;  ///< ROS_TOPIC=PORT:TYPE
-    std::vector<std::string> out; ///< PORT=ROS_TOPIC:TYPE
+    int domain = -1;               ///< -1: $ROS_DOMAIN_ID, else 0
+    std::vector<std::string> in;   ///< ROS_TOPIC=PORT:TYPE
+    std::vector<std::string> out;  ///< PORT=ROS_TOPIC:TYPE
     std::string reliability = "reliable";
     std::string durability = "volatile";
     int depth = 10;
