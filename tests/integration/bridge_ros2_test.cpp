@@ -2,6 +2,7 @@
 // network namespace host so that DDS discovery never touches this machine's interfaces.
 #include <gtest/gtest.h>
 
+#include <csignal>
 #include <cstdio>
 #include <sstream>
 
@@ -103,6 +104,31 @@ TEST(BridgeRos2_test, AStringFromADdsPublisherReachesPlexusAndAPlexusWriteReache
         << subscriber.out() << "\nbridge: " << bridge.err();
     EXPECT_TRUE(eventually([&] { return ros.port_stats("/to_ros")["reported"].value("passed", 0) >= 1; }))
         << ros.port_stats("/to_ros").dump();
+}
+
+TEST(BridgeRos2_test, ThePublisherAndTheDaemonMayGoAwayAndComeBack) {
+    PLEXUS_NEEDS_NETNS();
+    RosHost ros;
+    auto& bridge = ros.bridge({"--in", "/chatter=/ros/chatter:std_msgs/msg/String"});
+    ASSERT_TRUE(eventually([&] { return ros.port_open("/ros/chatter"); })) << bridge.out();
+    auto& first = ros.probe("pub-string", "/chatter", "first {n}");
+    auto reader = start_cli(ros.dir, ros.daemon, {"read", "/chatter", "/ros/chatter"}, "read-1");
+    ASSERT_TRUE(eventually([&] { return reader->out().find("first") != std::string::npos; })) << bridge.out();
+
+    first.signal(SIGKILL);  // the ROS 2 node dies; another one starts
+    ros.probe("pub-string", "/chatter", "second {n}");
+    EXPECT_TRUE(eventually([&] { return reader->out().find("second") != std::string::npos; }, 30s))
+        << reader->out() << "\nbridge: " << bridge.out();
+
+    ros.daemon.process().signal(SIGKILL);  // and the daemon too, restarted by its supervisor
+    ASSERT_TRUE(ros.daemon.process().wait(10s).has_value());
+    ros.daemon.start_again();
+    ASSERT_TRUE(eventually([&] { return ros.port_open("/ros/chatter"); }, 30s))
+        << "the bridge did not open its port again: " << bridge.out();
+    auto again = start_cli(ros.dir, ros.daemon, {"read", "/chatter2", "/ros/chatter"}, "read-2");
+    EXPECT_TRUE(eventually([&] { return again->out().find("second") != std::string::npos; }, 30s))
+        << again->out() << "\nbridge: " << bridge.out();
+    EXPECT_TRUE(bridge.running());
 }
 
 TEST(BridgeRos2_test, WhatCannotBeConvertedIsCountedOnThePortAndTheBridgeGoesOn) {
