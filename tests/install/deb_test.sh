@@ -23,7 +23,7 @@ DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "$deb"
 dpkg-query -W -f='${Package} ${Version} ${Architecture}\nDepends: ${Depends}\nConffiles:\n${Conffiles}\n' plexus
 
 step "programs run from /usr/bin; the Python module imports in Debian's python3 (not a pyenv one on PATH)"
-for program in plexusd plexus-names plexus plexus-bench plexus-sim-world; do
+for program in plexusd plexus-names plexus plexus-bench plexus-sim-world plexus-bridge; do
     command -v "$program" | grep -qx "/usr/bin/$program"
     "$program" --help >/dev/null
 done

@@ -36,10 +36,13 @@ struct RosHost {
     TempDir dir;
     Daemon daemon{dir, network.host(0), "robot", "", {"--scripts", monitors_dir()}};
     std::vector<std::unique_ptr<Process>> processes;
+    /// The ROS 2 domain of the probes and the bridges this test starts (the namespace isolates them
+    /// anyway; a domain other than 0 shows the bridge takes it).
+    std::string domain = "7";
 
     Process& start(const std::vector<std::string>& argv, const std::string& name) {
         auto env = daemon.env();
-        env["ROS_DOMAIN_ID"] = "7";
+        env["ROS_DOMAIN_ID"] = domain;
         processes.push_back(std::make_unique<Process>(network.host(0).wrap(argv), env, dir.file(name)));
         return *processes.back();
     }
@@ -237,6 +240,39 @@ TEST(BridgeRos2_test, TwoTeleopNodesArbitratedByEventsReachCmdVelOneAtATime) {
     settles_on("1 -1");  // the joystick takes over
     deadman.send("{\"held\": false}\n");
     settles_on("2 -2");  // and gives it back
+}
+
+TEST(BridgeRos2_test, TheShippedTeleopApplicationArbitratesTwoNodesByTheJoysticksEnableButton) {
+    PLEXUS_NEEDS_NETNS();
+    RosHost ros;
+    ros.domain = "0";  // `plexus up` starts the bridge with the environment of the CLI: no ROS_DOMAIN_ID
+    const std::string app = std::string(PLEXUS_SOURCE_DIR) + "/configs/apps/ros2_teleop.json";
+    const auto up = run_cli(ros.dir, ros.daemon, {"up", app});
+    ASSERT_EQ(up.status, 0) << up.out << up.err;
+    struct Down {
+        RosHost& ros;
+        std::string app;
+        ~Down() { run_cli(ros.dir, ros.daemon, {"down", app}); }
+    } down{ros, app};
+
+    ros.probe("pub-twist", "/joy/cmd_vel", "1");
+    ros.probe("pub-twist", "/nav/cmd_vel", "2");
+    auto& base = ros.probe("sub-twist", "/cmd_vel");
+    const auto settles_on = [&](const std::string& value) {
+        EXPECT_TRUE(eventually(
+            [&] {
+                const auto lines = lines_of(base.out());
+                return lines.size() >= 20 && all_are({lines.end() - 20, lines.end()}, value);
+            },
+            30s))
+            << "the base never settled on " << value << "; it saw:\n"
+            << base.out();
+    };
+    settles_on("2 -2");
+    auto& held = ros.probe("pub-bool", "/joy/enable", "true");  // the button is pressed
+    settles_on("1 -1");
+    held.signal(SIGKILL);  // released: the event's lifetime ends, navigation drives again
+    settles_on("2 -2");
 }
 
 std::uint64_t fnv1a_of_pattern(std::size_t bytes) {

@@ -5,6 +5,7 @@
 //
 //   plexus-dds-probe pub-string TOPIC TEXT      publishes TEXT every 50 ms (the count in {n})
 //   plexus-dds-probe sub-string TOPIC           prints each String's data
+//   plexus-dds-probe pub-bool TOPIC true|false  publishes a Bool every 20 ms (a held button)
 //   plexus-dds-probe pub-twist TOPIC X          publishes Twist{linear.x = X, angular.z = -X} every 20 ms
 //   plexus-dds-probe sub-twist TOPIC            prints "linear.x angular.z" of each Twist
 //   plexus-dds-probe pub-image TOPIC BYTES      publishes one Image of BYTES bytes every 500 ms
@@ -23,6 +24,7 @@
 
 #include "geometry_msgs/msg/Twist.h"
 #include "sensor_msgs/msg/Image.h"
+#include "std_msgs/msg/Bool.h"
 #include "std_msgs/msg/String.h"
 
 namespace {
@@ -107,9 +109,10 @@ int publish(dds_entity_t participant, const dds_topic_descriptor_t* descriptor, 
 
 int main(int argc, char** argv) {
     if (argc < 3) {
-        std::fprintf(stderr,
-                     "usage: plexus-dds-probe pub-string|sub-string|pub-twist|sub-twist|pub-image|sub-image "
-                     "TOPIC [ARG]\n");
+        std::fprintf(
+            stderr,
+            "usage: plexus-dds-probe pub-string|sub-string|pub-bool|pub-twist|sub-twist|pub-image|sub-image "
+            "TOPIC [ARG]\n");
         return 2;
     }
     const std::string command = argv[1];
@@ -135,6 +138,14 @@ int main(int argc, char** argv) {
         return subscribe(participant, &std_msgs_msg_dds__String__desc, topic, [](void* sample) {
             std::printf("%s\n", static_cast<std_msgs_msg_dds__String_*>(sample)->data);
         });
+    }
+    if (command == "pub-bool") {
+        const bool value = std::string(argument) == "true";
+        return publish(participant, &std_msgs_msg_dds__Bool__desc, topic, std::chrono::milliseconds(20),
+                       [&](dds_entity_t writer, std::uint64_t) {
+                           std_msgs_msg_dds__Bool_ sample{value};
+                           return dds_write(writer, &sample);
+                       });
     }
     if (command == "pub-twist") {
         const double x = std::atof(argument);

@@ -15,7 +15,8 @@
 namespace plexus::app {
 
 struct Component {
-    std::size_t index = 0;  ///< position in "components", for messages
+    std::size_t index = 0;               ///< position in its section, for messages
+    std::string section = "components";  ///< or "bridges": a plexus-bridge made into a component
     std::string name;
     std::string command;  ///< as written (expanded): a name looked up in PATH, or a path
     std::vector<std::string> args;

@@ -21,9 +21,11 @@ namespace {
 
 using Json = nlohmann::json;
 
-const std::vector<std::string> top_fields{"name",       "description", "scripts",
-                                          "components", "wait",        "connections"};
+const std::vector<std::string> top_fields{"name",    "description", "scripts",    "components",
+                                          "bridges", "wait",        "connections"};
 const std::vector<std::string> component_fields{"name", "command", "args", "env", "node", "ports"};
+const std::vector<std::string> bridge_fields{"name", "kind", "node", "domain", "broker",
+                                             "in",   "out",  "args", "env"};
 const std::vector<std::string> connection_fields{"source", "destination", "carrier", "persist"};
 
 std::string joined(const std::vector<std::string>& words) {
@@ -195,6 +197,109 @@ public:
         return c;
     }
 
+    /// A `bridges` entry: plexus-bridge KIND started as a component, waited for by the Plexus ports
+    /// its mappings name (docs/BRIDGES.md).
+    std::optional<Component> bridge(const Json& value, std::size_t index) {
+        std::string entry = "bridges[" + std::to_string(index) + "]";
+        if (!value.is_object()) {
+            problem(entry, "expected an object, found " + std::string(value.type_name()));
+            return std::nullopt;
+        }
+        only_known(value, bridge_fields, entry);
+        Json as_component = Json::object();
+        for (const char* field : {"name", "node", "env"}) {
+            if (value.contains(field))
+                as_component[field] = value[field];
+        }
+        std::string kind;
+        if (!value.contains("kind")) {
+            problem(entry, "missing field \"kind\" (ros2 or mqtt)");
+        } else if (auto text = string(value["kind"], entry, "kind", false)) {
+            kind = *text;
+            if (kind != "ros2" && kind != "mqtt")
+                problem(entry, "\"kind\": expected ros2 or mqtt, found \"" + kind + "\"");
+        }
+        Json args = Json::array({kind});
+        bool whole = kind == "ros2" || kind == "mqtt";
+        if (value.contains("domain")) {
+            const Json& domain = value["domain"];
+            if (kind != "ros2" || !domain.is_number_unsigned() || domain.get<std::uint64_t>() > 232) {
+                problem(entry, "\"domain\": a ROS 2 domain id (0 to 232) of a ros2 bridge");
+                whole = false;
+            } else {
+                args.push_back("--domain");
+                args.push_back(std::to_string(domain.get<std::uint64_t>()));
+            }
+        }
+        if (value.contains("broker")) {
+            auto broker = string(value["broker"], entry, "broker", true);
+            if (kind != "mqtt" || !broker) {
+                problem(entry, "\"broker\": HOST:PORT, for an mqtt bridge");
+                whole = false;
+            } else {
+                args.push_back("--broker");
+                args.push_back(*broker);
+            }
+        }
+        std::vector<std::string> ports;
+        for (const char* direction : {"in", "out"}) {
+            if (!value.contains(direction))
+                continue;
+            const auto mappings = strings(value[direction], entry, direction, true);
+            if (!mappings) {
+                whole = false;
+                continue;
+            }
+            for (std::size_t i = 0; i < mappings->size(); ++i) {
+                const std::string& mapping = (*mappings)[i];
+                const std::string field = std::string(direction) + "[" + std::to_string(i) + "]";
+                // The Plexus side: after '=' going in (before the type's ':' for ros2), before it going out.
+                const auto equals = mapping.find('=');
+                std::string port;
+                if (equals != std::string::npos) {
+                    port = std::string(direction) == "in" ? mapping.substr(equals + 1)
+                                                          : mapping.substr(0, equals);
+                    if (kind == "ros2" && std::string(direction) == "in")
+                        port = port.substr(0, port.rfind(':'));
+                }
+                if (equals == std::string::npos || !port_name(port, entry, field)) {
+                    if (equals == std::string::npos)
+                        problem(entry, "\"" + field + "\": expected " +
+                                           (std::string(direction) == "in" ? "TOPIC=PORT" : "PORT=TOPIC") +
+                                           (kind == "ros2" ? ":TYPE" : ""));
+                    whole = false;
+                    continue;
+                }
+                args.push_back("--" + std::string(direction));
+                args.push_back(mapping);
+                ports.push_back(port);
+            }
+        }
+        if (ports.empty() && whole) {
+            problem(entry, "nothing to bridge: give \"in\" or \"out\" mappings");
+            whole = false;
+        }
+        if (value.contains("args")) {
+            for (const auto& extra :
+                 strings(value["args"], entry, "args", true).value_or(std::vector<std::string>{}))
+                args.push_back(extra);
+        }
+        as_component["command"] = "plexus-bridge";
+        as_component["args"] = args;
+        as_component["ports"] = ports;
+        const auto before = problems.size();
+        auto made = component(as_component, index);
+        // The component's own messages name it components[i]: say bridges[i] instead.
+        for (auto it = problems.begin() + static_cast<std::ptrdiff_t>(before); it != problems.end(); ++it) {
+            if (const auto at = it->find("components["); at != std::string::npos)
+                it->replace(at, 11, "bridges[");
+        }
+        if (!made || !whole)
+            return std::nullopt;
+        made->section = "bridges";
+        return made;
+    }
+
     std::optional<AppConnection> connection(const Json& value, std::size_t index) {
         std::string entry = "connections[" + std::to_string(index) + "]";
         if (!value.is_object()) {
@@ -284,6 +389,17 @@ public:
                 }
             }
         }
+        if (root.contains("bridges")) {
+            const Json& list = root["bridges"];
+            if (!list.is_array()) {
+                problem("", "\"bridges\": expected an array, found " + std::string(list.type_name()));
+            } else {
+                for (std::size_t i = 0; i < list.size(); ++i) {
+                    if (auto c = bridge(list[i], i))
+                        a.components.push_back(std::move(*c));
+                }
+            }
+        }
         if (root.contains("connections")) {
             const Json& list = root["connections"];
             if (!list.is_array()) {
@@ -306,7 +422,7 @@ private:
 }  // namespace
 
 std::string Component::label() const {
-    return "components[" + std::to_string(index) + "] \"" + name + "\"";
+    return section + "[" + std::to_string(index) + "] \"" + name + "\"";
 }
 
 std::string AppConnection::label() const {

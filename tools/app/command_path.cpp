@@ -35,6 +35,7 @@ std::vector<fs::path> search_directories() {
     if (!ec) {
         dirs.push_back(self.parent_path());
         dirs.push_back(self.parent_path() / "sim");
+        dirs.push_back(self.parent_path() / "bridge");  // plexus-bridge, in a build tree
     }
     return dirs;
 }

@@ -182,12 +182,65 @@ TEST(AppCheck_test, NamesANumberTooLargeAsBadJson) {
     expect_one_problem(loaded.problems, {"/apps/app.json", "not valid JSON", "number overflow"});
 }
 
+TEST(AppCheck_test, ABridgeIsAComponentThatWaitsForThePortsItsMappingsName) {
+    const auto loaded = parse_app(R"({"name": "robot", "bridges": [
+      {"name": "ros", "kind": "ros2", "domain": 3,
+       "in": ["/joy/cmd_vel=/ros/joy:geometry_msgs/msg/Twist"], "out": ["/robot/cmd_vel=/cmd_vel:geometry_msgs/msg/Twist"]},
+      {"name": "devices", "kind": "mqtt", "broker": "${BROKER:-localhost:1883}", "in": ["sensors/+/temp=/mqtt/temp"],
+       "args": ["--qos", "0"]}]})",
+                                  "/apps/robot.json", variables({}));
+    ASSERT_TRUE(loaded.app);
+    EXPECT_TRUE(loaded.problems.empty()) << ::testing::PrintToString(loaded.problems);
+    ASSERT_EQ(loaded.app->components.size(), 2u);
+    const auto& ros = loaded.app->components[0];
+    EXPECT_EQ(ros.command, "plexus-bridge");
+    EXPECT_EQ(ros.args, (std::vector<std::string>{"ros2", "--domain", "3", "--in",
+                                                  "/joy/cmd_vel=/ros/joy:geometry_msgs/msg/Twist", "--out",
+                                                  "/robot/cmd_vel=/cmd_vel:geometry_msgs/msg/Twist"}));
+    EXPECT_EQ(ros.ports, (std::vector<std::string>{"/ros/joy", "/robot/cmd_vel"}));
+    EXPECT_EQ(ros.label(), "bridges[0] \"ros\"");
+    const auto& devices = loaded.app->components[1];
+    EXPECT_EQ(devices.args, (std::vector<std::string>{"mqtt", "--broker", "localhost:1883", "--in",
+                                                      "sensors/+/temp=/mqtt/temp", "--qos", "0"}));
+    EXPECT_EQ(devices.ports, (std::vector<std::string>{"/mqtt/temp"}));
+}
+
+TEST(AppCheck_test, NamesWhatIsWrongWithABridge) {
+    const auto problems = [](const std::string& bridge) {
+        return parse_app(R"({"name": "robot", "bridges": [)" + bridge + "]}", "/apps/robot.json",
+                         variables({}))
+            .problems;
+    };
+    expect_one_problem(problems(R"({"name": "b", "kind": "zenoh", "in": ["a=/b"]})"),
+                       {"bridges[0]", "\"kind\": expected ros2 or mqtt"});
+    expect_one_problem(problems(R"({"name": "b", "kind": "ros2"})"), {"bridges[0]", "nothing to bridge"});
+    expect_one_problem(problems(R"({"name": "b", "kind": "ros2", "in": ["/chatter"]})"),
+                       {"bridges[0]", "\"in[0]\": expected TOPIC=PORT:TYPE"});
+    expect_one_problem(problems(R"({"name": "b", "kind": "mqtt", "domain": 1, "in": ["a=/b"]})"),
+                       {"bridges[0]", "\"domain\""});
+    expect_one_problem(problems(R"({"name": "b", "kind": "mqtt", "in": ["a=/b"], "qos": 1})"),
+                       {"bridges[0]", "unknown field \"qos\""});
+    expect_one_problem(problems(R"({"kind": "mqtt", "in": ["a=/b"]})"),
+                       {"bridges[0]", "missing field \"name\""});
+}
+
 TEST(AppCheck_test, ReadsTheShippedFetchApplication) {
     // configs/apps/fetch.json is another engineer's; reading it must not fail on its schema.
     const std::string fetch = std::string(PLEXUS_SOURCE_DIR) + "/configs/apps/fetch.json";
     if (!std::filesystem::exists(fetch))
         GTEST_SKIP() << "no " << fetch;
     EXPECT_TRUE(problems_of(fetch).empty()) << ::testing::PrintToString(problems_of(fetch));
+}
+
+TEST(AppCheck_test, ReadsTheShippedRos2TeleopApplication) {
+    const std::string teleop = std::string(PLEXUS_SOURCE_DIR) + "/configs/apps/ros2_teleop.json";
+    auto loaded = load_app(teleop, variables({}));
+    ASSERT_TRUE(loaded.app);
+    EXPECT_TRUE(loaded.problems.empty()) << ::testing::PrintToString(loaded.problems);
+    // Its arbitration: the two teleops' constraints are complementary.
+    const auto report = check_app(*loaded.app);
+    for (const auto& problem : report.problems)
+        EXPECT_EQ(problem.find("can both be true"), std::string::npos) << problem;
 }
 
 }  // namespace
