@@ -5,6 +5,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include "bridges/bridges_scenario.hpp"
+#include "bridges/ends.hpp"
 #include "hosts_scenario.hpp"
 #include "options.hpp"
 #include "peers/peers_command.hpp"
@@ -227,6 +229,51 @@ int main(int argc, char** argv) {
     zmq_proxy->add_option("--ready-file", proxy_ready_file)->required();
     zmq_proxy->callback([&] { status = peers::run_zmq_proxy(proxy_ready_file); });
 #endif
+
+    bridges::BridgesOptions bridges_options;
+    bridges_options.plexusd = PLEXUSD_PATH;
+    bridges_options.bridge = PLEXUS_BRIDGE_PATH;
+    bridges_options.plexus = PLEXUS_CLI_PATH;
+    auto* bridges_command = app.add_subcommand(
+        "bridges",
+        "plexus-bridge's added latency and sustained rate: DDS -> Plexus -> DDS against DDS through an echo "
+        "of the same shape, MQTT -> Plexus -> MQTT against mosquitto the same way (a network namespace of "
+        "its own; needs root)");
+    bridges_command->add_flag("--quick", bridges_options.quick, "a tenth of the messages and one run");
+    bridges_command->add_flag("--json", bridges_options.json, "one JSON object per row");
+    bridges_command->add_option("--repeat", bridges_options.repeat, "runs per row; medians are reported")
+        ->check(CLI::PositiveNumber)
+        ->capture_default_str();
+    bridges_command->add_option("--sizes", bridges_options.sizes, "payload sizes in bytes (at least 8)")
+        ->check(CLI::Range(std::size_t{8}, std::size_t{64} << 20))
+        ->delimiter(',')
+        ->capture_default_str();
+    bridges_command->add_option("--links", bridges_options.links, "dds, mqtt (default: both)")
+        ->delimiter(',')
+        ->check(CLI::IsMember({"dds", "mqtt"}));
+    bridges_command->add_option("--plexusd", bridges_options.plexusd, "the plexusd binary")
+        ->capture_default_str();
+    bridges_command->add_option("--bridge", bridges_options.bridge, "the plexus-bridge binary")
+        ->capture_default_str();
+    bridges_command->callback([&] { status = bridges::run_bridges(bridges_options); });
+
+    // Not for people: the ends of the bridges bench's paths, processes of their own.
+    bridges::EndOptions end_options;
+    for (auto* end : {app.add_subcommand("bridge-ping", "")->group(""),
+                      app.add_subcommand("bridge-echo", "")->group("")}) {
+        end->add_option("--link", end_options.link);
+        end->add_option("--out", end_options.out)->required();
+        end->add_option("--in", end_options.in)->required();
+        end->add_option("--broker", end_options.broker);
+        end->add_option("--qos", end_options.qos);
+        end->add_option("--size", end_options.size);
+        end->add_option("--count", end_options.count);
+        end->add_option("--stream", end_options.stream);
+        end->add_option("--window", end_options.window);
+        const bool ping = end->get_name() == "bridge-ping";
+        end->callback(
+            [&, ping] { status = ping ? bridges::run_ping(end_options) : bridges::run_echo(end_options); });
+    }
 
     // Not for people: the bench starts itself with this to get a relay process for the floor.
     RelayOptions relay_options;
