@@ -5,6 +5,10 @@
 namespace plexus::bridge {
 
 CounterReporter::~CounterReporter() {
+    stop();
+}
+
+void CounterReporter::stop() {
     if (!thread_.joinable())
         return;
     {
@@ -23,7 +27,8 @@ void CounterReporter::start() {
     thread_ = std::thread([this] {
         std::unique_lock lock(mutex_);
         while (!stopping_) {
-            wake_.wait_for(lock, period, [this] { return stopping_; });
+            if (wake_.wait_for(lock, period, [this] { return stopping_; }))
+                break;  // the ports may be going away: no report after stop()
             lock.unlock();
             report_changed();
             lock.lock();

@@ -27,6 +27,8 @@ public:
     /// Reports `counters` for `port`; both must outlive the reporter. Add every port before start().
     void add(Port& port, const PortCounters& counters);
     void start();
+    /// Stops the thread (waiting for a report under way). Call it before the ports go away.
+    void stop();
 
 private:
     struct Entry {

@@ -175,8 +175,9 @@ int run_ros2(const Ros2Options& options, const StopCheck& stop) {
                                             dds_error(participant.handle));
 
     Client client;
-    CounterReporter reporter;
     std::vector<std::unique_ptr<Inbound>> inbounds;
+    std::vector<std::unique_ptr<Outbound>> outbounds;
+    CounterReporter reporter;  // after the ports: destroyed (stopped) before them
     const dds_entity_t waitset = dds_create_waitset(participant.handle);
     for (auto& mapping : ins) {
         const dds_entity_t topic = topic_for(participant.handle, mapping);
@@ -195,7 +196,6 @@ int run_ros2(const Ros2Options& options, const StopCheck& stop) {
         inbounds.push_back(std::move(inbound));
     }
 
-    std::vector<std::unique_ptr<Outbound>> outbounds;
     for (auto& mapping : outs) {
         const dds_entity_t topic = topic_for(participant.handle, mapping);
         const auto qos = ros2::writer_qos(mapping.qos);
@@ -240,6 +240,7 @@ int run_ros2(const Ros2Options& options, const StopCheck& stop) {
         for (dds_return_t i = 0; i < count && i < static_cast<dds_return_t>(most); ++i)
             pass_samples(*inbounds.at(static_cast<std::size_t>(triggered[i])));
     }
+    reporter.stop();
     for (auto& outbound : outbounds)
         outbound->stop();
     spdlog::info("ros2: stopping");
