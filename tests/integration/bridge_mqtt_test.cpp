@@ -6,6 +6,7 @@
 
 #include <arpa/inet.h>
 #include <netinet/in.h>
+#include <pwd.h>
 #include <signal.h>
 #include <sys/socket.h>
 #include <unistd.h>
@@ -74,7 +75,11 @@ private:
     /// Starts mosquitto; true once it listens, false if it exited (the port was taken).
     bool launch() {
         const auto config = dir_.file(name_ + ".conf");
-        std::ofstream(config) << "listener " << port_ << " 127.0.0.1\nlog_dest stderr\n" << extra_;
+        // Started as root, mosquitto becomes user "mosquitto", who cannot read the test's files:
+        // it stays who runs the test (the setting does nothing for anyone else).
+        std::ofstream(config) << "listener " << port_ << " 127.0.0.1\nlog_dest stderr\nuser "
+                              << ::getpwuid(::geteuid())->pw_name << "\n"
+                              << extra_;
         process_ = std::make_unique<Process>(std::vector<std::string>{"/usr/sbin/mosquitto", "-c", config},
                                              std::map<std::string, std::string>{},
                                              dir_.file(name_ + "." + std::to_string(++starts_)));
@@ -104,10 +109,20 @@ int run_tool(const TempDir& dir, const std::vector<std::string>& argv, const std
     return status.value_or(-1);
 }
 
+/// mosquitto_pub of `message` on `topic`; with `-f FILE` in `extra`, `message` must be empty.
 void publish(const TempDir& dir, const Broker& broker, const std::string& topic, const std::string& message,
              std::vector<std::string> extra = {}) {
-    std::vector<std::string> argv{"/usr/bin/mosquitto_pub", "-p", std::to_string(broker.port()), "-h",
-                                  "127.0.0.1", "-q", "1", "-t", topic, "-m", message};
+    std::vector<std::string> argv{"/usr/bin/mosquitto_pub",
+                                  "-p",
+                                  std::to_string(broker.port()),
+                                  "-h",
+                                  "127.0.0.1",
+                                  "-q",
+                                  "1",
+                                  "-t",
+                                  topic};
+    if (!message.empty())
+        argv.insert(argv.end(), {"-m", message});
     argv.insert(argv.end(), extra.begin(), extra.end());
     run_tool(dir, argv, "pub");
 }
@@ -118,8 +133,17 @@ public:
     Subscriber(const TempDir& dir, const Broker& broker, const std::string& topic, const std::string& name,
                std::vector<std::string> extra = {}) {
         // Line-buffered: mosquitto_sub's stdout is a file here, which stdio would fill in blocks.
-        std::vector<std::string> argv{"/usr/bin/stdbuf", "-oL", "/usr/bin/mosquitto_sub", "-d", "-v", "-p", std::to_string(broker.port()),
-                                      "-h", "127.0.0.1", "-t", topic};
+        std::vector<std::string> argv{"/usr/bin/stdbuf",
+                                      "-oL",
+                                      "/usr/bin/mosquitto_sub",
+                                      "-d",
+                                      "-v",
+                                      "-p",
+                                      std::to_string(broker.port()),
+                                      "-h",
+                                      "127.0.0.1",
+                                      "-t",
+                                      topic};
         argv.insert(argv.end(), extra.begin(), extra.end());
         process_ = std::make_unique<Process>(argv, std::map<std::string, std::string>{}, dir.file(name));
         EXPECT_TRUE(eventually([&] { return process_->out().find("received SUBACK") != std::string::npos; }))
@@ -144,7 +168,8 @@ private:
 /// A plexus-bridge mqtt for `daemon` and `broker`; waited for until it subscribed (when it has
 /// --in mappings) or connected.
 std::unique_ptr<Process> start_bridge(const TempDir& dir, const Daemon& daemon, const Broker& broker,
-                                      const std::vector<std::string>& mappings, const std::string& name = "bridge",
+                                      const std::vector<std::string>& mappings,
+                                      const std::string& name = "bridge",
                                       std::map<std::string, std::string> env = {}, bool wait_ready = true) {
     std::vector<std::string> argv{PLEXUS_BRIDGE, "mqtt", "--broker", broker.address()};
     argv.insert(argv.end(), mappings.begin(), mappings.end());
@@ -154,8 +179,10 @@ std::unique_ptr<Process> start_bridge(const TempDir& dir, const Daemon& daemon, 
         return bridge;
     const bool subscribes = std::find(mappings.begin(), mappings.end(), "--in") != mappings.end();
     const std::string ready = subscribes ? "subscribed to" : "connected";
-    EXPECT_TRUE(eventually([&] { return bridge->out().find(ready) != std::string::npos || !bridge->running(); }))
-        << bridge->out() << bridge->err();
+    EXPECT_TRUE(eventually([&] {
+        return bridge->out().find(ready) != std::string::npos || !bridge->running();
+    })) << bridge->out()
+        << bridge->err();
     EXPECT_TRUE(bridge->running()) << bridge->out() << bridge->err();
     return bridge;
 }
@@ -185,8 +212,8 @@ json reported(const TempDir& dir, const Daemon& daemon, const std::string& port)
     return stats["reported"];
 }
 
-bool reported_equals(const TempDir& dir, const Daemon& daemon, const std::string& port, const std::string& key,
-                     std::uint64_t value) {
+bool reported_equals(const TempDir& dir, const Daemon& daemon, const std::string& port,
+                     const std::string& key, std::uint64_t value) {
     const auto counters = reported(dir, daemon, port);
     return counters.contains(key) && counters[key] == value;
 }
@@ -216,11 +243,13 @@ TEST(BridgeMqtt_test, APlexusWriteIsPublishedOnTheMappedTopic) {
     Subscriber subscriber(dir, broker, "robot/state", "sub", {"-C", "1"});
     ASSERT_TRUE(wait_port(dir, daemon, "/robot/state"));
 
-    const auto write = run_cli(dir, daemon, {"write", "/test/writer", "/robot/state"}, R"({"x":1})"
-                                                                                        "\n");
+    const auto write = run_cli(dir, daemon, {"write", "/test/writer", "/robot/state"},
+                               R"({"x":1})"
+                               "\n");
     ASSERT_EQ(write.status, 0) << write.err;
 
-    EXPECT_EQ(subscriber.process().wait(slower(std::chrono::milliseconds(10s))), 0) << subscriber.process().err();
+    EXPECT_EQ(subscriber.process().wait(slower(std::chrono::milliseconds(10s))), 0)
+        << subscriber.process().err();
     EXPECT_EQ(subscriber.messages(), std::vector<std::string>{R"(robot/state {"x":1})"});
 }
 
@@ -232,8 +261,9 @@ TEST(BridgeMqtt_test, RetainedMessagesReachThePortAndRetainOnOutServesLateSubscr
 
     // No reader can be connected before the bridge opens its port, so the port's counter shows
     // the retained message arrived (nothing else is published on config/#).
-    auto bridge = start_bridge(dir, daemon, broker,
-                               {"--in", "config/#=/mqtt/config", "--out", "/robot/state=robot/state", "--retain"});
+    auto bridge =
+        start_bridge(dir, daemon, broker,
+                     {"--in", "config/#=/mqtt/config", "--out", "/robot/state=robot/state", "--retain"});
     EXPECT_TRUE(eventually([&] { return reported_equals(dir, daemon, "/mqtt/config", "passed", 1); }))
         << reported(dir, daemon, "/mqtt/config");
 
@@ -259,7 +289,8 @@ TEST(BridgeMqtt_test, WhatTheBridgePublishesNeverComesBackInto) {
     TempDir dir;
     Daemon daemon(dir, "n1");
     Broker broker(dir, "broker");
-    auto bridge = start_bridge(dir, daemon, broker, {"--in", "loop/#=/mqtt/loop", "--out", "/mqtt/out=loop/x"});
+    auto bridge =
+        start_bridge(dir, daemon, broker, {"--in", "loop/#=/mqtt/loop", "--out", "/mqtt/out=loop/x"});
     ASSERT_TRUE(wait_port(dir, daemon, "/mqtt/out"));
     ASSERT_EQ(run_cli(dir, daemon, {"connect", "/mqtt/loop", "/mqtt/out"}).status, 0);
     Subscriber watcher(dir, broker, "loop/#", "watcher");
@@ -277,17 +308,20 @@ TEST(BridgeMqtt_test, WhatTheBridgePublishesNeverComesBackInto) {
     EXPECT_TRUE(eventually([&] {
         return reported(dir, daemon, "/mqtt/loop") == json{{"passed", 1}} &&
                reported(dir, daemon, "/mqtt/out") == json{{"passed", 1}, {"own_message", 1}};
-    })) << reported(dir, daemon, "/mqtt/loop") << reported(dir, daemon, "/mqtt/out");
+    })) << reported(dir, daemon, "/mqtt/loop")
+        << reported(dir, daemon, "/mqtt/out");
     EXPECT_TRUE(eventually([&] { return watcher.messages().size() == 2; })) << watcher.process().out();
-    EXPECT_EQ(watcher.messages(), (std::vector<std::string>{R"(loop/x "first")", R"(loop/outside "second")"}));
+    EXPECT_EQ(watcher.messages(),
+              (std::vector<std::string>{R"(loop/x "first")", R"(loop/outside "second")"}));
 }
 
 TEST(BridgeMqtt_test, MessagesFlowBothWaysAgainAfterTheBrokerRestarts) {
     TempDir dir;
     Daemon daemon(dir, "n1");
     Broker broker(dir, "broker");
-    auto bridge = start_bridge(dir, daemon, broker,
-                               {"--in", "sensors/+/temp=/mqtt/temp", "--out", "/robot/state=robot/state", "--retain"});
+    auto bridge =
+        start_bridge(dir, daemon, broker,
+                     {"--in", "sensors/+/temp=/mqtt/temp", "--out", "/robot/state=robot/state", "--retain"});
     Reader reader(dir, daemon, "/mqtt/temp", "/test/reader");
     publish(dir, broker, "sensors/a/temp", "1");
     ASSERT_EQ(reader.next(), json(1));
@@ -298,7 +332,8 @@ TEST(BridgeMqtt_test, MessagesFlowBothWaysAgainAfterTheBrokerRestarts) {
     // Written while the broker is away: held, then published once it is back.
     ASSERT_EQ(run_cli(dir, daemon, {"write", "/test/writer", "/robot/state"}, "\"while away\"\n").status, 0);
     ASSERT_TRUE(broker.start_again()) << broker.log();
-    EXPECT_TRUE(eventually([&] { return count_of(bridge->out(), "subscribed to") == 2; }, 20s)) << bridge->out();
+    EXPECT_TRUE(eventually([&] { return count_of(bridge->out(), "subscribed to") == 2; }, 20s))
+        << bridge->out();
 
     publish(dir, broker, "sensors/a/temp", "2");
     EXPECT_EQ(reader.next(), json(2));
@@ -329,8 +364,9 @@ TEST(BridgeMqtt_test, WhatCannotBeConvertedIsCountedOnItsPort) {
     EXPECT_TRUE(eventually([&] {
         return reported(dir, daemon, "/mqtt/temp") == json{{"passed", 1}, {"not_converted", 1}};
     })) << reported(dir, daemon, "/mqtt/temp");
-    EXPECT_TRUE(eventually([&] { return reported(dir, daemon, "/robot/state") == json{{"passed", 0}, {"not_converted", 1}}; }))
-        << reported(dir, daemon, "/robot/state");
+    EXPECT_TRUE(eventually([&] {
+        return reported(dir, daemon, "/robot/state") == json{{"passed", 0}, {"not_converted", 1}};
+    })) << reported(dir, daemon, "/robot/state");
     // Logged once per reason, with the topic.
     EXPECT_EQ(count_of(bridge->out(), "(not_converted)"), 2) << bridge->out();
     EXPECT_NE(bridge->out().find("on topic sensors/a/temp"), std::string::npos);
@@ -343,19 +379,22 @@ TEST(BridgeMqtt_test, AWrongPasswordIsLoggedAndRetriedAndTheRightOneConnects) {
     run_tool(dir, {"/usr/bin/mosquitto_passwd", "-b", "-c", passwords, "robot", "s3cret"}, "passwd");
     Broker broker(dir, "broker", "allow_anonymous false\npassword_file " + passwords + "\n");
 
-    auto wrong = start_bridge(dir, daemon, broker, {"--in", "a/#=/mqtt/wrong", "--username", "robot"}, "wrong",
-                              {{"MQTT_PASSWORD", "guess"}}, false);
-    EXPECT_TRUE(eventually([&] { return wrong->out().find("refused: ") != std::string::npos; })) << wrong->out();
+    auto wrong = start_bridge(dir, daemon, broker, {"--in", "a/#=/mqtt/wrong", "--username", "robot"},
+                              "wrong", {{"MQTT_PASSWORD", "guess"}}, false);
+    EXPECT_TRUE(eventually([&] { return wrong->out().find("refused: ") != std::string::npos; }))
+        << wrong->out();
     // The broker saw it come back after the refusal, and it is still running.
-    EXPECT_TRUE(eventually([&] { return count_of(broker.log(), "not authorised") >= 3; }, 20s)) << broker.log();
+    EXPECT_TRUE(eventually([&] { return count_of(broker.log(), "not authorised") >= 3; }, 20s))
+        << broker.log();
     EXPECT_TRUE(wrong->running()) << wrong->err();
     EXPECT_EQ(count_of(wrong->out(), "refused: "), 1) << "logged once, not every retry:\n" << wrong->out();
 
-    auto right = start_bridge(dir, daemon, broker, {"--in", "a/#=/mqtt/right", "--username", "robot"}, "right",
-                              {{"MQTT_PASSWORD", "s3cret"}});
+    auto right = start_bridge(dir, daemon, broker, {"--in", "a/#=/mqtt/right", "--username", "robot"},
+                              "right", {{"MQTT_PASSWORD", "s3cret"}});
     Reader reader(dir, daemon, "/mqtt/right", "/test/reader");
-    run_tool(dir, {"/usr/bin/mosquitto_pub", "-p", std::to_string(broker.port()), "-h", "127.0.0.1", "-u", "robot",
-                   "-P", "s3cret", "-t", "a/b", "-m", "7"},
+    run_tool(dir,
+             {"/usr/bin/mosquitto_pub", "-p", std::to_string(broker.port()), "-h", "127.0.0.1", "-u", "robot",
+              "-P", "s3cret", "-t", "a/b", "-m", "7"},
              "pub");
     EXPECT_EQ(reader.next(), json(7));
 }

@@ -18,16 +18,19 @@
 namespace plexus::bridge {
 
 CLI::App* add_mqtt_command(CLI::App& app, MqttOptions& options) {
-    auto* command = app.add_subcommand("mqtt", "MQTT topics to Plexus ports and back (libmosquitto, MQTT v5)");
+    auto* command =
+        app.add_subcommand("mqtt", "MQTT topics to Plexus ports and back (libmosquitto, MQTT v5)");
     command->add_option("--broker", options.broker, "the broker, HOST:PORT")->capture_default_str();
-    command->add_option("--in", options.in, "'TOPIC_PATTERN=PORT': MQTT messages into a Plexus port (+ and # allowed)");
+    command->add_option("--in", options.in,
+                        "'TOPIC_PATTERN=PORT': MQTT messages into a Plexus port (+ and # allowed)");
     command->add_option("--out", options.out, "'PORT=TOPIC': a Plexus port's messages out to MQTT");
     command->add_option("--qos", options.qos, "QoS of subscriptions and publications")
         ->check(CLI::IsMember({0, 1}))
         ->capture_default_str();
     command->add_flag("--retain", options.retain, "publish retained on the --out topics");
-    command->add_option("--payload", options.payload,
-                        "json: JSON text <-> values (other UTF-8 text: a string); raw: bytes <-> blobs")
+    command
+        ->add_option("--payload", options.payload,
+                     "json: JSON text <-> values (other UTF-8 text: a string); raw: bytes <-> blobs")
         ->check(CLI::IsMember({"json", "raw"}))
         ->capture_default_str();
     command->add_flag("--envelope", options.envelope,
@@ -63,7 +66,8 @@ struct Inbound {
 };
 
 void require_topic(const std::string& topic, bool pattern, const std::string& where) {
-    const auto rc = pattern ? mosquitto_sub_topic_check(topic.c_str()) : mosquitto_pub_topic_check(topic.c_str());
+    const auto rc =
+        pattern ? mosquitto_sub_topic_check(topic.c_str()) : mosquitto_pub_topic_check(topic.c_str());
     if (rc != MOSQ_ERR_SUCCESS)
         throw UsageError(where + ": '" + topic + "' is not an MQTT topic" +
                          (pattern ? " pattern ('+' and '#' stand alone between '/', '#' last)"
@@ -72,8 +76,8 @@ void require_topic(const std::string& topic, bool pattern, const std::string& wh
 
 /// Writes one MQTT message to every inbound port whose pattern matches its topic (on the session's
 /// thread: each inbound port has that one writer).
-void deliver(std::vector<std::unique_ptr<Inbound>>& inbound, const mosquitto_message& message, PayloadMode mode,
-             bool envelope) {
+void deliver(std::vector<std::unique_ptr<Inbound>>& inbound, const mosquitto_message& message,
+             PayloadMode mode, bool envelope) {
     const std::span<const std::uint8_t> payload(static_cast<const std::uint8_t*>(message.payload),
                                                 static_cast<std::size_t>(message.payloadlen));
     for (auto& in : inbound) {
@@ -164,9 +168,10 @@ int run_mqtt(const MqttOptions& options, const StopCheck& stop) {
         reporter.add(out->port(), out->counters());
     reporter.start();
 
-    MqttSession session(settings, [&inbound, mode, envelope = options.envelope](const mosquitto_message& message) {
-        deliver(inbound, message, mode, envelope);
-    });
+    MqttSession session(settings,
+                        [&inbound, mode, envelope = options.envelope](const mosquitto_message& message) {
+                            deliver(inbound, message, mode, envelope);
+                        });
     session.start();
     for (std::size_t i = 0; i < outbound.size(); ++i) {
         outbound[i]->start([&session, mode, topic = out_mappings[i].to, retain = options.retain](

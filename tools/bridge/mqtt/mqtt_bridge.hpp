@@ -14,13 +14,13 @@ namespace plexus::bridge {
 /// The command line of `plexus-bridge mqtt`; the TLS and login flags are mosquitto_sub's.
 struct MqttOptions {
     std::string broker = "localhost:1883";  ///< HOST:PORT
-    std::vector<std::string> in;             ///< 'TOPIC_PATTERN=PORT'
-    std::vector<std::string> out;            ///< 'PORT=TOPIC'
-    int qos = 1;                             ///< 0 or 1, for subscriptions and publications
-    bool retain = false;                     ///< publish retained on --out topics
-    std::string payload = "json";            ///< json or raw
-    bool envelope = false;                   ///< inbound values {"topic","payload","retained"}
-    std::string id;                          ///< MQTT client id; empty: a random one
+    std::vector<std::string> in;            ///< 'TOPIC_PATTERN=PORT'
+    std::vector<std::string> out;           ///< 'PORT=TOPIC'
+    int qos = 1;                            ///< 0 or 1, for subscriptions and publications
+    bool retain = false;                    ///< publish retained on --out topics
+    std::string payload = "json";           ///< json or raw
+    bool envelope = false;                  ///< inbound values {"topic","payload","retained"}
+    std::string id;                         ///< MQTT client id; empty: a random one
     std::optional<std::string> username;
     std::optional<std::string> password;  ///< else $MQTT_PASSWORD
     std::string cafile;

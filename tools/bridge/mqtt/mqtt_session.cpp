@@ -38,15 +38,16 @@ MqttSession::MqttSession(MqttSettings settings, OnMessage on_message)
     mosquitto_int_option(handle_, MOSQ_OPT_PROTOCOL_VERSION, MQTT_PROTOCOL_V5);
     mosquitto_threaded_set(handle_, true);
     if (settings_.username || settings_.password) {
-        const auto rc = mosquitto_username_pw_set(handle_, settings_.username ? settings_.username->c_str() : nullptr,
-                                                  settings_.password ? settings_.password->c_str() : nullptr);
+        const auto rc =
+            mosquitto_username_pw_set(handle_, settings_.username ? settings_.username->c_str() : nullptr,
+                                      settings_.password ? settings_.password->c_str() : nullptr);
         if (rc != MOSQ_ERR_SUCCESS)
             throw UsageError("mqtt: --username/--password: " + error_text(rc));
     }
     if (!settings_.cafile.empty() || !settings_.capath.empty()) {
         const auto opt = [](const std::string& s) { return s.empty() ? nullptr : s.c_str(); };
-        const auto rc = mosquitto_tls_set(handle_, opt(settings_.cafile), opt(settings_.capath), opt(settings_.cert),
-                                          opt(settings_.key), nullptr);
+        const auto rc = mosquitto_tls_set(handle_, opt(settings_.cafile), opt(settings_.capath),
+                                          opt(settings_.cert), opt(settings_.key), nullptr);
         if (rc != MOSQ_ERR_SUCCESS)
             throw UsageError("mqtt: --cafile/--capath/--cert/--key: " + error_text(rc) +
                              " (are the files there and readable?)");
@@ -134,12 +135,14 @@ void MqttSession::note_failure(const std::string& why, std::chrono::milliseconds
         return;
     }
     last_failure_ = why;
-    spdlog::warn("mqtt broker {}: {}; retrying with back-off ({} ms doubling to {} ms), publications held "
-                 "meanwhile up to {}",
-                 where_, why, retry.count(), longest_retry.count(), settings_.held_limit);
+    spdlog::warn(
+        "mqtt broker {}: {}; retrying with back-off ({} ms doubling to {} ms), publications held "
+        "meanwhile up to {}",
+        where_, why, retry.count(), longest_retry.count(), settings_.held_limit);
 }
 
-void MqttSession::on_connect(mosquitto* handle, void* self_pointer, int reason, int, const mosquitto_property*) {
+void MqttSession::on_connect(mosquitto* handle, void* self_pointer, int reason, int,
+                             const mosquitto_property*) {
     auto& self = *static_cast<MqttSession*>(self_pointer);
     if (reason != 0) {
         std::lock_guard lock(self.mutex_);
@@ -152,9 +155,9 @@ void MqttSession::on_connect(mosquitto* handle, void* self_pointer, int reason, 
         std::vector<char*> patterns;
         for (auto& pattern : self.settings_.patterns)
             patterns.push_back(pattern.data());
-        const auto rc = mosquitto_subscribe_multiple(handle, nullptr, static_cast<int>(patterns.size()),
-                                                     patterns.data(), self.settings_.qos, MQTT_SUB_OPT_NO_LOCAL,
-                                                     nullptr);
+        const auto rc =
+            mosquitto_subscribe_multiple(handle, nullptr, static_cast<int>(patterns.size()), patterns.data(),
+                                         self.settings_.qos, MQTT_SUB_OPT_NO_LOCAL, nullptr);
         if (rc != MOSQ_ERR_SUCCESS)
             spdlog::error("mqtt broker {}: cannot subscribe: {}", self.where_, error_text(rc));
     }
@@ -204,9 +207,9 @@ void MqttSession::publish(const std::string& topic, std::vector<std::uint8_t> pa
     }
     // The oldest goes first: what a reader of the topic wants after an outage is the newest.
     if (held_.size() >= settings_.held_limit) {
-        held_.front().counters->dropped(
-            "disconnected_overflow", "the broker is away and " + std::to_string(settings_.held_limit) +
-                                         " publications are held already; the oldest was dropped");
+        held_.front().counters->dropped("disconnected_overflow",
+                                        "the broker is away and " + std::to_string(settings_.held_limit) +
+                                            " publications are held already; the oldest was dropped");
         held_.pop_front();
     }
     held_.push_back({topic, std::move(payload), retain, &counters});

@@ -62,7 +62,8 @@ public:
     void start();
     /// Publishes `payload` on `topic` at the session's QoS, or holds it while disconnected;
     /// counts it on `counters` (passed once handed to the connection, else a reason).
-    void publish(const std::string& topic, std::vector<std::uint8_t> payload, bool retain, PortCounters& counters);
+    void publish(const std::string& topic, std::vector<std::uint8_t> payload, bool retain,
+                 PortCounters& counters);
 
 private:
     struct Held {
@@ -98,10 +99,10 @@ private:
     std::mutex mutex_;
     std::condition_variable wake_;
     bool stopping_ = false;
-    bool connected_ = false;          ///< CONNACK accepted and not lost since
-    std::string refused_;             ///< the broker's refusal in the last CONNACK, if any
+    bool connected_ = false;  ///< CONNACK accepted and not lost since
+    std::string refused_;     ///< the broker's refusal in the last CONNACK, if any
     std::deque<Held> held_;
-    std::string last_failure_;        ///< session thread only
+    std::string last_failure_;  ///< session thread only
 
     std::thread thread_;
 };
