@@ -399,6 +399,53 @@ TEST(BridgeMqtt_test, AWrongPasswordIsLoggedAndRetriedAndTheRightOneConnects) {
     EXPECT_EQ(reader.next(), json(7));
 }
 
+/// A CA and a server certificate for 127.0.0.1 and localhost, made by openssl in `dir`.
+void make_certificates(const TempDir& dir, const std::string& ca) {
+    const auto openssl = [&](std::vector<std::string> args) {
+        args.insert(args.begin(), "/usr/bin/openssl");
+        run_tool(dir, args, "openssl");
+    };
+    openssl({"req", "-x509", "-newkey", "rsa:2048", "-nodes", "-keyout", dir.file(ca + ".key"), "-out",
+             dir.file(ca + ".crt"), "-days", "2", "-subj", "/CN=" + ca});
+    openssl({"req", "-newkey", "rsa:2048", "-nodes", "-keyout", dir.file("server.key"), "-out",
+             dir.file("server.csr"), "-subj", "/CN=localhost"});
+    std::ofstream(dir.file("server.ext")) << "subjectAltName=IP:127.0.0.1,DNS:localhost\n";
+    openssl({"x509", "-req", "-in", dir.file("server.csr"), "-CA", dir.file(ca + ".crt"), "-CAkey",
+             dir.file(ca + ".key"), "-CAcreateserial", "-out", dir.file("server.crt"), "-days", "2",
+             "-extfile", dir.file("server.ext")});
+}
+
+TEST(BridgeMqtt_test, TlsWithTheBrokersCaConnectsAndAnotherCaIsRefusedAndRetried) {
+    TempDir dir;
+    Daemon daemon(dir, "n1");
+    make_certificates(dir, "ca");
+    // A CA that did not sign the broker's certificate.
+    run_tool(dir,
+             {"/usr/bin/openssl", "req", "-x509", "-newkey", "rsa:2048", "-nodes", "-keyout",
+              dir.file("other.key"), "-out", dir.file("other.crt"), "-days", "2", "-subj", "/CN=other"},
+             "openssl");
+    Broker broker(dir, "broker",
+                  "cafile " + dir.file("ca.crt") + "\ncertfile " + dir.file("server.crt") + "\nkeyfile " +
+                      dir.file("server.key") + "\nallow_anonymous true\n");
+
+    auto wrong =
+        start_bridge(dir, daemon, broker, {"--in", "t/#=/mqtt/wrong", "--cafile", dir.file("other.crt")},
+                     "wrong", {}, false);
+    EXPECT_TRUE(eventually([&] { return wrong->out().find("retrying") != std::string::npos; }))
+        << wrong->out();
+    EXPECT_EQ(wrong->out().find("subscribed"), std::string::npos) << wrong->out();
+    EXPECT_TRUE(wrong->running());
+
+    auto right =
+        start_bridge(dir, daemon, broker, {"--in", "t/#=/mqtt/tls", "--cafile", dir.file("ca.crt")}, "right");
+    Reader reader(dir, daemon, "/mqtt/tls", "/test/reader");
+    run_tool(dir,
+             {"/usr/bin/mosquitto_pub", "-p", std::to_string(broker.port()), "-h", "127.0.0.1", "--cafile",
+              dir.file("ca.crt"), "-t", "t/1", "-m", "\"secret\""},
+             "pub");
+    EXPECT_EQ(reader.next(), json("secret"));
+}
+
 TEST(BridgeMqtt_test, UsageMistakesExitTwoNamingTheFlag) {
     TempDir dir;
     Daemon daemon(dir, "n1");
