@@ -17,9 +17,8 @@ void init_library_once() {
     std::call_once(once, [] { mosquitto_lib_init(); });
 }
 
+// For MOSQ_ERR_ERRNO, libmosquitto 2 already says strerror(errno) ("Connection refused").
 std::string error_text(int rc) {
-    if (rc == MOSQ_ERR_ERRNO)
-        return std::string(mosquitto_strerror(rc)) + ": " + std::strerror(errno);
     return mosquitto_strerror(rc);
 }
 }  // namespace
