@@ -1,8 +1,9 @@
 #pragma once
 // The Plexus side of a mapping out of Plexus: an input port of the bridge whose messages a callback
-// sends to the other system. A message that one of this bridge's own inbound ports wrote (a
-// connection, perhaps through other ports, led it back) is not sent again: a bridge never
-// re-publishes what it injected. It is counted as "own_message".
+// sends to the other system. A message that one of this bridge's inbound ports of the same topic
+// wrote (a connection led it back) is not sent again: a bridge never re-publishes what it injected
+// where it came from. It is counted as "own_message". One from an inbound port of another topic is
+// a relay, and goes out.
 #include <functional>
 #include <memory>
 #include <set>
@@ -20,7 +21,8 @@ public:
     /// "not_converted", "not_delivered", ...). An exception it throws counts as "not_delivered".
     using Send = std::function<void(const Received&, PortCounters&)>;
     /// Opens `port` (a strict queue of `capacity`, 0: the daemon's default). `own_ports` are the
-    /// bridge's inbound ports; `peer` names the other side in logs ("rt/cmd_vel").
+    /// bridge's inbound ports fed from the topic this port publishes to (a message from one of them
+    /// would go back where it came from); `peer` names the other side in logs ("rt/cmd_vel").
     Outbound(Client& client, const std::string& port, std::string peer, std::set<std::string> own_ports,
              std::size_t capacity = 0);
 
