@@ -1,5 +1,8 @@
 #include "bridges_scenario.hpp"
 
+#include <pwd.h>
+#include <unistd.h>
+
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -45,8 +48,12 @@ public:
         ::setenv("PLEXUS_SOCKET", socket.c_str(), 1);  // the bridges started below talk to it
         if (!names.empty())
             ::setenv("PLEXUS_NAMES", names.c_str(), 1);
+        // Started as root, mosquitto becomes the user `mosquitto` unless told to stay who it is.
+        const passwd* user = ::getpwuid(::geteuid());
         std::ofstream(dir_.file("mosquitto.conf")) << "listener " << broker_port << " 127.0.0.1\n"
-                                                   << "allow_anonymous true\n";
+                                                   << "allow_anonymous true\n"
+                                                   << "set_tcp_nodelay true\n"
+                                                   << "user " << (user ? user->pw_name : "root") << "\n";
     }
 
     /// One pinger run along `link`'s path, direct or through a bridge.
@@ -97,9 +104,11 @@ public:
         if (!poll_until([&] { return !ping_process.running(); }, 600s))
             throw std::runtime_error(tag + ": the pinger did not finish:\n" + ping_process.log_tail());
         const auto text = read_file(out);
-        const auto line = text.substr(text.rfind('{'));
-        const auto figures = nlohmann::json::parse(line, nullptr, false);
-        if (figures.is_discarded())
+        const auto brace = text.rfind('{');
+        const auto figures = brace == std::string::npos
+                                 ? nlohmann::json()
+                                 : nlohmann::json::parse(text.substr(brace), nullptr, false);
+        if (!figures.is_object())
             throw std::runtime_error(tag + ": the pinger printed no figures:\n" + text);
         PingResult result;
         result.p50_us = figures.value("p50_us", 0.0);

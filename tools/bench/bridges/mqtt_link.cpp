@@ -5,6 +5,7 @@
 #include <deque>
 #include <mutex>
 #include <stdexcept>
+#include <thread>
 
 #include <mosquitto.h>
 #include <mqtt_protocol.h>
@@ -22,6 +23,7 @@ public:
         if (!client_)
             throw std::runtime_error("mosquitto_new failed");
         mosquitto_int_option(client_, MOSQ_OPT_PROTOCOL_VERSION, MQTT_PROTOCOL_V5);
+        mosquitto_int_option(client_, MOSQ_OPT_TCP_NODELAY, 1);  // as the bridge and the peers bench
         mosquitto_connect_v5_callback_set(
             client_, [](mosquitto* client, void* self, int rc, int, const mosquitto_property*) {
                 auto* link = static_cast<MqttLink*>(self);
@@ -42,9 +44,14 @@ public:
                 }
                 link->arrived_.notify_one();
             });
-        if (mosquitto_connect(client_, host.c_str(), port, 30) != MOSQ_ERR_SUCCESS)
-            throw std::runtime_error("cannot connect to the MQTT broker at " + host + ":" +
-                                     std::to_string(port));
+        // The broker was started just before: retry while it comes up.
+        const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+        for (int rc; (rc = mosquitto_connect(client_, host.c_str(), port, 30)) != MOSQ_ERR_SUCCESS;) {
+            if (std::chrono::steady_clock::now() > deadline)
+                throw std::runtime_error("cannot connect to the MQTT broker at " + host + ":" +
+                                         std::to_string(port) + ": " + mosquitto_strerror(rc));
+            std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        }
         mosquitto_loop_start(client_);
     }
     ~MqttLink() override {

@@ -161,7 +161,8 @@ int run_mqtt(const MqttOptions& options, const StopCheck& stop) {
         std::set<std::string> loops;
         for (const auto& in : in_mappings) {
             bool matches = false;
-            if (mosquitto_topic_matches_sub(in.from.c_str(), mapping.to.c_str(), &matches) == MOSQ_ERR_SUCCESS &&
+            if (mosquitto_topic_matches_sub(in.from.c_str(), mapping.to.c_str(), &matches) ==
+                    MOSQ_ERR_SUCCESS &&
                 matches)
                 loops.insert(in.to);
         }

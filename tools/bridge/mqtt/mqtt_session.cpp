@@ -35,6 +35,9 @@ MqttSession::MqttSession(MqttSettings settings, OnMessage on_message)
         throw UsageError("mqtt: cannot make a client (client id '" + settings_.client_id + "')");
     // MQTT v5 for No Local: without it the bridge's own publications on topics it subscribes come back.
     mosquitto_int_option(handle_, MOSQ_OPT_PROTOCOL_VERSION, MQTT_PROTOCOL_V5);
+    // Small messages at once: with Nagle's algorithm a small publication waits for the broker's
+    // delayed ACK, 40 ms on Linux (measured: 64 B one-way 44 ms without this).
+    mosquitto_int_option(handle_, MOSQ_OPT_TCP_NODELAY, 1);
     mosquitto_threaded_set(handle_, true);
     if (settings_.username || settings_.password) {
         const auto rc =
