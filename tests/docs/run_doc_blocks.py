@@ -18,7 +18,8 @@ next one sees, as in the terminal of a reader who types them one after another.
 Where they run: a scratch copy of the source tree (so a command that writes into the tree cannot
 change the real one), whose `build` is a symlink to the build tree ctest was configured with.
 PLEXUS_SOCKET is a socket in the scratch directory and PLEXUS_NAMES a free loopback port, so the
-docs' commands, which rely on those defaults, do not meet another test's daemon; discovery is off
+docs' commands, which rely on those defaults, do not meet another test's daemon (MQTT_PORT, another
+free loopback port, for a broker a block starts as `mosquitto -p ${MQTT_PORT:-1883}`); discovery is off
 (loopback only); TMPDIR is inside the scratch directory, so `mktemp` leaves nothing behind.
 
 Every process a block starts is killed when the sequence ends, also when it fails or times out:
@@ -231,6 +232,7 @@ def run_sequence(source, build, doc_and_sequence, timeout):
         env.update(PLEXUS_SOCKET=os.path.join(scratch, "plexusd.sock"),
                    PLEXUS_NAMES=f"127.0.0.1:{free_loopback_port()}",
                    PLEXUS_DISCOVERY="off",
+                   MQTT_PORT=str(free_loopback_port()),
                    PLEXUS_DOC_TEST_RUN=mark,
                    TMPDIR=os.path.join(scratch, "tmp"))
         print(f"== {doc_name}, sequence '{sequence}': {len(blocks)} blocks, in {tree}; "
