@@ -129,6 +129,12 @@ CLI::App* add_ros2_command(CLI::App& app, Ros2Options& options) {
                                        "conventions (topic rt/NAME, type "
                                        "pkg::msg::dds_::Name_). TYPE may end with the mapping's own QoS: "
                                        "std_msgs/msg/String,best-effort,transient-local,depth=5.");
+    std::string types;
+    for (const auto& name : ros2::type_names())
+        types += (types.empty() ? "" : ", ") + name;
+    command->footer("Types it knows (docs/BRIDGES.md: how each maps to a Plexus value): " + types +
+                    ". Example: plexus-bridge ros2 --in /chatter=/ros/chatter:std_msgs/msg/String --out "
+                    "/robot/cmd_vel=/cmd_vel:geometry_msgs/msg/Twist");
     command->add_option("--domain", options.domain, "the ROS 2 domain id (default: $ROS_DOMAIN_ID, else 0)")
         ->check(CLI::Range(0, 232));
     command->add_option("--in", options.in, "ROS_TOPIC=PORT:TYPE: a ROS 2 topic into a Plexus port");
