@@ -117,7 +117,8 @@ TEST(Ros2Convert_test, TheCStructHoldsWhatTheMapSaid) {
     const auto* twist = find_type("geometry_msgs/msg/Twist");
     geometry_msgs_msg_dds__Twist_ sample;
     SampleBuilder builder;
-    ASSERT_EQ(builder.fill({{"linear", {{"x", 0.5}}}, {"angular", {{"z", -1}}}}, *twist->layout, &sample), "");
+    ASSERT_EQ(builder.fill({{"linear", {{"x", 0.5}}}, {"angular", {{"z", -1}}}}, *twist->layout, &sample),
+              "");
     EXPECT_EQ(sample.linear.x, 0.5);
     EXPECT_EQ(sample.linear.y, 0.0);
     EXPECT_EQ(sample.angular.z, -1.0);
@@ -164,14 +165,16 @@ TEST(Ros2Convert_test, WhatDoesNotFitIsAnErrorNamingTheField) {
     EXPECT_EQ(error_of("geometry_msgs/msg/Twist", {{"linear", {{"w", 1}}}}),
               "linear.w: geometry_msgs/msg/Vector3 has no such field");
     EXPECT_EQ(error_of("geometry_msgs/msg/Twist", {{"linear", 3}}), "linear: expected a map, not a number");
-    EXPECT_EQ(error_of("geometry_msgs/msg/Twist", "text"), "geometry_msgs/msg/Twist: expected a map, not a text");
+    EXPECT_EQ(error_of("geometry_msgs/msg/Twist", "text"),
+              "geometry_msgs/msg/Twist: expected a map, not a text");
     EXPECT_EQ(error_of("std_msgs/msg/Int32", {{"data", 2147483648}}), "data: 2147483648 does not fit");
     EXPECT_EQ(error_of("std_msgs/msg/Int32", {{"data", 1.5}}), "data: expected a whole number, not a number");
     EXPECT_EQ(error_of("sensor_msgs/msg/Image", {{"width", -1}}), "width: -1 does not fit");
     EXPECT_EQ(error_of("sensor_msgs/msg/Image", {{"data", {1, 256}}}), "data[1]: 256 does not fit");
     EXPECT_EQ(error_of("sensor_msgs/msg/Imu", {{"orientation_covariance", {1, 2}}}),
               "orientation_covariance: expected a list of 9 numbers, not a list");
-    EXPECT_EQ(error_of("sensor_msgs/msg/JointState", {{"name", {"a", 1}}}), "name[1]: expected a text, not a number");
+    EXPECT_EQ(error_of("sensor_msgs/msg/JointState", {{"name", {"a", 1}}}),
+              "name[1]: expected a text, not a number");
     EXPECT_EQ(error_of("sensor_msgs/msg/PointCloud2", {{"fields", {{{"nam", "x"}}}}}),
               "fields[0].nam: sensor_msgs/msg/PointField has no such field");
 }
