@@ -235,27 +235,36 @@ TEST(Isolation_test, AHostileSendMonitorOnAnMcastConnectionDelaysNothingElse) {
 }
 
 TEST(Isolation_test, AScriptThatOverrunsNowAndThenHandsTheLoopOverEachTimeAndDelaysNothingElse) {
-    // Cheap but for every 100th message (10 ms then, at 1 kHz: without the stand-in, the other
+    // Cheap but for every 300th message (30 ms then, at 1 kHz: without the stand-in, the other
     // connection's messages would wait for it one time in ten). Each time it overruns inline, the
     // stand-in takes the event loop over; the stage goes to a worker for a drain or two and comes
     // back (see the config below), and overruns again. Meanwhile another connection's latency
     // stays low.
+    //
+    // What the calm p99 tells apart: a tenth of the calm messages arrive during an overrun.
+    // Without the stand-in they would wait the rest of it, so the p99 would be near 27 ms. With
+    // it they wait for the hand-over (Stage::inline_overrun_after, 0.2 ms) and for a CPU: the
+    // overrun keeps one of a 2-vCPU machine's two busy, and the stand-in, the writers, the reader
+    // and its receiving thread share the other — up to 7 ms seen. Overruns of 10 ms under a 5 ms
+    // bound (the first version) left no room between the two: CI failed at 5.86 ms, and 2 runs in 5
+    // failed here.
     TempDir dir;
     std::ofstream(dir.file("now_and_then.lua")) << R"(
 local n = 0
 PortMonitor.accept = function(msg)
     n = n + 1
-    if n % 100 == 0 then
+    if n % 300 == 0 then
         local start = PortMonitor.now()
-        while PortMonitor.now() - start < 0.010 do end
+        while PortMonitor.now() - start < 0.030 do end
     end
     return true
 end
 )";
     // Inline whatever the script costs between its overruns (100 ms a message): the default of
     // 10 us would put it on a worker for good in a sanitized build, where every call costs more.
+    // And a budget above the overrun (the default, 20 ms, would end each as an error).
     const std::string config = dir.file("inline-always.json");
-    std::ofstream(config) << R"({"monitor_inline_cost_us": 100000})";
+    std::ofstream(config) << R"({"monitor_inline_cost_us": 100000, "monitor_budget_ms": 100})";
     Daemon daemon(dir, "solo", "", {"--scripts", dir.path(), "--config", config});
     MonitoredBesideCalm connections(daemon, "odd", "now_and_then");
     PacedWriter odd(connections.monitored_out, 1ms);
@@ -275,7 +284,8 @@ end
     std::cout << "  now_and_then: calm p50 " << calm.p50 << " ms, p99 " << calm.p99 << " ms; inline overruns "
               << inbound["monitor_inline_overruns"] << ", odd messages " << inbound["received"] << ", errors "
               << inbound["monitors"][0]["errors"] << "\n";
-    EXPECT_LT(calm.p99, 5.0 * slowdown());
+    EXPECT_LT(calm.p99, 15.0 * slowdown());
+    EXPECT_EQ(inbound["monitors"][0]["errors"], 0) << "an overrun must not be cut off: it is within budget";
 }
 
 TEST(Isolation_test, AHundredThousandMessagesThroughAMonitorArriveInOrderBesideOtherMonitors) {
