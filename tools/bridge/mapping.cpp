@@ -2,6 +2,8 @@
 
 #include <set>
 
+#include "plexus/proto/port_name.hpp"
+
 namespace plexus::bridge {
 
 Mapping parse_mapping(const std::string& text, const std::string& flag, bool with_type) {
@@ -29,12 +31,8 @@ Mapping parse_mapping(const std::string& text, const std::string& flag, bool wit
 }
 
 void require_port(const std::string& name, const std::string& where) {
-    bool ok =
-        name.size() > 1 && name.front() == '/' && name.back() != '/' && name.find("//") == std::string::npos;
-    for (const char c : name)
-        ok = ok && c > ' ' && c != ':' && c != '+' && c != 0x7f;
-    if (!ok)
-        throw UsageError(where + ": '" + name + "' is not a port name (a '/' then names separated by '/')");
+    if (const auto error = proto::port_name_error(name))
+        throw UsageError(where + ": '" + name + "' is not a port name: " + *error);
 }
 
 void require_distinct_ports(const std::vector<std::string>& ports, const std::string& where) {

@@ -23,7 +23,7 @@ struct Mapping {
 /// Throws UsageError for an empty side or a missing `=` or type.
 Mapping parse_mapping(const std::string& text, const std::string& flag, bool with_type);
 
-/// Throws UsageError unless `name` is a Plexus port name (`/` then non-empty segments).
+/// Throws UsageError unless `name` is a Plexus port name (proto::port_name_error's rules).
 void require_port(const std::string& name, const std::string& where);
 
 /// Throws UsageError when two mappings open the same Plexus port (`side` picks from or to).
