@@ -1,3 +1,4 @@
+#include "plexus/proto/rings.hpp"
 #include "config_file.hpp"
 
 #include <algorithm>
@@ -113,6 +114,7 @@ void apply_config_text(const std::string& path, std::string_view text, DaemonCon
                                              "queue_bytes",
                                              "shm_region_bytes",
                                              "shm_total_bytes",
+                                             "shm_ring_bytes",
                                              "names_grace_ms",
                                              "handshake_timeout_ms",
                                              "names_state",
@@ -142,6 +144,13 @@ void apply_config_text(const std::string& path, std::string_view text, DaemonCon
     config.shm_total_bytes = whole_number(json, "shm_total_bytes", config.shm_total_bytes, path);
     if (config.shm_region_bytes != 0 && config.shm_region_bytes < 1024 * 1024)
         throw std::runtime_error("config " + path + ": shm_region_bytes must be 0 (off) or at least 1048576");
+    config.shm_ring_bytes = whole_number(json, "shm_ring_bytes", config.shm_ring_bytes, path);
+    if (config.shm_ring_bytes != 0 && (config.shm_ring_bytes < proto::RingLayout::min_ring_bytes ||
+                                       config.shm_ring_bytes > proto::RingLayout::max_ring_bytes ||
+                                       (config.shm_ring_bytes & (config.shm_ring_bytes - 1)) != 0)) {
+        throw std::runtime_error("config " + path +
+                                 ": shm_ring_bytes must be 0 (off) or a power of two from 65536 to 16777216");
+    }
     config.names_grace =
         std::chrono::milliseconds(whole_number(json, "names_grace_ms", config.names_grace.count(), path));
     config.handshake_timeout = std::chrono::milliseconds(

@@ -49,6 +49,9 @@ struct DaemonConfig {
     /// messages wait in a region (8 MiB against 32: 1 MiB fan-out to 8 readers 5,365 against
     /// 3,993 deliveries/s, p50 under load 3.4 against 30 ms).
     std::size_t shm_region_bytes = 8u * 1024u * 1024u;
+    /// Bytes of each of the two rings a local client's session may move to (PROTOCOL.md "Rings"):
+    /// a power of two from 65536 to 16777216; 0 keeps every session on its socket.
+    std::size_t shm_ring_bytes = 512u * 1024u;
     /// Bound on the bytes of all regions together.
     std::size_t shm_total_bytes = 1024u * 1024u * 1024u;
     UdpConfig udp;  ///< the udp carrier: datagram size, largest message, reassembly bounds
@@ -70,6 +73,8 @@ struct DaemonCounters {
     std::uint64_t shm_copied = 0;     ///< written in shared memory, copied out for readers that needed it
     std::uint64_t auth_failures = 0;  ///< TCP peers that did not prove they hold the deployment secret
     std::uint64_t handshake_timeouts = 0;  ///< peers cut off for not completing their handshake in time
+    std::uint64_t ring_sessions = 0;       ///< sessions that moved to shared-memory rings
+    std::uint64_t rings_refused = 0;       ///< rings asked for and refused (off, not local, no memory)
 };
 
 }  // namespace plexus::daemon

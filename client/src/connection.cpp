@@ -8,6 +8,7 @@
 #include "plexus/proto/hello.hpp"
 #include "plexus/proto/message.hpp"
 #include "plexus/proto/operations.hpp"
+#include "plexus/proto/rings.hpp"
 #include "plexus/proto/shm.hpp"
 #include "tcp_handshake.hpp"
 
@@ -27,7 +28,7 @@ Connection::Connection(int fd, std::string description, bool greeted, std::uint6
       calls_(demand_),
       shm_(demand_),
       send_(socket_, demand_),
-      receiver_(socket_, demand_, demux_, calls_, shm_, send_) {
+      receiver_(socket_, demand_, demux_, calls_, shm_, send_, rings_answer_) {
     if (greeted && peer_max_frame > 0)
         receiver_.set_peer_max_frame(peer_max_frame);
     if (!greeted && !send_.send_frame(proto::encode_hello({proto::protocol_version, "client", ""})))
@@ -87,7 +88,31 @@ std::shared_ptr<Connection> Connection::to_daemon(const std::string& socket_path
     const char* shm = std::getenv("PLEXUS_SHM");
     if (!shm || std::string_view(shm) != "0")
         connection->enable_shm();
+    // PLEXUS_RINGS=0 keeps the frames in the socket (for comparisons, or to rule the rings out).
+    const char* rings = std::getenv("PLEXUS_RINGS");
+    if (!rings || std::string_view(rings) != "0")
+        connection->enable_rings();
     return connection;
+}
+
+bool Connection::enable_rings() {
+    // Nothing else is sent meanwhile: this runs before the connection is handed to anyone, and the
+    // daemon reads nothing more from the socket after the request.
+    const auto deadline = Clock::now() + std::chrono::milliseconds(5000);
+    demand_.add(deadline);
+    if (!send_.send_frame(proto::make_rings_request(0))) {
+        demand_.remove();
+        check_sent(false);
+    }
+    auto answer = rings_answer_.wait(deadline);
+    demand_.remove();
+    demux_.throw_if_broken();
+    if (!answer)
+        throw Error(ErrorCode::timeout, path_ + " did not answer the rings request in time");
+    if (!answer->rings)
+        return false;
+    check_sent(send_.send_into_rings(std::move(answer->rings)));
+    return true;
 }
 
 std::shared_ptr<Connection> Connection::to_tcp(const std::string& address) {

@@ -67,6 +67,9 @@ public:
     /// Tells the daemon this client maps shared-memory regions (a local daemon only); true if the
     /// daemon shares memory. Large payloads then travel through shared memory where they can.
     bool enable_shm();
+    /// Moves this connection's frames to shared-memory rings (a local daemon only); true if the
+    /// daemon made them, false when it said no (the socket then carries everything, as before).
+    bool enable_rings();
     /// True once the connection failed (the daemon went away, or broke the protocol). One load.
     bool broken() const { return demux_.broken(); }
     /// The largest frame body the daemon takes, from its hello (the default until that arrived;
@@ -102,6 +105,7 @@ private:
     Demux demux_;
     CallBook calls_;
     ShmRegions shm_;
+    RingsAnswerSlot rings_answer_;
     SendBuffer send_;
     Receiver receiver_;
     std::thread receiving_;

@@ -11,6 +11,7 @@
 #include <cerrno>
 #include <cstring>
 
+#include "client_rings.hpp"
 #include "plexus/client.hpp"
 #include "plexus/proto/endpoint.hpp"
 
@@ -77,6 +78,8 @@ FrameSocket::~FrameSocket() {
 }
 
 SocketReceived FrameSocket::receive(std::uint8_t* at, std::size_t room, std::deque<int>& fds, int flags) {
+    if (in_rings_)
+        return in_rings_->receive(at, room, fd_, fds, receive_timeout_, (flags & MSG_DONTWAIT) == 0);
     // recvmsg, not recv: shared-memory regions arrive as descriptors attached to the bytes, and a
     // recv would close them unseen.
     iovec piece{at, room};
@@ -117,6 +120,8 @@ SocketReceived FrameSocket::receive(std::uint8_t* at, std::size_t room, std::deq
 }
 
 SocketSent FrameSocket::send_some(const iovec* pieces, std::size_t count) {
+    if (out_rings_)
+        return out_rings_->send_some(pieces, count);
     msghdr message{};
     message.msg_iov = const_cast<iovec*>(pieces);
     message.msg_iovlen = count;
@@ -133,18 +138,42 @@ SocketSent FrameSocket::send_some(const iovec* pieces, std::size_t count) {
 }
 
 bool FrameSocket::wait_writable(int timeout_ms) {
+    if (out_rings_)
+        return out_rings_->wait_writable(fd_, timeout_ms);
     pollfd room{fd_, POLLOUT, 0};
     return ::poll(&room, 1, timeout_ms) > 0 && (room.revents & POLLOUT);
 }
 
 void FrameSocket::set_receive_timeout(std::chrono::microseconds timeout) {
+    receive_timeout_ = timeout;
+    if (in_rings_)
+        return;
     timeval tv{static_cast<time_t>(timeout.count() / 1000000),
                static_cast<suseconds_t>(timeout.count() % 1000000)};
     ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
 }
 
 void FrameSocket::set_send_buffer(int bytes) {
+    if (out_rings_)
+        return;
     ::setsockopt(fd_, SOL_SOCKET, SO_SNDBUF, &bytes, sizeof bytes);
+}
+
+bool FrameSocket::await_descriptor(std::deque<int>& fds, int timeout_ms) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
+    while (fds.empty() && in_rings_) {
+        std::optional<std::string> failure;
+        if (!in_rings_->drain_socket(fd_, fds, failure))
+            return !fds.empty();
+        if (!fds.empty())
+            break;
+        const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+        if (left.count() <= 0)
+            return false;
+        pollfd readable{fd_, POLLIN, 0};
+        ::poll(&readable, 1, static_cast<int>(left.count()));
+    }
+    return !fds.empty();
 }
 
 void FrameSocket::shutdown() {

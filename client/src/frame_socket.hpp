@@ -12,10 +12,13 @@
 #include <cstddef>
 #include <cstdint>
 #include <deque>
+#include <memory>
 #include <optional>
 #include <string>
 
 namespace plexus::detail {
+
+class ClientRings;
 
 /// What one receive() gave: bytes, nothing (EINTR, EAGAIN), or the end of the connection.
 struct SocketReceived {
@@ -60,8 +63,22 @@ public:
     /// Ends both directions: a receive blocked in another thread returns (as if the peer closed).
     void shutdown();
 
+    // Shared-memory rings (client_rings.hpp): once a direction moved to its ring, receive() or
+    // send_some()/wait_writable() use the ring, and the socket carries only descriptors and the end.
+    /// For the receiving thread, right after the daemon's `rings` answer.
+    void receive_from_rings(std::shared_ptr<ClientRings> rings) { in_rings_ = std::move(rings); }
+    /// For a sender, under SendBuffer's mutex, once the rings are there.
+    void send_into_rings(std::shared_ptr<ClientRings> rings) { out_rings_ = std::move(rings); }
+    bool receives_from_rings() const { return in_rings_ != nullptr; }
+    /// With rings: waits up to `timeout_ms` for a descriptor the daemon sent ahead of a frame that
+    /// names it (it is on its way: the frame came after it); false when none came.
+    bool await_descriptor(std::deque<int>& fds, int timeout_ms);
+
 private:
     int fd_ = -1;
+    std::shared_ptr<ClientRings> in_rings_;   ///< the receiving thread's
+    std::shared_ptr<ClientRings> out_rings_;  ///< the senders', under SendBuffer's mutex
+    std::chrono::microseconds receive_timeout_{0};  ///< as SO_RCVTIMEO, for the ring
 };
 
 }  // namespace plexus::detail

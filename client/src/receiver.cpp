@@ -21,8 +21,14 @@ constexpr std::size_t read_chunk = 256 * 1024;
 }  // namespace
 
 Receiver::Receiver(FrameSocket& socket, ReadDemand& demand, Demux& demux, CallBook& calls, ShmRegions& shm,
-                   SendBuffer& send)
-    : socket_(socket), demand_(demand), demux_(demux), calls_(calls), shm_(shm), send_(send) {
+                   SendBuffer& send, RingsAnswerSlot& rings_answer)
+    : socket_(socket),
+      demand_(demand),
+      demux_(demux),
+      calls_(calls),
+      shm_(shm),
+      send_(send),
+      rings_answer_(rings_answer) {
     in_.resize(read_chunk);
 }
 
@@ -138,6 +144,13 @@ void Receiver::receive(Clock::time_point deadline) {
                 return;
         }
         in_begin_ += decoded.used;
+        if (just_moved_to_rings_) {
+            // The daemon sends nothing on the socket after its rings answer but descriptors, each
+            // with one byte: those bytes are not frames.
+            just_moved_to_rings_ = false;
+            in_begin_ = in_end_ = 0;
+            return;
+        }
     }
 }
 
@@ -216,7 +229,13 @@ void Receiver::dispatch(proto::FrameType type, proto::ByteView fields) {
             return fail("the daemon reported: " +
                         (reason ? *reason : std::string(proto::as_string_view(fields))));
         }
+        case proto::FrameType::rings:
+            return take_rings(fields);
         case proto::FrameType::shm_region:
+            // With rings, its descriptor came on the socket ahead of it: perhaps not read yet.
+            if (received_fds_.empty() && socket_.receives_from_rings())
+                socket_.await_descriptor(received_fds_, 5000);
+            [[fallthrough]];
         case proto::FrameType::shm_free:
         case proto::FrameType::shm_region_gone:
             if (auto bad = shm_.on_frame(type, fields, received_fds_))
@@ -244,6 +263,33 @@ void Receiver::dispatch(proto::FrameType type, proto::ByteView fields) {
         default:
             return fail("unexpected frame type " + proto::frame_type_name(static_cast<std::uint8_t>(type)));
     }
+}
+
+void Receiver::take_rings(proto::ByteView fields) {
+    const auto answer = proto::decode_rings_answer(fields);
+    if (!answer)
+        return fail("bad rings frame: " + answer.error().message);
+    if (answer->ring_bytes == 0) {
+        rings_answer_.put({nullptr, answer->reason});
+        return;
+    }
+    if (socket_.receives_from_rings())
+        return fail("the daemon sent a second rings answer");
+    std::vector<int> fds;
+    while (!received_fds_.empty() && fds.size() < proto::ring_descriptors) {
+        fds.push_back(received_fds_.front());
+        received_fds_.pop_front();
+    }
+    std::string why;
+    auto rings = ClientRings::map(std::move(fds), answer->ring_bytes, why);
+    if (!rings) {
+        // The daemon writes into the rings from now on: without them this connection is over.
+        rings_answer_.put({nullptr, why});
+        return fail("cannot use the daemon's rings: " + why);
+    }
+    socket_.receive_from_rings(rings);
+    just_moved_to_rings_ = true;
+    rings_answer_.put({std::move(rings), {}});
 }
 
 void Receiver::receive_shm_data(proto::ByteView fields) {

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "call_book.hpp"
+#include "client_rings.hpp"
 #include "demux.hpp"
 #include "frame_socket.hpp"
 #include "plexus/proto/frame.hpp"
@@ -28,7 +29,7 @@ class Receiver {
 public:
     /// Feeds `demux`, `shm` and `send` from `socket` while `demand` asks for it; all must outlive it.
     Receiver(FrameSocket& socket, ReadDemand& demand, Demux& demux, CallBook& calls, ShmRegions& shm,
-             SendBuffer& send);
+             SendBuffer& send, RingsAnswerSlot& rings_answer);
     /// Closes descriptors received for frames that never came.
     ~Receiver();
     Receiver(const Receiver&) = delete;
@@ -62,6 +63,8 @@ private:
     /// span and one lock for all of them, not an allocation and a lock per message.
     void deliver_received();
     void fail(const std::string& why);
+    /// The daemon's `rings` answer: maps the rings and reads from them from now on.
+    void take_rings(proto::ByteView fields);
 
     FrameSocket& socket_;
     ReadDemand& demand_;
@@ -69,6 +72,8 @@ private:
     CallBook& calls_;
     ShmRegions& shm_;
     SendBuffer& send_;
+    RingsAnswerSlot& rings_answer_;
+    bool just_moved_to_rings_ = false;  ///< the rest of this socket read is descriptor markers
     std::atomic<std::uint64_t> peer_max_frame_{proto::default_max_frame};
 
     std::chrono::microseconds receive_timeout_{0};  ///< SO_RCVTIMEO now set; 0 = blocking forever

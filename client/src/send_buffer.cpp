@@ -114,6 +114,18 @@ bool SendBuffer::write_shm(std::uint64_t handle, proto::ByteView place) {
     return !failure_;
 }
 
+bool SendBuffer::send_into_rings(std::shared_ptr<ClientRings> rings) {
+    std::lock_guard lock(mutex_);
+    if (failure_)
+        return false;
+    close_batch_locked();
+    append_releases_locked();
+    if (!out_.empty())
+        send_locked();
+    socket_.send_into_rings(std::move(rings));
+    return !failure_;
+}
+
 bool SendBuffer::flush() {
     std::lock_guard lock(mutex_);
     if (failure_)

@@ -14,6 +14,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -24,6 +25,8 @@
 #include "read_demand.hpp"
 
 namespace plexus::detail {
+
+class ClientRings;
 
 class SendBuffer {
 public:
@@ -58,6 +61,9 @@ public:
     void send_releases_if_idle();
     /// Ends the backlog thread (joins it); what it did not send is dropped.
     void stop();
+    /// From now on frames go into the shared-memory rings, after what is buffered (sent first on
+    /// the socket). False when sending had failed.
+    bool send_into_rings(std::shared_ptr<ClientRings> rings);
     /// Why sending failed; nullopt while it has not.
     std::optional<std::string> failure() const;
 

@@ -95,6 +95,8 @@ nlohmann::json stats_view(ControlHost& host, const ShmUsage& shm, const std::str
                           {"shm_regions", shm.regions},
                           {"shm_bytes", shm.bytes},
                           {"shm_slots", shm.slots},
+                          {"ring_sessions", counters.ring_sessions},
+                          {"rings_refused", counters.rings_refused},
                           {"udp_datagrams_sent", host.udp().counters().datagrams_sent},
                           {"udp_datagrams_received", host.udp().counters().datagrams_received},
                           {"udp_bad_datagrams", host.udp().counters().bad_datagrams},

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cstring>
 
+#include "session_rings.hpp"
+
 namespace plexus::daemon {
 
 namespace {
@@ -84,38 +86,58 @@ ReadOutcome FrameReader::try_next() {
     return {};
 }
 
+FrameReader::Step FrameReader::next_step() {
+    std::size_t needed = 1;
+    if (chunk_) {
+        auto decoded = decoder_.decode({chunk_->data() + begin_, end_ - begin_});
+        if (decoded.status == proto::DecodeStatus::frame) {
+            InFrame frame{decoded.type, decoded.fields, chunk_};
+            begin_ += decoded.used;
+            last_frame_size_ = decoded.used;
+            return {ReadOutcome{std::move(frame), false, false, {}}, {}};
+        }
+        if (decoded.status == proto::DecodeStatus::bad)
+            return {ReadOutcome{std::nullopt, false, true, decoded.error}, {}};
+        needed = decoded.needed;
+    }
+    make_room(needed);
+    return {std::nullopt, asio::buffer(chunk_->data() + end_, read_space(needed))};
+}
+
+ReadOutcome FrameReader::ended(bool eof, const std::string& error) const {
+    if (eof && begin_ == end_)
+        return ReadOutcome{std::nullopt, true, false, {}};
+    if (eof) {
+        return ReadOutcome{std::nullopt, false, true,
+                           "connection closed inside a frame (" + std::to_string(end_ - begin_) +
+                               " bytes of it received)"};
+    }
+    return ReadOutcome{std::nullopt, false, false, error};
+}
+
 Task<ReadOutcome> FrameReader::next(Socket& socket) {
     for (;;) {
-        std::size_t needed = 1;
-        if (chunk_) {
-            auto decoded = decoder_.decode({chunk_->data() + begin_, end_ - begin_});
-            if (decoded.status == proto::DecodeStatus::frame) {
-                InFrame frame{decoded.type, decoded.fields, chunk_};
-                begin_ += decoded.used;
-                last_frame_size_ = decoded.used;
-                co_return ReadOutcome{std::move(frame), false, false, {}};
-            }
-            if (decoded.status == proto::DecodeStatus::bad) {
-                co_return ReadOutcome{std::nullopt, false, true, decoded.error};
-            }
-            needed = decoded.needed;
-            make_room(needed);
-        } else {
-            make_room(1);
-        }
-        auto [ec, n] = co_await socket.async_read_some(
-            asio::buffer(chunk_->data() + end_, read_space(needed)), use_nothrow);
-        if (ec) {
-            if (ec == asio::error::eof && begin_ == end_)
-                co_return ReadOutcome{std::nullopt, true, false, {}};
-            if (ec == asio::error::eof) {
-                co_return ReadOutcome{std::nullopt, false, true,
-                                      "connection closed inside a frame (" + std::to_string(end_ - begin_) +
-                                          " bytes of it received)"};
-            }
-            co_return ReadOutcome{std::nullopt, false, false, ec.message()};
-        }
+        auto step = next_step();
+        if (step.outcome)
+            co_return std::move(*step.outcome);
+        auto [ec, n] = co_await socket.async_read_some(step.room, use_nothrow);
+        if (ec)
+            co_return ended(ec == asio::error::eof, ec.message());
         end_ += n;
+    }
+}
+
+Task<ReadOutcome> FrameReader::next(SessionRings& rings) {
+    for (;;) {
+        auto step = next_step();
+        if (step.outcome)
+            co_return std::move(*step.outcome);
+        const auto n = co_await rings.read_some(step.room);
+        if (!n)
+            co_return ended(false, n.error().message);
+        if (*n == 0)
+            co_return ended(true, {});
+        end_ += *n;
     }
 }
 

@@ -12,6 +12,8 @@
 
 namespace plexus::daemon {
 
+class SessionRings;
+
 struct InFrame {
     proto::FrameType type{};
     proto::ByteView fields;
@@ -37,6 +39,8 @@ class FrameReader {
 public:
     explicit FrameReader(std::size_t max_body) : decoder_(max_body) {}
     Task<ReadOutcome> next(Socket& socket);
+    /// The same, from the ring a client writes into (session_rings.hpp).
+    Task<ReadOutcome> next(SessionRings& rings);
     /// The next frame if it is already buffered, or a protocol error; an empty outcome when more
     /// bytes are needed. Saves a coroutine call per frame when a read brought many.
     ReadOutcome try_next();
@@ -44,6 +48,14 @@ public:
     std::size_t buffered() const { return end_ - begin_; }
 
 private:
+    /// A frame (or a protocol error) from what is buffered, or else the room the next read fills.
+    struct Step {
+        std::optional<ReadOutcome> outcome;
+        asio::mutable_buffer room;
+    };
+    Step next_step();
+    /// The outcome of a stream that ended (`eof`: the peer closed) or failed.
+    ReadOutcome ended(bool eof, const std::string& error) const;
     void make_room(std::size_t needed_total);
     /// Moves the current chunk to the spares (reused once nothing refers to it).
     void retire_chunk();

@@ -77,6 +77,8 @@ void FramedConnection::close(const std::string& reason) {
     boost::system::error_code ignored;
     socket_.shutdown(Socket::shutdown_both, ignored);
     socket_.close(ignored);
+    if (rings_)
+        rings_->close();    // ends a wait in the rings
     outbox_.release_all();  // the peer will not release them: free the writers' slots now
     wake_.notify();
     hello_signal_.notify();
@@ -184,7 +186,11 @@ Task<void> FramedConnection::read_loop() {
     auto self = shared_from_this();
     while (!closed_) {
         ReadOutcome outcome = reader_.try_next();
-        if (!outcome.frame && !outcome.protocol_error)
+        // Not `rings_ ? co_await ... : co_await ...`: GCC 12 got that conditional wrong (it
+        // awaited the rings' read with no rings).
+        if (!outcome.frame && !outcome.protocol_error && rings_)
+            outcome = co_await reader_.next(*rings_);
+        else if (!outcome.frame && !outcome.protocol_error)
             outcome = co_await reader_.next(socket_);
         if (closed_)
             break;
@@ -302,6 +308,74 @@ Task<void> FramedConnection::refuse_unauthenticated(std::string reason) {
     fail(reason);
 }
 
+bool FramedConnection::use_rings(std::unique_ptr<SessionRings> rings, proto::Bytes answer) {
+    if (reader_.buffered() > 0) {
+        fail("frames on the socket after the rings request");
+        return false;
+    }
+    rings_ = std::move(rings);
+    outbox_.push_rings_answer(std::move(answer), rings_->client_descriptors(), rings_);
+    wake_.notify();
+    auto self = shared_from_this();
+    asio::co_spawn(
+        executor(), [self] { return self->watch_socket(); }, asio::detached);
+    return true;
+}
+
+Task<void> FramedConnection::watch_socket() {
+    auto self = shared_from_this();
+    while (!closed_) {
+        auto [ec] = co_await socket_.async_wait(Socket::wait_read, use_nothrow);
+        if (closed_)
+            co_return;
+        if (ec) {
+            close(ec.message());
+            co_return;
+        }
+        std::uint8_t byte = 0;
+        const ssize_t n = ::recv(socket_.native_handle(), &byte, 1, MSG_DONTWAIT);
+        if (n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)) {
+            // What the peer wrote into the ring before it closed is still read, then the reader
+            // sees the end of the stream.
+            rings_->peer_closed();
+            co_return;
+        }
+        if (n > 0) {
+            fail("bytes on the socket after the session moved to shared-memory rings");
+            co_return;
+        }
+    }
+}
+
+Task<proto::Status> FramedConnection::send_descriptors(const std::vector<int>& fds) {
+    std::uint8_t marker = 0;
+    while (!closed_) {
+        iovec piece{&marker, 1};
+        std::vector<char> control(CMSG_SPACE(sizeof(int) * fds.size()));
+        msghdr message{};
+        message.msg_iov = &piece;
+        message.msg_iovlen = 1;
+        message.msg_control = control.data();
+        message.msg_controllen = control.size();
+        cmsghdr* header = CMSG_FIRSTHDR(&message);
+        header->cmsg_level = SOL_SOCKET;
+        header->cmsg_type = SCM_RIGHTS;
+        header->cmsg_len = CMSG_LEN(sizeof(int) * fds.size());
+        std::memcpy(CMSG_DATA(header), fds.data(), sizeof(int) * fds.size());
+        const ssize_t n = ::sendmsg(socket_.native_handle(), &message, MSG_NOSIGNAL | MSG_DONTWAIT);
+        if (n == 1)
+            co_return proto::Ok{};
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK)
+            co_return proto::Error{std::string("sending region descriptors: ") + std::strerror(errno)};
+        auto [ec] = co_await socket_.async_wait(Socket::wait_write, use_nothrow);
+        if (ec)
+            co_return proto::Error{ec.message()};
+    }
+    co_return proto::Error{"closed"};
+}
+
 Task<proto::Result<std::size_t>> FramedConnection::send_with_fds(const Batch& batch) {
     std::vector<iovec> pieces;
     pieces.reserve(batch.buffers.size());
@@ -377,6 +451,22 @@ Task<void> FramedConnection::write_loop() {
             if (socket_.local_endpoint(ignored).protocol().family() == AF_UNIX)
                 socket_.set_option(asio::socket_base::send_buffer_size(large_message_send_buffer), ignored);
         }
+        if (writing_rings_) {
+            // Descriptors first, on the socket: the frames naming them follow in the ring, so a
+            // client that reads one of those frames finds its descriptor already there.
+            if (!batch.fds.empty()) {
+                if (const auto sent = co_await send_descriptors(batch.fds); !sent) {
+                    close(sent.error().message);
+                    co_return;
+                }
+            }
+            if (const auto written = co_await rings_->write(batch.buffers); !written) {
+                close(written.error().message);
+                co_return;
+            }
+            continue;
+        }
+        const bool then_rings = batch.then_rings;
         if (!batch.fds.empty()) {
             // Region descriptors ride on the batch's first bytes; the rest follows as usual.
             const auto sent = co_await send_with_fds(batch);
@@ -385,14 +475,16 @@ Task<void> FramedConnection::write_loop() {
                 co_return;
             }
             consume(batch.buffers, *sent);
-            if (batch.buffers.empty())
-                continue;
         }
-        auto [ec, n] = co_await asio::async_write(socket_, batch.buffers, use_nothrow);
-        if (ec) {
-            close(ec.message());
-            co_return;
+        if (!batch.buffers.empty()) {
+            auto [ec, n] = co_await asio::async_write(socket_, batch.buffers, use_nothrow);
+            if (ec) {
+                close(ec.message());
+                co_return;
+            }
         }
+        if (then_rings)
+            writing_rings_ = true;
     }
 }
 

@@ -12,6 +12,7 @@
 #include "outbox.hpp"
 #include "plexus/proto/auth.hpp"
 #include "plexus/proto/hello.hpp"
+#include "session_rings.hpp"
 #include "signal.hpp"
 
 namespace plexus::daemon {
@@ -78,6 +79,14 @@ public:
     /// Waits until the peer's hello arrived or the connection closed.
     Task<bool> wait_for_hello(std::chrono::steady_clock::duration timeout);
 
+    /// The peer asked for shared-memory rings and they are made: from now on its frames are read
+    /// from `rings`; ours go on the socket up to `answer` (sent with the rings' descriptors) and
+    /// into the rings after it. Call while handling the peer's `rings` frame (on_frame_now). False
+    /// (and the peer failed) when it sent anything on the socket after that frame.
+    bool use_rings(std::unique_ptr<SessionRings> rings, proto::Bytes answer);
+    /// The rings in use, or null (a socket-only session).
+    const SessionRings* rings() const { return rings_.get(); }
+
 protected:
     /// The call table told of this socket's end; null until a call came or went on it.
     CallTable* call_table() const { return calls_.get(); }
@@ -118,6 +127,11 @@ private:
     }
     /// Counts, logs, waits a while (a peer guessing cannot go fast), then refuses the peer.
     Task<void> refuse_unauthenticated(std::string reason);
+    /// With rings, the socket only tells that the peer closed: watches it for that.
+    Task<void> watch_socket();
+    /// With rings, sends the batch's descriptors on the socket (with one byte), ahead of the frames
+    /// that name them, which go into the rings.
+    Task<proto::Status> send_descriptors(const std::vector<int>& fds);
 
     Socket socket_;
     FrameReader reader_;
@@ -136,6 +150,8 @@ private:
     bool large_send_buffer_ = false;  ///< raised after the first large message
     std::chrono::milliseconds handshake_timeout_{0};
     std::shared_ptr<CallTable> calls_;  ///< set once a call came or went on this socket
+    std::shared_ptr<SessionRings> rings_;  ///< the shared-memory rings, once the peer asked for them
+    bool writing_rings_ = false;           ///< the rings answer went: our frames go into the rings
 };
 
 }  // namespace plexus::daemon

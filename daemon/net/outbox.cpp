@@ -31,12 +31,19 @@ void Batch::clear() {
     largest = 0;
     fds.clear();
     regions.clear();
+    keep.clear();
+    then_rings = false;
 }
 
 void Outbox::push_writer_region(std::shared_ptr<const ShmRegion> region) {
     auto frame = proto::make_shm_region_frame({region->id(), region->size(), true});
     control_bytes_ += frame.size();
     control_.push_back({std::move(frame), std::move(region)});
+}
+
+void Outbox::push_rings_answer(proto::Bytes frame, std::vector<int> fds, std::shared_ptr<const void> keep) {
+    control_bytes_ += frame.size();
+    control_.push_back({std::move(frame), nullptr, std::move(fds), std::move(keep), true});
 }
 
 bool Outbox::release(std::uint64_t count) {
@@ -113,8 +120,22 @@ void Outbox::fill(Batch& batch, std::size_t budget) {
             batch.fds.push_back(frame.writer_region->writer_fd());
             batch.regions.push_back(std::move(frame.writer_region));
         }
+        batch.fds.insert(batch.fds.end(), frame.fds.begin(), frame.fds.end());
+        if (frame.keep)
+            batch.keep.push_back(std::move(frame.keep));
+        const bool then_rings = frame.then_rings;
         batch.control.push_back(std::move(frame.bytes));
         control_.pop_front();
+        if (then_rings) {
+            // The last frame on the socket: what follows is written into the rings.
+            batch.then_rings = true;
+            break;
+        }
+    }
+    if (batch.then_rings) {
+        for (const auto& piece : pieces)
+            batch.buffers.emplace_back(batch.control[piece.index].data(), piece.size);
+        return;
     }
     // Priorities once per batch (a source's may change between batches, not within one).
     priorities_.assign(sources_.size(), 0);

@@ -43,6 +43,9 @@ struct Batch {
     /// shm_region frames they belong to are in the batch, so each arrives no later than its frame.
     std::vector<int> fds;
     std::vector<std::shared_ptr<const ShmRegion>> regions;  ///< keep `fds` open until written
+    /// The batch ends with the `rings` answer: everything after it goes through the rings.
+    bool then_rings = false;
+    std::vector<std::shared_ptr<const void>> keep;  ///< keeps other descriptors open until written
     void clear();
     bool empty() const { return buffers.empty(); }
 };
@@ -65,6 +68,9 @@ public:
     }
     /// Queues a shm_region frame giving `region` to the writer, with its read-write descriptor.
     void push_writer_region(std::shared_ptr<const ShmRegion> region);
+    /// Queues the `rings` answer with its descriptors (kept open by `keep` until written). It ends
+    /// its batch: the frames after it are written into the rings, not the socket.
+    void push_rings_answer(proto::Bytes frame, std::vector<int> fds, std::shared_ptr<const void> keep);
     /// Bytes of control frames (replies, errors) not yet handed to the socket.
     std::size_t control_bytes() const { return control_bytes_; }
     /// Control frames not yet handed to the socket (a tiny frame costs a heap block of its own).
@@ -104,6 +110,9 @@ private:
     struct ControlFrame {
         proto::Bytes bytes;
         std::shared_ptr<const ShmRegion> writer_region;  ///< its read-write fd goes with the frame
+        std::vector<int> fds{};                          ///< the rings answer's descriptors
+        std::shared_ptr<const void> keep{};              ///< keeps `fds` open
+        bool then_rings = false;
     };
     /// Writes the head of a request's call frame and hands its ticket on to this socket; false (and
     /// nothing written) when its deadline has passed.

@@ -6,6 +6,7 @@
 #include "../core/call_routing.hpp"
 #include "../core/router.hpp"
 #include "call_table.hpp"
+#include "plexus/proto/rings.hpp"
 #include "plexus/proto/call.hpp"
 #include "plexus/proto/message.hpp"
 #include "plexus/proto/shm.hpp"
@@ -359,6 +360,8 @@ bool Session::frees_pile_up() {
 FramedConnection::FrameAction Session::on_frame_now(InFrame& frame) {
     if (frame.type == proto::FrameType::shm_release)
         return on_release(frame) ? FrameAction::handled : FrameAction::stop;
+    if (frame.type == proto::FrameType::rings)
+        return on_rings(frame) ? FrameAction::handled : FrameAction::stop;
     if (frame.type == proto::FrameType::call)
         return on_call(frame) ? FrameAction::handled : FrameAction::stop;
     if (frame.type == proto::FrameType::answer)
@@ -390,6 +393,42 @@ Task<bool> Session::on_data(InFrame frame) {
         if (closed())
             co_return false;
     }
+}
+
+bool Session::on_rings(const InFrame& frame) {
+    const auto wanted = proto::decode_rings_request(frame.fields);
+    if (!wanted) {
+        ++daemon_.counters().protocol_errors;
+        fail("bad rings frame: " + wanted.error().message);
+        return false;
+    }
+    if (rings()) {
+        ++daemon_.counters().protocol_errors;
+        fail("rings asked for twice");
+        return false;
+    }
+    auto refuse = [&](const std::string& why) {
+        ++daemon_.counters().rings_refused;
+        spdlog::info("{}: rings refused: {}", description(), why);
+        send(proto::make_rings_answer({0, why}));
+        return true;
+    };
+    const std::size_t configured = daemon_.config().shm_ring_bytes;
+    if (configured == 0)
+        return refuse("shared-memory rings are off on this daemon (shm_ring_bytes is 0)");
+    if (!is_local())
+        return refuse("shared-memory rings are only for a client on the daemon's machine (a Unix socket)");
+    // The client may ask for smaller rings than the daemon's, never larger ones.
+    const std::size_t bytes = std::min(configured, proto::RingLayout::ring_bytes_for(*wanted ? *wanted : configured));
+    auto rings = SessionRings::create(executor(), bytes);
+    if (!rings)
+        return refuse("cannot make the rings: " + rings.error().message);
+    if (!use_rings(std::move(*rings), proto::make_rings_answer({bytes, ""}))) {
+        ++daemon_.counters().protocol_errors;
+        return false;
+    }
+    ++daemon_.counters().ring_sessions;
+    return true;
 }
 
 bool Session::on_call(const InFrame& frame) {

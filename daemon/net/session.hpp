@@ -84,6 +84,8 @@ private:
     bool frees_pile_up();
     /// A shm_release frame: the client is done with its oldest data_shm messages.
     bool on_release(const InFrame& frame);
+    /// A `rings` frame: moves this session to shared-memory rings, or says why not.
+    bool on_rings(const InFrame& frame);
     /// True if every record is well formed and written by `expected`; else fails the session with
     /// "message from port 'x' <writer> <expected>".
     bool check_sources(const Message& message, const std::string& expected, std::string_view writer);

@@ -11,7 +11,7 @@ namespace {
 
 bool is_known_type(std::uint8_t type) {
     return type >= static_cast<std::uint8_t>(FrameType::hello) &&
-           type <= static_cast<std::uint8_t>(FrameType::answer);
+           type <= static_cast<std::uint8_t>(FrameType::rings);
 }
 
 FrameDecode need_more(std::size_t needed) {
@@ -134,6 +134,8 @@ std::string frame_type_name(std::uint8_t type) {
             return "call";
         case static_cast<std::uint8_t>(FrameType::answer):
             return "answer";
+        case static_cast<std::uint8_t>(FrameType::rings):
+            return "rings";
         default:
             return "unknown(" + std::to_string(type) + ")";
     }

@@ -6,7 +6,7 @@
 The metrics must parse with python3-prometheus-client's text parser, and every counter and gauge
 of the stats document must be there with the same value: per port (plexus_port_*), per
 connection out (plexus_outgoing_*) and in (plexus_inbound_*), per monitor (plexus_monitor_*), and
-the daemon's (plexus_daemon_*). Left out: the daemon's `sessions` and `sessions_accepted`, which
+the daemon's (plexus_daemon_*). Left out: the daemon's `sessions`, `sessions_accepted` and `ring_sessions`, which
 the CLI's own session changes between the two requests. Exit 0 when they agree; else every
 difference is printed and the exit status is 1.
 """
@@ -17,7 +17,7 @@ from prometheus_client.parser import text_string_to_metric_families
 
 GAUGES = {'capacity', 'depth', 'bytes', 'queued', 'sessions', 'shm_bytes', 'shm_regions', 'shm_slots',
           'memory_bytes', 'quarantined', 'monitors_inline', 'udp_reassembly_bytes', 'calls_outstanding', 'served'}
-CHANGED_BY_THE_CLI = {'sessions', 'sessions_accepted'}
+CHANGED_BY_THE_CLI = {'sessions', 'sessions_accepted', 'ring_sessions'}
 
 
 def samples(text):

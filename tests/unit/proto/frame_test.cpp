@@ -246,9 +246,9 @@ TEST(FrameDecoder_test, RefusesEmptyFrame) {
 }
 
 TEST(FrameDecoder_test, RefusesUnknownTypeAsSoonAsItArrives) {
-    const FrameDecode decoded = FrameDecoder().decode(Bytes{0x10, 0x0f});  // body not yet here
+    const FrameDecode decoded = FrameDecoder().decode(Bytes{0x10, 0x10});  // body not yet here
     ASSERT_EQ(decoded.status, DecodeStatus::bad);
-    EXPECT_EQ(decoded.error, "unknown frame type 15");
+    EXPECT_EQ(decoded.error, "unknown frame type 16");
     EXPECT_EQ(FrameDecoder().decode(Bytes{0x01, 0x00}).status, DecodeStatus::bad);
 }
 
@@ -366,7 +366,8 @@ TEST(FrameTypeName_test, NamesKnownAndUnknownTypes) {
     EXPECT_EQ(frame_type_name(6), "data_batch");
     EXPECT_EQ(frame_type_name(13), "call");
     EXPECT_EQ(frame_type_name(14), "answer");
-    EXPECT_EQ(frame_type_name(15), "unknown(15)");
+    EXPECT_EQ(frame_type_name(15), "rings");
+    EXPECT_EQ(frame_type_name(16), "unknown(16)");
     EXPECT_EQ(frame_type_name(0), "unknown(0)");
 }
 

@@ -31,6 +31,8 @@ enum class FrameType : std::uint8_t {
     // Request/reply (see call.hpp): a message that wants one answer, and its answer.
     call = 13,    ///< varint handle | varint id | varint timeout_ms | record
     answer = 14,  ///< varint id | u8 outcome | record, or string reason
+    // Shared-memory rings (see rings.hpp): the session's frames leave the Unix socket for two rings.
+    rings = 15,  ///< client: varint ring_bytes; daemon: varint ring_bytes | string reason, + 5 fds
 };
 
 /// Default largest body accepted: 64 MiB, enough for large blobs, far below what a lie could ask for.
