@@ -178,6 +178,19 @@ void Connection::write(std::uint64_t handle, const std::string& source, std::uin
     demux_.throw_if_broken();
 }
 
+bool Connection::read_all(std::uint64_t handle, std::chrono::milliseconds timeout,
+                          std::deque<InboxSegment>& into) {
+    if (timeout.count() > 0) {
+        // Reading here, when the receiving thread is not, wakes one thread per message (this one)
+        // instead of two (the receiving thread, which would then wake this one).
+        bool taken = false;
+        const auto deadline = Clock::now() + timeout;
+        if (receiver_.read_for([&] { return taken = demux_.take_now(handle, into); }, deadline))
+            return taken || demux_.take_now(handle, into);
+    }
+    return demux_.take_all(handle, timeout, into);
+}
+
 void Connection::flush() {
     check_sent(send_.flush());
 }

@@ -59,9 +59,7 @@ public:
     void flush();
     /// Moves every record delivered to `handle` so far into `into` (which must be empty), waiting
     /// up to `timeout` for the first; false if none came.
-    bool read_all(std::uint64_t handle, std::chrono::milliseconds timeout, std::deque<InboxSegment>& into) {
-        return demux_.take_all(handle, timeout, into);
-    }
+    bool read_all(std::uint64_t handle, std::chrono::milliseconds timeout, std::deque<InboxSegment>& into);
     /// Stops keeping messages for a closed handle.
     void forget(std::uint64_t handle);
     /// Tells the daemon this client maps shared-memory regions (a local daemon only); true if the

@@ -161,6 +161,18 @@ bool Demux::take_all(std::uint64_t handle, std::chrono::milliseconds timeout,
     return false;
 }
 
+bool Demux::take_now(std::uint64_t handle, std::deque<InboxSegment>& into) {
+    std::lock_guard lock(mutex_);
+    const auto found = boxes_.find(handle);
+    if (found != boxes_.end() && !found->second->segments.empty()) {
+        into.swap(found->second->segments);
+        return true;
+    }
+    if (!broken_.empty())
+        throw Error(ErrorCode::refused, broken_);
+    return false;
+}
+
 void Demux::satisfy_locked(Box& box) {
     // Counted out here, not when the reader wakes: the receiving thread asks right after this
     // delivery whether anyone still needs the socket read, and a reader that has what it waited

@@ -112,6 +112,9 @@ public:
     /// to `timeout` for the first; false if none came. Throws Error (refused) when the connection
     /// broke and nothing is left for `handle`.
     bool take_all(std::uint64_t handle, std::chrono::milliseconds timeout, std::deque<InboxSegment>& into);
+    /// What take_all would take now, without waiting and without asking for a read: false when
+    /// nothing is there (or the handle is closed); throws Error (refused) when broken and empty.
+    bool take_now(std::uint64_t handle, std::deque<InboxSegment>& into);
     /// Drops what is kept for `handle` and everything that still comes for it (handles are never reused).
     void close(std::uint64_t handle);
 

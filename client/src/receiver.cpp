@@ -37,9 +37,15 @@ Receiver::~Receiver() {
         ::close(fd);
 }
 
+thread_local const Receiver* Receiver::reading_here = nullptr;
+
 void Receiver::run() {
     while (const auto deadline = demand_.wait()) {
+        std::unique_lock turn(turn_);
+        reading_here = this;
         receive(*deadline);
+        reading_here = nullptr;
+        turn.unlock();
         if (demux_.broken())
             return;
         // Releases for the data_shm frames just taken go back at once when no other thread is

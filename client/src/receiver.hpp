@@ -11,6 +11,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <deque>
+#include <mutex>
 #include <optional>
 #include <vector>
 
@@ -39,6 +40,27 @@ public:
     /// ends (the peer closed it, broke the protocol, the socket was shut down: the Demux is then
     /// broken) or the demand is stopped.
     void run();
+    /// For a component's thread waiting for its own records: when no other thread reads now, it
+    /// reads here itself, dispatching everything as the receiving thread would, until `ready()`,
+    /// the deadline, or the connection's end; one thread woken per message instead of two. False
+    /// (nothing done) when another thread is reading: wait for it instead.
+    template <class Ready>
+    bool read_for(Ready ready, Clock::time_point deadline) {
+        if (reading_here == this)
+            return false;  // a completion run by this very read: it must not read again
+        std::unique_lock turn(turn_, std::try_to_lock);
+        if (!turn.owns_lock())
+            return false;
+        reading_here = this;
+        struct Done {
+            ~Done() { reading_here = nullptr; }  // also when ready() throws (a broken connection)
+        } done;
+        while (!ready() && !demux_.broken() && Clock::now() < deadline) {
+            receive(deadline);
+            send_.send_releases_if_idle();
+        }
+        return true;
+    }
     /// The largest frame body the peer takes, from its hello (the default until that came).
     std::uint64_t peer_max_frame() const { return peer_max_frame_.load(std::memory_order_relaxed); }
     /// For a TCP peer whose hello came with the handshake, before the receiving thread started.
@@ -73,6 +95,10 @@ private:
     ShmRegions& shm_;
     SendBuffer& send_;
     RingsAnswerSlot& rings_answer_;
+    /// Whose turn it is to read: the receiving thread's, or a component thread's in read_for().
+    /// Everything below is used only by the thread that holds it.
+    std::mutex turn_;
+    static thread_local const Receiver* reading_here;  ///< the Receiver this thread reads for now
     bool just_moved_to_rings_ = false;  ///< the rest of this socket read is descriptor markers
     std::atomic<std::uint64_t> peer_max_frame_{proto::default_max_frame};
 
