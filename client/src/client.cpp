@@ -2,6 +2,7 @@
 
 #include "callers.hpp"
 #include "connection.hpp"
+#include "shm_regions.hpp"
 #include "daemon_link.hpp"
 #include "large_payload.hpp"
 #include "plexus/client.hpp"
@@ -253,6 +254,13 @@ std::optional<Received> Port::read(std::chrono::milliseconds timeout) {
         inbox.segments.pop_front();
         inbox.next = 0;
         return message;
+    }
+    if (segment.lease) {
+        // Copied out of shared memory now; the slot is released as the segment goes.
+        const auto lease = std::move(segment.lease);
+        inbox.segments.pop_front();
+        inbox.next = 0;
+        return detail::ShmRegions::copy_out(*lease);
     }
     const proto::ByteView record = segment.records[inbox.next++];
     std::shared_ptr<const proto::Bytes> block;  // keeps the last record of a segment alive past it

@@ -5,11 +5,13 @@
 #include <cstdlib>
 #include <cstring>
 
+#include "plexus/proto/cbor.hpp"
 #include "plexus/proto/hello.hpp"
 #include "plexus/proto/message.hpp"
 #include "plexus/proto/operations.hpp"
 #include "plexus/proto/rings.hpp"
 #include "plexus/proto/shm.hpp"
+#include "loan_slot.hpp"
 #include "tcp_handshake.hpp"
 
 namespace plexus::detail {
@@ -28,7 +30,8 @@ Connection::Connection(int fd, std::string description, bool greeted, std::uint6
       calls_(demand_),
       shm_(demand_),
       send_(socket_, demand_),
-      receiver_(socket_, demand_, demux_, calls_, shm_, send_, rings_answer_) {
+      releases_(std::make_shared<ReleaseBook>(send_)),
+      receiver_(socket_, demand_, demux_, calls_, shm_, send_, rings_answer_, releases_) {
     if (greeted && peer_max_frame > 0)
         receiver_.set_peer_max_frame(peer_max_frame);
     if (!greeted && !send_.send_frame(proto::encode_hello({proto::protocol_version, "client", ""})))
@@ -76,6 +79,7 @@ Connection::~Connection() {
             receiving_.join();
     }
     fail_calls();  // what is left waiting hears that the connection is gone
+    releases_->detach();  // leases still held by views must not reach the SendBuffer that goes now
 }
 
 std::shared_ptr<Connection> Connection::to_daemon(const std::string& socket_path) {
@@ -219,6 +223,40 @@ bool Connection::write_through_shm(std::uint64_t handle, const std::string& sour
     check_sent(send_.write_shm(handle, place));
     demux_.throw_if_broken();
     return true;
+}
+
+LoanSlot::~LoanSlot() {
+    if (!sent)
+        connection->give_back(*region, offset);
+}
+
+std::shared_ptr<LoanSlot> Connection::loan(std::uint64_t handle, std::size_t size) {
+    demux_.throw_if_broken();
+    proto::Bytes head;
+    proto::append_byte_string_head(head, size);
+    const std::size_t length = head.size() + size;
+    if (length > proto::default_max_frame)
+        return nullptr;  // the daemon takes no payload larger than a frame, however it comes
+    const auto region = writer_region(handle, length);
+    if (!region || length > region->size)
+        return nullptr;
+    const auto offset = shm_.allocate(*region, length, shm_room_wait);
+    if (!offset)
+        return nullptr;
+    std::memcpy(region->data + *offset, head.data(), head.size());
+    return std::make_shared<LoanSlot>(shared_from_this(), handle, region, *offset, length, head.size());
+}
+
+void Connection::send_loan(std::uint64_t handle, const std::string& source, std::uint64_t seq, LoanSlot& slot) {
+    demux_.throw_if_broken();
+    const auto now = std::chrono::system_clock::now().time_since_epoch();
+    const auto time_ns =
+        static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(now).count());
+    proto::Bytes place;
+    proto::append_shm_place(place, {slot.region->id, slot.offset, slot.length}, source, seq, time_ns);
+    slot.sent = true;  // from here the daemon frees it (shm_free), whatever happens to the send
+    check_sent(send_.write_shm(handle, place));
+    demux_.throw_if_broken();
 }
 
 std::shared_ptr<WriterRegion> Connection::writer_region(std::uint64_t handle, std::size_t payload_size) {

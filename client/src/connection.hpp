@@ -34,7 +34,9 @@
 
 namespace plexus::detail {
 
-class Connection {
+struct LoanSlot;
+
+class Connection : public std::enable_shared_from_this<Connection> {
 public:
     /// Connects to the local daemon's Unix socket.
     static std::shared_ptr<Connection> to_daemon(const std::string& socket_path);
@@ -80,6 +82,13 @@ public:
     /// Sends a whole frame now (a call, an answer), after what was buffered; throws Error when the
     /// connection is broken.
     void send_frame(proto::ByteView frame);
+    /// A slot of port `handle`'s shared-memory region for a blob of `size` bytes, its CBOR head
+    /// written; null when there is no region or no room (the loan is then ordinary memory).
+    std::shared_ptr<LoanSlot> loan(std::uint64_t handle, std::size_t size);
+    /// Sends a filled loan as the record `source`/`seq` of port `handle`.
+    void send_loan(std::uint64_t handle, const std::string& source, std::uint64_t seq, LoanSlot& slot);
+    /// Gives back a slot lent and never sent.
+    void give_back(WriterRegion& region, std::size_t offset) { shm_.give_back(region, offset); }
 
 private:
     /// Writes a large payload into the port's region and sends where it is; false when there is
@@ -105,6 +114,7 @@ private:
     ShmRegions shm_;
     RingsAnswerSlot rings_answer_;
     SendBuffer send_;
+    std::shared_ptr<ReleaseBook> releases_;  ///< shared with the leases of messages in shared memory
     Receiver receiver_;
     std::thread receiving_;
 };

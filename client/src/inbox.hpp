@@ -16,10 +16,15 @@ namespace plexus::detail {
 /// Records delivered to one handle by one socket read: views into a block they share, so that a
 /// record costs no allocation and no reference count of its own. Or one message received straight
 /// into its Value (a large byte-string payload): then `whole` is set and there are no records.
+struct ShmLease;
+
+/// Or one message still in a shared-memory region (`lease`): copied out when it is read, or read
+/// where it is (Port::read_view).
 struct InboxSegment {
     std::shared_ptr<const proto::Bytes> block;
     std::vector<proto::ByteView> records;
     std::optional<Received> whole;
+    std::shared_ptr<ShmLease> lease;
 };
 
 /// Records waiting to be read by one Port, taken from the connection a batch at a time.

@@ -21,14 +21,15 @@ constexpr std::size_t read_chunk = 256 * 1024;
 }  // namespace
 
 Receiver::Receiver(FrameSocket& socket, ReadDemand& demand, Demux& demux, CallBook& calls, ShmRegions& shm,
-                   SendBuffer& send, RingsAnswerSlot& rings_answer)
+                   SendBuffer& send, RingsAnswerSlot& rings_answer, std::shared_ptr<ReleaseBook> releases)
     : socket_(socket),
       demand_(demand),
       demux_(demux),
       calls_(calls),
       shm_(shm),
       send_(send),
-      rings_answer_(rings_answer) {
+      rings_answer_(rings_answer),
+      releases_(std::move(releases)) {
     in_.resize(read_chunk);
 }
 
@@ -302,14 +303,18 @@ void Receiver::receive_shm_data(proto::ByteView fields) {
     const auto data = proto::decode_shm_data(fields);
     if (!data)
         return fail("bad data_shm frame: " + data.error().message);
-    // Counted before anything else: the daemon holds the slot until it is released, whatever
-    // becomes of the message here.
-    send_.count_release();
-    if (auto bad = shm_.check(*data))
+    // A ticket before anything else: the daemon holds the slot until it is released, whatever
+    // becomes of the message here (the lease releases it when it goes, also right away).
+    const std::uint64_t ticket = releases_->issue();
+    if (auto bad = shm_.check(*data)) {
+        releases_->release(ticket);
         return fail(*bad);
-    if (!demux_.accepts(data->handle))
-        return;  // a closed port: not worth the copy
-    demux_.deliver(data->handle, shm_.copy_out(*data));
+    }
+    if (!demux_.accepts(data->handle)) {
+        releases_->release(ticket);  // a closed port: nothing to hold it for
+        return;
+    }
+    demux_.deliver(data->handle, shm_.lease(*data, releases_, ticket));
 }
 
 }  // namespace plexus::detail

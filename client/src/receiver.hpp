@@ -30,7 +30,7 @@ class Receiver {
 public:
     /// Feeds `demux`, `shm` and `send` from `socket` while `demand` asks for it; all must outlive it.
     Receiver(FrameSocket& socket, ReadDemand& demand, Demux& demux, CallBook& calls, ShmRegions& shm,
-             SendBuffer& send, RingsAnswerSlot& rings_answer);
+             SendBuffer& send, RingsAnswerSlot& rings_answer, std::shared_ptr<ReleaseBook> releases);
     /// Closes descriptors received for frames that never came.
     ~Receiver();
     Receiver(const Receiver&) = delete;
@@ -95,6 +95,7 @@ private:
     ShmRegions& shm_;
     SendBuffer& send_;
     RingsAnswerSlot& rings_answer_;
+    std::shared_ptr<ReleaseBook> releases_;
     /// Whose turn it is to read: the receiving thread's, or a component thread's in read_for().
     /// Everything below is used only by the thread that holds it.
     std::mutex turn_;

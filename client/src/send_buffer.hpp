@@ -53,8 +53,8 @@ public:
     bool write_shm(std::uint64_t handle, proto::ByteView place);
     /// Sends everything buffered, blocking until the socket took it.
     bool flush();
-    /// A data_shm frame was received: its slot is released with the next frames sent.
-    void count_release() { unreleased_.fetch_add(1, std::memory_order_relaxed); }
+    /// `count` more data_shm messages were let go of (ReleaseBook): released with the next frames.
+    void count_release(std::uint64_t count) { unreleased_.fetch_add(count, std::memory_order_relaxed); }
     /// For the receiving thread: sends the releases counted so far, without ever blocking: not at
     /// all when another thread holds the buffer (it sends them with its next frames), and through
     /// the backlog when the socket is full.
@@ -105,7 +105,7 @@ private:
     std::optional<std::string> failure_;
     std::condition_variable backlog_changed_;
     std::thread backlog_thread_;  ///< started the first time a backlog forms
-    /// data_shm frames received and not yet released (sent back in shm_release frames).
+    /// data_shm messages let go of and not yet released to the daemon (sent in shm_release frames).
     std::atomic<std::uint64_t> unreleased_{0};
 };
 

@@ -8,6 +8,7 @@
 
 #include "blob_pool.hpp"
 #include "large_payload.hpp"
+#include "plexus/proto/cbor.hpp"
 #include "plexus/proto/message.hpp"
 
 namespace plexus::detail {
@@ -17,10 +18,7 @@ WriterRegion::~WriterRegion() {
     ::close(fd);
 }
 
-ShmRegions::~ShmRegions() {
-    for (const auto& [id, region] : reader_regions_)
-        ::munmap(const_cast<std::uint8_t*>(region.data), region.size);
-}
+ShmRegions::~ShmRegions() = default;
 
 void ShmRegions::enable(bool on) {
     std::lock_guard lock(mutex_);
@@ -114,11 +112,7 @@ std::optional<std::string> ShmRegions::on_frame(proto::FrameType type, proto::By
         const auto id = proto::decode_shm_number(fields, "region");
         if (!id)
             return "bad shm_region_gone: " + id.error().message;
-        const auto region = reader_regions_.find(*id);
-        if (region != reader_regions_.end()) {
-            ::munmap(const_cast<std::uint8_t*>(region->second.data), region->second.size);
-            reader_regions_.erase(region);
-        }
+        reader_regions_.erase(*id);  // unmapped once no lease of it is left
         return std::nullopt;
     }
     const auto region = proto::decode_shm_region(fields);
@@ -141,11 +135,8 @@ std::optional<std::string> ShmRegions::on_frame(proto::FrameType type, proto::By
     }
     if (!region->writable) {
         ::close(fd);
-        auto& entry = reader_regions_[region->region];
-        if (entry.data)
-            ::munmap(const_cast<std::uint8_t*>(entry.data), entry.size);
-        entry =
-            ReaderRegion{static_cast<const std::uint8_t*>(mapped), static_cast<std::size_t>(region->size)};
+        reader_regions_[region->region] = std::make_shared<const ReaderMapping>(
+            static_cast<const std::uint8_t*>(mapped), static_cast<std::size_t>(region->size));
         return std::nullopt;
     }
     std::lock_guard lock(mutex_);
@@ -159,35 +150,49 @@ std::optional<std::string> ShmRegions::check(const proto::ShmDataView& data) con
     if (region == reader_regions_.end())
         return "data_shm for region " + std::to_string(data.place.region) + ", which was not sent";
     const proto::ShmPlace& place = data.place;
-    if (place.offset > region->second.size || place.length > region->second.size - place.offset)
+    if (place.offset > region->second->size || place.length > region->second->size - place.offset)
         return "data_shm place outside its region";
     return std::nullopt;
 }
 
-InboxSegment ShmRegions::copy_out(const proto::ShmDataView& data) const {
-    const ReaderRegion& region = reader_regions_.at(data.place.region);
-    const proto::ByteView payload(region.data + data.place.offset,
-                                  static_cast<std::size_t>(data.place.length));
+InboxSegment ShmRegions::lease(const proto::ShmDataView& data, std::shared_ptr<ReleaseBook> book,
+                               std::uint64_t ticket) const {
+    const auto& mapping = reader_regions_.at(data.place.region);
+    const proto::ByteView payload(mapping->data + data.place.offset, static_cast<std::size_t>(data.place.length));
+    const auto record = proto::decode_record(data.head);  // checked by decode_shm_data
     InboxSegment segment;
+    segment.lease = std::make_shared<ShmLease>(mapping, payload,
+                                               Envelope{std::string(record->source), record->seq, record->time_ns},
+                                               std::move(book), ticket);
+    return segment;
+}
+
+Received ShmRegions::copy_out(const ShmLease& lease) {
+    const proto::ByteView payload = lease.payload;
     // A byte string (an image, a point cloud) is copied straight into the Value the reader gets
-    // (and only copied: no zero-fill first); any other payload is put back together as a record,
-    // decoded when it is read.
+    // (and only copied: no zero-fill first); any other payload is decoded from where it is.
     const auto string_head = parse_byte_string_head(payload);
     if (string_head && string_head->head_size + string_head->length == payload.size()) {
-        const auto record = proto::decode_record(data.head);  // checked by decode_shm_data
         std::vector<std::uint8_t> bytes = take_blob_buffer(static_cast<std::size_t>(string_head->length));
         bytes.insert(bytes.end(), payload.begin() + static_cast<std::ptrdiff_t>(string_head->head_size),
                      payload.end());
-        segment.whole = Received{Envelope{std::string(record->source), record->seq, record->time_ns},
-                                 Value::binary(std::move(bytes))};
-    } else {
-        auto block = std::make_shared<proto::Bytes>(data.head.size() + payload.size());
-        std::memcpy(block->data(), data.head.data(), data.head.size());
-        std::memcpy(block->data() + data.head.size(), payload.data(), payload.size());
-        segment.records.emplace_back(block->data(), block->size());
-        segment.block = std::move(block);
+        return Received{lease.envelope, Value::binary(std::move(bytes))};
     }
-    return segment;
+    // The writer can change its slot while this decodes: a copy first, so the decoder sees one value.
+    const proto::Bytes copy(payload.begin(), payload.end());
+    auto data = proto::decode_cbor(copy);
+    if (!data)
+        throw Error(ErrorCode::refused, "bad payload from " + lease.envelope.source + ": " + data.error().message);
+    return Received{lease.envelope, std::move(*data)};
+}
+
+void ShmRegions::give_back(WriterRegion& region, std::size_t offset) {
+    {
+        std::lock_guard lock(mutex_);
+        region.slots.free(offset);
+        region.stalled = false;
+    }
+    freed_.notify_all();
 }
 
 }  // namespace plexus::detail

@@ -25,6 +25,7 @@
 #include "plexus/proto/frame.hpp"
 #include "plexus/proto/shm.hpp"
 #include "read_demand.hpp"
+#include "shm_lease.hpp"
 #include "shm_slots.hpp"
 
 namespace plexus::detail {
@@ -77,15 +78,15 @@ public:
     std::optional<std::string> on_frame(proto::FrameType type, proto::ByteView fields, std::deque<int>& fds);
     /// Why a data_shm frame points at no valid place in a region read from; nullopt when it is valid.
     std::optional<std::string> check(const proto::ShmDataView& data) const;
-    /// Copies the payload of a checked data_shm frame out of its region.
-    InboxSegment copy_out(const proto::ShmDataView& data) const;
+    /// A checked data_shm frame's message, left in its region and held there (`ticket` of `book`)
+    /// until the segment goes.
+    InboxSegment lease(const proto::ShmDataView& data, std::shared_ptr<ReleaseBook> book, std::uint64_t ticket) const;
+    /// Copies a held payload out (a blob straight into its Value); the lease is let go of after.
+    static Received copy_out(const ShmLease& lease);
+    /// Gives back a slot taken by allocate() and never sent (a loan not sent).
+    void give_back(WriterRegion& region, std::size_t offset);
 
 private:
-    /// A region this client reads payloads of data_shm frames from, mapped read-only.
-    struct ReaderRegion {
-        const std::uint8_t* data = nullptr;
-        std::size_t size = 0;
-    };
 
     ReadDemand& demand_;
     std::mutex mutex_;
@@ -94,7 +95,9 @@ private:
     std::map<std::uint64_t, std::shared_ptr<WriterRegion>> writer_regions_;  ///< by region id
     std::map<std::uint64_t, std::optional<std::uint64_t>> port_regions_;     ///< handle -> region id
 
-    std::map<std::uint64_t, ReaderRegion> reader_regions_;  ///< by region id; the receiving thread's
+    /// Regions this client reads payloads of data_shm frames from, mapped read-only, by id; the
+    /// receiving thread's. A lease keeps its mapping after the region is gone.
+    std::map<std::uint64_t, std::shared_ptr<const ReaderMapping>> reader_regions_;
 };
 
 }  // namespace plexus::detail

@@ -18,7 +18,8 @@ made by ``plexus record`` (docs/RECORDING.md).
 
 from . import _asyncio
 from ._errors import Error, NotFoundError, RefusedError, TimeoutError, UsageError
-from ._plexus import Client, Envelope, Message, Port, RecordedMessage, Recording, Service
+from ._plexus import (Client, Envelope, Loan, Message, MessageView, Port, RecordedMessage, Recording,
+                      Service)
 
 _asyncio.install()
 
@@ -26,7 +27,9 @@ __all__ = [
     "Client",
     "Envelope",
     "Error",
+    "Loan",
     "Message",
+    "MessageView",
     "NotFoundError",
     "Port",
     "RecordedMessage",

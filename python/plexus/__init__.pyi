@@ -53,6 +53,28 @@ class Message:
     def envelope(self) -> Envelope:
         """Source, sequence number and send time."""
 
+class Loan:
+    """A buffer for one blob message: memoryview(loan) / numpy.frombuffer(loan, dtype), then
+    Port.send_loan(loan)."""
+
+    @property
+    def in_shared_memory(self) -> bool: ...
+    def __len__(self) -> int: ...
+    def __buffer__(self, flags: int) -> memoryview: ...
+
+class MessageView:
+    """A message read in place (Port.read_view): memoryview(view) is its blob, read-only."""
+
+    @property
+    def envelope(self) -> Envelope: ...
+    @property
+    def in_place(self) -> bool: ...
+    def value(self) -> Any: ...
+    def release(self) -> None: ...
+    def __buffer__(self, flags: int) -> memoryview: ...
+    def __enter__(self) -> MessageView: ...
+    def __exit__(self, *args: object) -> None: ...
+
 class Port:
     """A port opened by Client.open. Closing it flushes what was written."""
 
@@ -71,6 +93,12 @@ class Port:
         """Sends what write(..., flush=False) buffered."""
     def read(self, timeout: Optional[float] = None) -> Optional[Message]:
         """The next message, waiting up to `timeout` s (None: for ever); None if none came."""
+    def loan(self, size: int) -> Loan:
+        """A Loan of `size` bytes for one blob message, in this port's shared memory when it can be."""
+    def send_loan(self, loan: Loan, flush: bool = True) -> None:
+        """Sends a filled Loan as one blob message (the loan cannot be used after)."""
+    def read_view(self, timeout: Optional[float] = None) -> Optional[MessageView]:
+        """Like read, but a blob written in shared memory on this machine is read in place."""
     async def read_async(self, timeout: Optional[float] = None) -> Optional[Message]:
         """read() for asyncio: waits without blocking the event loop."""
     def close(self) -> None:

@@ -3,6 +3,7 @@
 
 #include "client_binding.hpp"
 #include "errors.hpp"
+#include "loan_binding.hpp"
 #include "port_binding.hpp"
 #include "recording_binding.hpp"
 
@@ -11,6 +12,7 @@ PYBIND11_MODULE(_plexus, module) {
         "libplexus for Python: Client, Port, Message, Envelope, Recording. Import plexus, not this.";
     plexus::python::register_error_translator();
     plexus::python::bind_port(module);
+    plexus::python::bind_loans(module);
     plexus::python::bind_client(module);
     plexus::python::bind_recording(module);
 }

@@ -100,10 +100,63 @@ struct CallMaker;
 class Connection;
 class DaemonLink;
 struct Inbox;
+struct LoanSlot;
 struct PortRecord;
+struct ShmLease;
 }  // namespace detail
 
 class Client;
+
+/// A buffer for one blob message, written in place and then sent (Port::loan, Port::send_loan).
+/// With a daemon on this machine it lies in the port's shared memory: sent, it is not copied
+/// again, and a reader on this machine reads it where it is (Port::read_view). Otherwise (a daemon
+/// without shared memory, PLEXUS_SHM=0, a region full for longer than a moment, the daemon away)
+/// it is ordinary memory, copied when sent. Movable, not copyable; one not sent is given back.
+class Loan {
+public:
+    Loan(Loan&&) noexcept;
+    Loan& operator=(Loan&&) noexcept;
+    Loan(const Loan&) = delete;
+    Loan& operator=(const Loan&) = delete;
+    ~Loan();
+    /// Where to write the message's bytes: exactly as many as asked for.
+    std::span<std::uint8_t> bytes() { return bytes_; }
+    /// True when the bytes lie in shared memory (the message will not be copied on this machine).
+    bool in_shared_memory() const { return slot_ != nullptr; }
+
+private:
+    friend class Port;
+    Loan() = default;
+    std::shared_ptr<detail::LoanSlot> slot_;  ///< the shared-memory slot; null for a heap loan
+    std::vector<std::uint8_t> heap_;           ///< the bytes of a heap loan
+    std::span<std::uint8_t> bytes_;
+};
+
+/// A message read where it arrived (Port::read_view): a blob a writer on this machine put in
+/// shared memory is read in place, without a copy, until the view goes (then its slot is released;
+/// a reader that dies releases it too). Any other message is held as read(). Hold views briefly:
+/// a writer's region fills while its slots are held. Movable, not copyable; usable from any thread.
+class MessageView {
+public:
+    MessageView(MessageView&&) noexcept = default;
+    MessageView& operator=(MessageView&&) noexcept = default;
+    ~MessageView();
+    const Envelope& envelope() const;
+    /// The blob's bytes, read-only (in shared memory when in_place()); empty when the message is
+    /// not a blob (then see value()).
+    std::span<const std::uint8_t> bytes() const { return bytes_; }
+    /// True when bytes() points into shared memory: no copy of the message was made here.
+    bool in_place() const { return lease_ != nullptr; }
+    /// The message as a Value (a copy, for a blob in place).
+    Value value() const;
+
+private:
+    friend class Port;
+    MessageView() = default;
+    std::shared_ptr<detail::ShmLease> lease_;  ///< the slot held in place
+    std::optional<Received> held_;             ///< a message that was not in place
+    std::span<const std::uint8_t> bytes_;
+};
 
 /// A port opened by this client. Closing it (or destroying it) flushes what was written.
 /// Aligned to a cache line: ports side by side in memory, one written by one thread and one read by
@@ -154,6 +207,14 @@ public:
     /// Waits up to `timeout` for the next message delivered to this port (also while the daemon is
     /// away: then it waits for the reconnection rather than throwing).
     std::optional<Received> read(std::chrono::milliseconds timeout);
+    /// The same, but a blob that a writer on this machine put in shared memory is not copied: the
+    /// view reads it where it is, and releases it when it goes (MessageView).
+    std::optional<MessageView> read_view(std::chrono::milliseconds timeout);
+    /// A buffer of `size` bytes for one blob message, in this port's shared memory when it can be
+    /// (Loan): fill it, then send_loan() it. The copying write() stays the plain way to write.
+    Loan loan(std::size_t size);
+    /// Sends a loan filled in place as one blob message (what write_blob({}, bytes) would send).
+    void send_loan(Loan&& loan, bool flush = true);
     /// Messages written while the daemon was away and dropped (the oldest) beyond the bound.
     std::uint64_t dropped_while_disconnected() const;
     /// Tells the daemon counters this client keeps about the port (a map of names to whole
