@@ -50,6 +50,9 @@ int main(int argc, char** argv) {
     };
     auto* latency = app.add_subcommand("latency", "ping-pong: p50/p99 of round trip / 2");
     add_common(latency);
+    latency->add_flag("--loans", options.loans,
+                      "Plexus writes zero-copy loans and reads in-place views (the payload is not "
+                      "touched past its first 64 bytes); the floor still copies");
     latency->callback([&] { status = run_latency(options); });
     auto* calls = app.add_subcommand(
         "calls",

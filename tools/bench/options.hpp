@@ -18,6 +18,9 @@ struct Options {
     std::string plexusd;        ///< path of the daemon binary
     std::size_t ports = 1000;   ///< memory: ports to open
     bool empty_accept = false;  ///< monitor: also run an accept that returns true without reading msg
+    /// latency: Plexus writes loans (Port::loan, send_loan) and reads views (read_view) instead of
+    /// write/read: zero-copy on one machine. Neither side touches the payload past its first 64 bytes.
+    bool loans = false;
     /// Carrier of the connections latency and throughput make ("": the daemon's choice). A
     /// non-empty one also prefixes their port names ("/bench/udp-ping"), so that scenarios on
     /// different carriers can share daemons.

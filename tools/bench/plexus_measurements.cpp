@@ -1,3 +1,4 @@
+#include <cstring>
 #include "plexus_measurements.hpp"
 
 #include <mutex>
@@ -82,6 +83,7 @@ public:
           size_(options.size),
           count_(latency_count(options)),
           payload_(blob(options.size)),
+          loans_(options.loans),
           near_(connect_client(topology.near_socket())),
           far_(connect_client(topology.far_socket())),
           ping_(near_.open("/bench/" + carrier_tag(options) + "ping", queue(options))),
@@ -107,8 +109,29 @@ public:
     }
 
 private:
+    /// A message of size_ bytes from a loan, only its first bytes written (a header, say).
+    void send_loan(Port& port) {
+        Loan loan = port.loan(size_);
+        std::memset(loan.bytes().data(), 0x5a, std::min<std::size_t>(64, size_));
+        port.send_loan(std::move(loan));
+    }
+
+    double round_trip_with_loans() {
+        const auto sent = Clock::now();
+        send_loan(ping_);
+        auto reply = ping_in_.read_view(stall_timeout);
+        const auto back = Clock::now();
+        if (!reply)
+            throw std::runtime_error("plexus: no echo within 10 s");
+        if (reply->bytes().size() != size_)
+            throw std::runtime_error("plexus: the echo is not a blob of the size sent");
+        return std::chrono::duration<double, std::micro>(back - sent).count() / 2;
+    }
+
     /// One ping and its echo; returns half the round trip in microseconds.
     double round_trip() {
+        if (loans_)
+            return round_trip_with_loans();
         const auto sent = Clock::now();
         ping_.write(payload_, true);
         auto reply = ping_in_.read(stall_timeout);
@@ -124,6 +147,14 @@ private:
 
     void echo(const std::stop_token& stop) {
         try {
+            while (loans_ && !stop.stop_requested()) {
+                auto view = pong_in_.read_view(100ms);
+                if (!view)
+                    continue;
+                if (view->bytes().empty())
+                    return;  // the destructor's null
+                send_loan(pong_);
+            }
             while (!stop.stop_requested()) {
                 auto message = pong_in_.read(100ms);
                 if (!message)
@@ -142,6 +173,7 @@ private:
     std::size_t size_;
     std::size_t count_;
     Value payload_;
+    bool loans_ = false;
     Client near_;
     Client far_;
     Port ping_;
