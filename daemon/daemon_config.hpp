@@ -52,6 +52,11 @@ struct DaemonConfig {
     /// Bytes of each of the two rings a local client's session may move to (PROTOCOL.md "Rings"):
     /// a power of two from 65536 to 16777216; 0 keeps every session on its socket.
     std::size_t shm_ring_bytes = 512u * 1024u;
+    /// How long the daemon keeps looking at a busy client's empty ring before it sleeps on it (the
+    /// client then need not wake it): 0 to 1000 us, default 0 (or PLEXUS_RING_SPIN_US). Only after
+    /// traffic: a ring whose last bytes came longer ago than this never spins. Other sessions are
+    /// served meanwhile (the look is a posted handler, not a loop), but the daemon's thread stays busy.
+    std::chrono::microseconds ring_spin{0};
     /// Bound on the bytes of all regions together.
     std::size_t shm_total_bytes = 1024u * 1024u * 1024u;
     UdpConfig udp;  ///< the udp carrier: datagram size, largest message, reassembly bounds

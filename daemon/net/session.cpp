@@ -2,6 +2,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include <cstdlib>
+
 #include "../core/batch.hpp"
 #include "../core/call_routing.hpp"
 #include "../core/router.hpp"
@@ -395,6 +397,20 @@ Task<bool> Session::on_data(InFrame frame) {
     }
 }
 
+namespace {
+/// The configured spin, or PLEXUS_RING_SPIN_US's when the configuration has none (for experiments).
+std::chrono::microseconds ring_spin(const DaemonConfig& config) {
+    if (config.ring_spin.count() > 0)
+        return config.ring_spin;
+    static const std::chrono::microseconds from_environment = [] {
+        const char* text = std::getenv("PLEXUS_RING_SPIN_US");
+        const long us = text ? std::strtol(text, nullptr, 10) : 0;
+        return std::chrono::microseconds(us > 0 && us <= 1000 ? us : 0);
+    }();
+    return from_environment;
+}
+}  // namespace
+
 bool Session::on_rings(const InFrame& frame) {
     const auto wanted = proto::decode_rings_request(frame.fields);
     if (!wanted) {
@@ -423,6 +439,7 @@ bool Session::on_rings(const InFrame& frame) {
     auto rings = SessionRings::create(executor(), bytes);
     if (!rings)
         return refuse("cannot make the rings: " + rings.error().message);
+    (*rings)->set_spin(ring_spin(daemon_.config()));
     if (!use_rings(std::move(*rings), proto::make_rings_answer({bytes, ""}))) {
         ++daemon_.counters().protocol_errors;
         return false;

@@ -110,6 +110,18 @@ Task<bool> SessionRings::sleep_on(asio::posix::stream_descriptor& wait) {
     co_return true;
 }
 
+Task<bool> SessionRings::spin_for_bytes() {
+    const auto until = last_bytes_ + spin_;
+    auto executor = co_await asio::this_coro::executor;
+    while (!closed_ && !peer_closed_ && std::chrono::steady_clock::now() < until) {
+        co_await asio::post(executor, asio::use_awaitable);
+        const auto waiting = from_client_.available();
+        if (!waiting || *waiting > 0)
+            co_return true;
+    }
+    co_return false;
+}
+
 Task<proto::Result<std::size_t>> SessionRings::read_some(asio::mutable_buffer room) {
     for (;;) {
         if (closed_)
@@ -120,8 +132,12 @@ Task<proto::Result<std::size_t>> SessionRings::read_some(asio::mutable_buffer ro
             co_return proto::Error{"the client's ring says it wrote more than the ring holds"};
         if (wake)
             signal(fds_[proto::to_daemon_space]);
+        if (*n > 0 && spin_.count() > 0)
+            last_bytes_ = std::chrono::steady_clock::now();
         if (*n > 0 || peer_closed_)
             co_return *n;  // 0 once the client closed its socket and left nothing more
+        if (spin_.count() > 0 && co_await spin_for_bytes())
+            continue;
         if (from_client_.prepare_to_wait())
             continue;
         const bool woken = co_await sleep_on(data_wait_);

@@ -41,6 +41,8 @@ public:
     Task<proto::Status> write(const std::vector<asio::const_buffer>& buffers);
     /// Ends the waits (they return an Error); nothing is read or written after.
     void close();
+    /// Keeps looking at an empty ring this long after its last bytes before sleeping on it.
+    void set_spin(std::chrono::microseconds spin) { spin_ = spin; }
     /// The client closed its socket: what it wrote before is still read, then read_some gives 0.
     void peer_closed();
 
@@ -54,6 +56,9 @@ private:
     void signal(int fd);
     /// Waits until `wait` is readable (the client signalled it), then empties it.
     Task<bool> sleep_on(asio::posix::stream_descriptor& wait);
+    /// With a spin set and bytes lately: looks at the ring again from posted handlers (the other
+    /// sessions run between two looks) until bytes come or the spin is over; true when they came.
+    Task<bool> spin_for_bytes();
 
     proto::RingLayout layout_;
     int region_fd_ = -1;
@@ -66,6 +71,8 @@ private:
     std::vector<iovec> pieces_;
     bool closed_ = false;
     bool peer_closed_ = false;
+    std::chrono::microseconds spin_{0};
+    std::chrono::steady_clock::time_point last_bytes_{};  ///< when the client's ring last had bytes
     std::uint64_t wakes_sent_ = 0;
     std::uint64_t sleeps_ = 0;
 };

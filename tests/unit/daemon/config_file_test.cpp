@@ -32,6 +32,22 @@ TEST(ConfigFile_test, HandshakeTimeoutIsTakenWithinItsBoundsAndRefusedOutside) {
     }
 }
 
+TEST(ConfigFile_test, RingSizesArePowersOfTwoInBoundsOrZeroAndTheSpinIsBounded) {
+    DaemonConfig config;
+    EXPECT_EQ(config.shm_ring_bytes, 512u * 1024u);  // the default
+    EXPECT_EQ(config.ring_spin.count(), 0);
+    apply_config_text("test.json", R"({"shm_ring_bytes": 65536, "shm_ring_spin_us": 20})", config);
+    EXPECT_EQ(config.shm_ring_bytes, 65536u);
+    EXPECT_EQ(config.ring_spin, std::chrono::microseconds(20));
+    apply_config_text("test.json", R"({"shm_ring_bytes": 0})", config);
+    EXPECT_EQ(config.shm_ring_bytes, 0u);
+    for (const char* text : {R"({"shm_ring_bytes": 100000})", R"({"shm_ring_bytes": 32768})",
+                             R"({"shm_ring_bytes": 33554432})"}) {
+        EXPECT_THROW(apply_config_text("test.json", text, config), std::runtime_error) << text;
+    }
+    EXPECT_THROW(apply_config_text("test.json", R"({"shm_ring_spin_us": 1001})", config), std::runtime_error);
+}
+
 TEST(ConfigFile_test, MonitorInlineCostIsTakenZeroTurnsInlineOffAndTooMuchIsRefused) {
     DaemonConfig config;
     EXPECT_EQ(config.monitors.inline_cost_limit, std::chrono::microseconds(10));  // the default
