@@ -239,15 +239,22 @@ bool Port::take_slow(std::chrono::steady_clock::time_point deadline) {
     }
 }
 
-std::optional<Received> Port::read(std::chrono::milliseconds timeout) {
+bool Port::next_ready(std::chrono::milliseconds timeout) {
     if (!link_)
         throw Error(ErrorCode::usage, "port " + name_ + " is closed");
     auto& inbox = *ready_;
-    if (inbox.segments.empty()) {
-        if (!take(timeout))
-            return std::nullopt;
-        inbox.next = 0;
-    }
+    if (!inbox.segments.empty())
+        return true;
+    if (!take(timeout))
+        return false;
+    inbox.next = 0;
+    return true;
+}
+
+std::optional<Received> Port::read(std::chrono::milliseconds timeout) {
+    if (!next_ready(timeout))
+        return std::nullopt;
+    auto& inbox = *ready_;
     auto& segment = inbox.segments.front();
     if (segment.whole) {
         Received message = std::move(*segment.whole);

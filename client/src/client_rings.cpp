@@ -106,17 +106,7 @@ bool ClientRings::drain_socket(int socket_fd, std::deque<int>& fds, std::optiona
             failure = std::strerror(errno);
             return false;
         }
-        for (cmsghdr* header = CMSG_FIRSTHDR(&message); header; header = CMSG_NXTHDR(&message, header)) {
-            if (header->cmsg_level != SOL_SOCKET || header->cmsg_type != SCM_RIGHTS)
-                continue;
-            const std::size_t count = (header->cmsg_len - CMSG_LEN(0)) / sizeof(int);
-            for (std::size_t i = 0; i < count; ++i) {
-                int fd = -1;
-                std::memcpy(&fd, CMSG_DATA(header) + i * sizeof(int), sizeof fd);
-                fds.push_back(fd);
-            }
-        }
-        if (message.msg_flags & MSG_CTRUNC) {
+        if (!take_descriptors(message, fds)) {
             failure = "descriptors from the daemon were cut off";
             return false;
         }

@@ -22,6 +22,22 @@ namespace {
 constexpr std::size_t max_received_fds = 253;
 }  // namespace
 
+bool take_descriptors(msghdr& message, std::deque<int>& fds) {
+    if (message.msg_controllen == 0)
+        return true;
+    for (cmsghdr* header = CMSG_FIRSTHDR(&message); header; header = CMSG_NXTHDR(&message, header)) {
+        if (header->cmsg_level != SOL_SOCKET || header->cmsg_type != SCM_RIGHTS)
+            continue;
+        const std::size_t count = (header->cmsg_len - CMSG_LEN(0)) / sizeof(int);
+        for (std::size_t i = 0; i < count; ++i) {
+            int fd = -1;
+            std::memcpy(&fd, CMSG_DATA(header) + i * sizeof(int), sizeof fd);
+            fds.push_back(fd);
+        }
+    }
+    return (message.msg_flags & MSG_CTRUNC) == 0;
+}
+
 int FrameSocket::connect_unix(const std::string& path) {
     sockaddr_un address{};
     address.sun_family = AF_UNIX;
@@ -91,20 +107,8 @@ SocketReceived FrameSocket::receive(std::uint8_t* at, std::size_t room, std::deq
     message.msg_controllen = sizeof control;
     const ssize_t n = ::recvmsg(fd_, &message, flags | MSG_CMSG_CLOEXEC);
     SocketReceived result;
-    if (n > 0 && message.msg_controllen > 0) {
-        for (cmsghdr* header = CMSG_FIRSTHDR(&message); header; header = CMSG_NXTHDR(&message, header)) {
-            if (header->cmsg_level != SOL_SOCKET || header->cmsg_type != SCM_RIGHTS)
-                continue;
-            const std::size_t count = (header->cmsg_len - CMSG_LEN(0)) / sizeof(int);
-            for (std::size_t i = 0; i < count; ++i) {
-                int fd = -1;
-                std::memcpy(&fd, CMSG_DATA(header) + i * sizeof(int), sizeof fd);
-                fds.push_back(fd);
-            }
-        }
-        if (message.msg_flags & MSG_CTRUNC)
-            result.failure = "descriptors from the daemon were cut off";
-    }
+    if (n > 0 && !take_descriptors(message, fds))
+        result.failure = "descriptors from the daemon were cut off";
     if (n == 0) {
         result.failure = "the daemon closed the connection";
         return result;

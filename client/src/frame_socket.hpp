@@ -6,6 +6,7 @@
 // descriptors that come attached to the bytes, and gathering sends. It knows bytes and descriptors,
 // not frames or ports; Connection's receiver and SendBuffer give the bytes their meaning.
 
+#include <sys/socket.h>
 #include <sys/uio.h>
 
 #include <chrono>
@@ -32,6 +33,10 @@ struct SocketSent {
     bool full = false;                   ///< nothing taken: the socket has no room now
     std::optional<std::string> failure;  ///< the connection failed: why
 };
+
+/// Appends the descriptors (SCM_RIGHTS) that came with a received `message` to `fds`; false when
+/// some were cut off (MSG_CTRUNC: more came than the control buffer held).
+bool take_descriptors(msghdr& message, std::deque<int>& fds);
 
 /// A connected stream socket, closed with the object.
 class FrameSocket {

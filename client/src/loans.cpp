@@ -89,14 +89,9 @@ void Port::send_loan(Loan&& loan, bool flush) {
 }
 
 std::optional<MessageView> Port::read_view(std::chrono::milliseconds timeout) {
-    if (!link_)
-        throw Error(ErrorCode::usage, "port " + name_ + " is closed");
+    if (!next_ready(timeout))
+        return std::nullopt;
     auto& inbox = *ready_;
-    if (inbox.segments.empty()) {
-        if (!take(timeout))
-            return std::nullopt;
-        inbox.next = 0;
-    }
     MessageView view;
     if (auto& segment = inbox.segments.front(); segment.lease) {
         view.lease_ = std::move(segment.lease);

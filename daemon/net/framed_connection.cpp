@@ -349,31 +349,11 @@ Task<void> FramedConnection::watch_socket() {
 
 Task<proto::Status> FramedConnection::send_descriptors(const std::vector<int>& fds) {
     std::uint8_t marker = 0;
-    while (!closed_) {
-        iovec piece{&marker, 1};
-        std::vector<char> control(CMSG_SPACE(sizeof(int) * fds.size()));
-        msghdr message{};
-        message.msg_iov = &piece;
-        message.msg_iovlen = 1;
-        message.msg_control = control.data();
-        message.msg_controllen = control.size();
-        cmsghdr* header = CMSG_FIRSTHDR(&message);
-        header->cmsg_level = SOL_SOCKET;
-        header->cmsg_type = SCM_RIGHTS;
-        header->cmsg_len = CMSG_LEN(sizeof(int) * fds.size());
-        std::memcpy(CMSG_DATA(header), fds.data(), sizeof(int) * fds.size());
-        const ssize_t n = ::sendmsg(socket_.native_handle(), &message, MSG_NOSIGNAL | MSG_DONTWAIT);
-        if (n == 1)
-            co_return proto::Ok{};
-        if (n < 0 && errno == EINTR)
-            continue;
-        if (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK)
-            co_return proto::Error{std::string("sending region descriptors: ") + std::strerror(errno)};
-        auto [ec] = co_await socket_.async_wait(Socket::wait_write, use_nothrow);
-        if (ec)
-            co_return proto::Error{ec.message()};
-    }
-    co_return proto::Error{"closed"};
+    const std::vector<iovec> piece{{&marker, 1}};
+    const auto sent = co_await send_with_fds(piece, fds);
+    if (!sent)
+        co_return sent.error();
+    co_return proto::Ok{};
 }
 
 Task<proto::Result<std::size_t>> FramedConnection::send_with_fds(const Batch& batch) {
@@ -381,17 +361,22 @@ Task<proto::Result<std::size_t>> FramedConnection::send_with_fds(const Batch& ba
     pieces.reserve(batch.buffers.size());
     for (const auto& buffer : batch.buffers)
         pieces.push_back({const_cast<void*>(buffer.data()), buffer.size()});
-    std::vector<char> control(CMSG_SPACE(sizeof(int) * batch.fds.size()));
+    co_return co_await send_with_fds(pieces, batch.fds);
+}
+
+Task<proto::Result<std::size_t>> FramedConnection::send_with_fds(const std::vector<iovec>& pieces,
+                                                                 const std::vector<int>& fds) {
+    std::vector<char> control(CMSG_SPACE(sizeof(int) * fds.size()));
     msghdr message{};
-    message.msg_iov = pieces.data();
+    message.msg_iov = const_cast<iovec*>(pieces.data());
     message.msg_iovlen = pieces.size();
     message.msg_control = control.data();
     message.msg_controllen = control.size();
     cmsghdr* header = CMSG_FIRSTHDR(&message);
     header->cmsg_level = SOL_SOCKET;
     header->cmsg_type = SCM_RIGHTS;
-    header->cmsg_len = CMSG_LEN(sizeof(int) * batch.fds.size());
-    std::memcpy(CMSG_DATA(header), batch.fds.data(), sizeof(int) * batch.fds.size());
+    header->cmsg_len = CMSG_LEN(sizeof(int) * fds.size());
+    std::memcpy(CMSG_DATA(header), fds.data(), sizeof(int) * fds.size());
     for (;;) {
         const ssize_t n = ::sendmsg(socket_.native_handle(), &message, MSG_NOSIGNAL | MSG_DONTWAIT);
         if (n >= 0)

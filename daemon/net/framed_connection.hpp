@@ -1,6 +1,8 @@
 #pragma once
 // Threading: one io_context thread; each connection runs one reader and one writer coroutine.
 
+#include <sys/uio.h>
+
 #include <chrono>
 #include <functional>
 #include <memory>
@@ -110,6 +112,8 @@ private:
     Task<void> write_loop();
     /// Sends what the socket takes of `batch` (at least one byte) with its descriptors attached.
     Task<proto::Result<std::size_t>> send_with_fds(const Batch& batch);
+    /// Sends what the socket takes of `pieces` (at least one byte) with `fds` attached.
+    Task<proto::Result<std::size_t>> send_with_fds(const std::vector<iovec>& pieces, const std::vector<int>& fds);
     /// Drops the first `sent` bytes from `buffers`.
     static void consume(std::vector<asio::const_buffer>& buffers, std::size_t sent);
     Task<void> close_after(std::chrono::steady_clock::duration grace);

@@ -238,6 +238,9 @@ private:
               bool flush);
     /// Fills ready_ from the connection, waiting up to `timeout` (across a reconnection).
     bool take(std::chrono::milliseconds timeout);
+    /// True when a message is in ready_, taken now if needed (waiting up to `timeout`); throws
+    /// Error (usage) on a closed port.
+    bool next_ready(std::chrono::milliseconds timeout);
     bool take_slow(std::chrono::steady_clock::time_point deadline);
 
     std::shared_ptr<detail::DaemonLink> link_;
