@@ -2,6 +2,8 @@
 // PROTOCOL.md "Calls"). A call leaves as a call frame on the port's connection; its answer is
 // matched by id in the connection's CallBook (call_book.hpp), which the receiving thread fills.
 #include <atomic>
+#include <condition_variable>
+#include <mutex>
 #include <random>
 #include <thread>
 
@@ -132,15 +134,57 @@ std::future<Received> Port::request_async(const Value& value, std::chrono::milli
     return future;
 }
 
-Received Port::request(const Value& value, std::chrono::milliseconds timeout) {
-    auto future = request_async(value, timeout);
-    // The daemon answers by the deadline (its own timeout), or the connection's loss does: the
-    // wait here is only a last guard against a daemon that stopped answering without going away.
+namespace {
+
+/// The answer to one blocking call: filled by whichever thread completes the call (the receiving
+/// thread, most often), turned into a value or an Error on the caller's. Not a future: an
+/// exception made on the receiving thread and thrown on the caller's is freed by whichever lets go
+/// of it last, through a reference count ThreadSanitizer cannot see (libsupc++'s), and with it the
+/// string std::runtime_error shares; here every byte is handed over under a mutex.
+struct BlockingAnswer {
+    std::mutex mutex;
+    std::condition_variable done;
+    bool answered = false;
+    std::optional<Received> reply;
+    ErrorCode code = ErrorCode::refused;
+    std::string reason;
+};
+
+std::function<void(Received*, const Error*)> answer_into(std::shared_ptr<BlockingAnswer> answer) {
+    return [answer = std::move(answer)](Received* reply, const Error* error) {
+        {
+            std::lock_guard lock(answer->mutex);
+            if (reply) {
+                answer->reply = std::move(*reply);
+            } else {
+                answer->code = error->code();
+                answer->reason = error->what();
+            }
+            answer->answered = true;
+        }
+        answer->done.notify_all();
+    };
+}
+
+/// Waits for the answer; the daemon answers by the call's deadline (its own timeout), or the
+/// connection's loss does: `guard` more is only a last bound against a daemon that stopped
+/// answering without going away.
+Received wait_for_answer(BlockingAnswer& answer, std::chrono::milliseconds timeout, const std::string& what) {
     constexpr auto guard = std::chrono::seconds(2);
-    if (future.wait_for(timeout + guard) != std::future_status::ready)
-        throw Error(ErrorCode::timeout,
-                    fmt::format("call on {}: no answer within {} ms", name_, timeout.count()));
-    return future.get();
+    std::unique_lock lock(answer.mutex);
+    if (!answer.done.wait_for(lock, timeout + guard, [&] { return answer.answered; }))
+        throw Error(ErrorCode::timeout, fmt::format("{}: no answer within {} ms", what, timeout.count()));
+    if (answer.reply)
+        return std::move(*answer.reply);
+    throw Error(answer.code, answer.reason);
+}
+
+}  // namespace
+
+Received Port::request(const Value& value, std::chrono::milliseconds timeout) {
+    auto answer = std::make_shared<BlockingAnswer>();
+    request_then(value, timeout, answer_into(answer));
+    return wait_for_answer(*answer, timeout, "call on " + name_);
 }
 
 // --- Call ---
@@ -300,12 +344,9 @@ Port& Client::caller_for(const std::string& target) {
 }
 
 Received Client::request(const std::string& port, const Value& value, std::chrono::milliseconds timeout) {
-    auto future = request_async(port, value, timeout);
-    constexpr auto guard = std::chrono::seconds(2);  // as Port::request
-    if (future.wait_for(timeout + guard) != std::future_status::ready)
-        throw Error(ErrorCode::timeout,
-                    fmt::format("call to {}: no answer within {} ms", port, timeout.count()));
-    return future.get();
+    auto answer = std::make_shared<BlockingAnswer>();
+    request_then(port, value, timeout, answer_into(answer));
+    return wait_for_answer(*answer, timeout, "call to " + port);
 }
 
 std::future<Received> Client::request_async(const std::string& port, const Value& value,
