@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <sys/eventfd.h>
 #include <sys/mman.h>
+#include <sys/uio.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -13,6 +14,15 @@ namespace plexus::daemon {
 namespace {
 std::string system_error(const char* what) {
     return std::string(what) + ": " + std::strerror(errno);
+}
+
+/// Reads and so clears an eventfd's counter without ever blocking: RWF_NOWAIT is a flag of this
+/// call, where O_NONBLOCK is one of the open file description, which the client shares. -1 with
+/// errno EAGAIN when it is 0 (and, before Linux 5.12, EOPNOTSUPP: no such read).
+ssize_t take_count(int eventfd) {
+    std::uint64_t count = 0;
+    iovec into{&count, sizeof count};
+    return ::preadv2(eventfd, &into, 1, -1, RWF_NOWAIT);
 }
 }  // namespace
 
@@ -37,10 +47,21 @@ proto::Result<std::unique_ptr<SessionRings>> SessionRings::create(asio::any_io_e
     if (mapped == MAP_FAILED)
         return proto::Error{system_error("mmap")};
     rings->region_ = static_cast<std::uint8_t*>(mapped);
-    for (std::size_t i = proto::to_daemon_data; i < proto::ring_descriptors; ++i) {
-        rings->fds_[i] = ::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
-        if (rings->fds_[i] < 0)
+    // The wake-ups (see the header): eventfds where the client signals us, pipes where we signal it.
+    for (const auto which : {proto::to_daemon_data, proto::to_client_space}) {
+        rings->fds_[which] = ::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
+        if (rings->fds_[which] < 0)
             return proto::Error{system_error("eventfd")};
+    }
+    if (take_count(rings->fds_[proto::to_daemon_data]) >= 0 || errno != EAGAIN)
+        return proto::Error{
+            "this kernel cannot read an eventfd without blocking (RWF_NOWAIT: Linux 5.12 or later)"};
+    for (const auto which : {proto::to_client_data, proto::to_daemon_space}) {
+        int ends[2] = {-1, -1};
+        if (::pipe2(ends, O_CLOEXEC | O_NONBLOCK) != 0)
+            return proto::Error{system_error("pipe2")};
+        rings->fds_[which] = ends[0];  // the client's, and kept open here while the session lasts
+        (which == proto::to_client_data ? rings->signal_client_data_ : rings->signal_client_space_) = ends[1];
     }
     // The zeroed page is a valid state: both positions 0, nobody waiting.
     auto* to_daemon =
@@ -67,6 +88,11 @@ SessionRings::~SessionRings() {
     close();
     if (region_)
         ::munmap(region_, layout_.region_size());
+    // The write ends first: no write can then meet a pipe whose read end is gone.
+    for (const int fd : {signal_client_data_, signal_client_space_}) {
+        if (fd >= 0)
+            ::close(fd);
+    }
     for (const int fd : fds_) {
         if (fd >= 0)
             ::close(fd);
@@ -88,14 +114,15 @@ void SessionRings::close() {
 
 void SessionRings::peer_closed() {
     peer_closed_ = true;
-    // A reader asleep on the ring wakes and finds the end, after whatever the client left in it.
-    const std::uint64_t one = 1;
-    [[maybe_unused]] const auto ignored = ::write(fds_[proto::to_daemon_data], &one, sizeof one);
+    // A reader asleep on the ring wakes (its wait cancelled, not by a write of ours to the
+    // client's eventfd, which could block) and finds the end, after whatever the client left in it.
+    boost::system::error_code ignored;
+    data_wait_.cancel(ignored);
 }
 
 void SessionRings::signal(int fd) {
     const std::uint64_t one = 1;
-    // EAGAIN only when the counter is near 2^64: the client has plenty to wake up for already.
+    // EAGAIN only when the client left thousands of wake-ups unread: it has plenty to wake up for.
     [[maybe_unused]] const auto ignored = ::write(fd, &one, sizeof one);
     ++wakes_sent_;
 }
@@ -103,10 +130,9 @@ void SessionRings::signal(int fd) {
 Task<bool> SessionRings::sleep_on(asio::posix::stream_descriptor& wait) {
     ++sleeps_;
     auto [ec] = co_await wait.async_wait(asio::posix::descriptor_base::wait_read, use_nothrow);
-    if (ec || closed_)
+    if (closed_ || (ec && !(ec == asio::error::operation_aborted && peer_closed_)))
         co_return false;
-    std::uint64_t count = 0;
-    [[maybe_unused]] const auto ignored = ::read(wait.native_handle(), &count, sizeof count);
+    [[maybe_unused]] const auto ignored = take_count(wait.native_handle());
     co_return true;
 }
 
@@ -131,7 +157,7 @@ Task<proto::Result<std::size_t>> SessionRings::read_some(asio::mutable_buffer ro
         if (!n)
             co_return proto::Error{"the client's ring says it wrote more than the ring holds"};
         if (wake)
-            signal(fds_[proto::to_daemon_space]);
+            signal(signal_client_space_);
         if (*n > 0 && spin_.count() > 0)
             last_bytes_ = std::chrono::steady_clock::now();
         if (*n > 0 || peer_closed_)
@@ -160,7 +186,7 @@ Task<proto::Status> SessionRings::write(const std::vector<asio::const_buffer>& b
         if (!n)
             co_return proto::Error{"the client's ring says it read more than was written"};
         if (wake)
-            signal(fds_[proto::to_client_data]);
+            signal(signal_client_data_);
         std::size_t written = *n;
         while (next < pieces_.size() && written >= pieces_[next].iov_len) {
             written -= pieces_[next].iov_len;

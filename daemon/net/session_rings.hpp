@@ -2,10 +2,19 @@
 // Threading: one io_context thread; one reader and one writer coroutine at a time.
 //
 // The daemon's end of a client's shared-memory rings (proto/rings.hpp, PROTOCOL.md "Rings"): the
-// region holding both rings, mapped read-write, and the four eventfds by which each side wakes the
+// region holding both rings, mapped read-write, and the four wake-ups by which each side wakes the
 // other. The client may write anything into the region at any time: what is read of its
 // positions is checked by the RingReader/RingWriter, and bytes are copied out before they are
 // decoded.
+//
+// The client may do anything with the descriptors it was given, too. An eventfd is one open file
+// description in both processes, so its O_NONBLOCK is the client's to clear (fcntl): a blocking
+// read of ours on a counter the client emptied first, or a write of ours on a counter it filled to
+// 2^64 - 2, would then hang the daemon's one thread, and every session with it. So the wake-ups
+// the client signals are eventfds that we read with RWF_NOWAIT (never blocking, whatever the
+// flags say), and those we signal are pipes whose write end is ours alone (O_NONBLOCK, never sent).
+// We keep a copy of each pipe's read end while the session lasts: a write of ours never meets a
+// pipe without a reader (no SIGPIPE, whatever the client closes).
 
 #include <sys/uio.h>
 
@@ -52,7 +61,7 @@ public:
 
 private:
     explicit SessionRings(asio::any_io_executor executor);
-    /// Signals an eventfd the other side sleeps on.
+    /// Signals the client through the write end of one of its pipes.
     void signal(int fd);
     /// Waits until `wait` is readable (the client signalled it), then empties it.
     Task<bool> sleep_on(asio::posix::stream_descriptor& wait);
@@ -63,9 +72,11 @@ private:
     proto::RingLayout layout_;
     int region_fd_ = -1;
     std::uint8_t* region_ = nullptr;
-    std::array<int, proto::ring_descriptors> fds_{-1, -1, -1, -1, -1};
+    std::array<int, proto::ring_descriptors> fds_{-1, -1, -1, -1, -1};  ///< as the client gets them
     asio::posix::stream_descriptor data_wait_;   ///< to_daemon_data: bytes from the client
     asio::posix::stream_descriptor space_wait_;  ///< to_client_space: room to write to the client
+    int signal_client_data_ = -1;                ///< the write end of to_client_data's pipe
+    int signal_client_space_ = -1;               ///< the write end of to_daemon_space's pipe
     proto::RingReader from_client_;
     proto::RingWriter to_client_;
     std::vector<iovec> pieces_;

@@ -17,8 +17,10 @@
 // changes nothing.
 //
 // Wake-ups: a side that finds nothing to do says so in the ring (`reader_waiting`,
-// `writer_waiting`) before it sleeps on an eventfd; the other side signals that eventfd only when
-// the flag was set, and clears it (an exchange), so a busy stream costs no system call at all.
+// `writer_waiting`) before it sleeps on a wake-up descriptor; the other side signals it only when
+// the flag was set, and clears it (an exchange), so a busy stream costs no system call at all. The
+// client signals eventfds, the daemon the write ends of pipes it keeps to itself (PROTOCOL.md,
+// "Rings": nothing the client does with its descriptors can make a call of the daemon block).
 
 #include <atomic>
 #include <cstddef>
@@ -64,8 +66,8 @@ struct RingLayout {
 enum RingDescriptor : std::size_t {
     ring_region = 0,      ///< the memfd of the whole region, read-write
     to_daemon_data = 1,   ///< eventfd: the daemon waits on it for bytes from the client
-    to_daemon_space = 2,  ///< eventfd: the client waits on it for room to write
-    to_client_data = 3,   ///< eventfd: the client waits on it for bytes from the daemon
+    to_daemon_space = 2,  ///< a pipe's read end: the client waits on it for room to write
+    to_client_data = 3,   ///< a pipe's read end: the client waits on it for bytes from the daemon
     to_client_space = 4,  ///< eventfd: the daemon waits on it for room to write
     ring_descriptors = 5,
 };
