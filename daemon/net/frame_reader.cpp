@@ -133,6 +133,8 @@ Task<ReadOutcome> FrameReader::next(SessionRings& rings) {
         if (step.outcome)
             co_return std::move(*step.outcome);
         const auto n = co_await rings.read_some(step.room);
+        if (!n && rings.peer_lied())  // an impossible position: the peer broke the protocol
+            co_return ReadOutcome{std::nullopt, false, true, n.error().message};
         if (!n)
             co_return ended(false, n.error().message);
         if (*n == 0)

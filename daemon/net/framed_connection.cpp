@@ -196,6 +196,7 @@ Task<void> FramedConnection::read_loop() {
             break;
         if (!outcome.frame) {
             if (outcome.protocol_error) {
+                on_protocol_error();
                 fail(outcome.error);
             } else {
                 close(outcome.clean_close ? "peer closed" : outcome.error);
@@ -341,6 +342,7 @@ Task<void> FramedConnection::watch_socket() {
             co_return;
         }
         if (n > 0) {
+            on_protocol_error();
             fail("bytes on the socket after the session moved to shared-memory rings");
             co_return;
         }
@@ -446,6 +448,8 @@ Task<void> FramedConnection::write_loop() {
                 }
             }
             if (const auto written = co_await rings_->write(batch.buffers); !written) {
+                if (rings_->peer_lied())
+                    on_protocol_error();  // no error frame: the ring it would go into is the broken one
                 close(written.error().message);
                 co_return;
             }

@@ -106,6 +106,10 @@ protected:
     virtual void on_auth_failure(const std::string& /*reason*/) {}
     /// Called when a peer did not complete its handshake in time (before it is cut off).
     virtual void on_handshake_timeout() {}
+    /// Called when the peer broke the protocol where only this class sees it (bytes that are no
+    /// frame, bytes on the socket after the switch to rings, an impossible ring position), before
+    /// it is cut off.
+    virtual void on_protocol_error() {}
 
 private:
     Task<void> read_loop();

@@ -557,6 +557,10 @@ void Session::on_handshake_timeout() {
     ++daemon_.counters().handshake_timeouts;
 }
 
+void Session::on_protocol_error() {
+    ++daemon_.counters().protocol_errors;
+}
+
 void Session::on_closed(const std::string& reason) {
     spdlog::debug("{} closed: {}", description(), reason);
     shm_regions_.clear();

@@ -62,6 +62,7 @@ protected:
     void on_closed(const std::string& reason) override;
     void on_auth_failure(const std::string& reason) override;
     void on_handshake_timeout() override;
+    void on_protocol_error() override;
 
 private:
     enum class DataOutcome { delivered, blocked, stop };

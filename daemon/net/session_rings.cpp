@@ -154,8 +154,10 @@ Task<proto::Result<std::size_t>> SessionRings::read_some(asio::mutable_buffer ro
             co_return proto::Error{"the rings were closed"};
         bool wake = false;
         const auto n = from_client_.read_some(static_cast<std::uint8_t*>(room.data()), room.size(), wake);
-        if (!n)
+        if (!n) {
+            peer_lied_ = true;
             co_return proto::Error{"the client's ring says it wrote more than the ring holds"};
+        }
         if (wake)
             signal(signal_client_space_);
         if (*n > 0 && spin_.count() > 0)
@@ -183,8 +185,10 @@ Task<proto::Status> SessionRings::write(const std::vector<asio::const_buffer>& b
             co_return proto::Error{"the rings were closed"};
         bool wake = false;
         const auto n = to_client_.write_some(pieces_.data() + next, pieces_.size() - next, wake);
-        if (!n)
+        if (!n) {
+            peer_lied_ = true;
             co_return proto::Error{"the client's ring says it read more than was written"};
+        }
         if (wake)
             signal(signal_client_data_);
         std::size_t written = *n;

@@ -58,6 +58,9 @@ public:
     /// Wake-ups sent to the client and waits of ours that slept (for stats).
     std::uint64_t wakes_sent() const { return wakes_sent_; }
     std::uint64_t sleeps() const { return sleeps_; }
+    /// The client wrote an impossible position (read_some or write failed because of it): it broke
+    /// the protocol, which a session counts.
+    bool peer_lied() const { return peer_lied_; }
 
 private:
     explicit SessionRings(asio::any_io_executor executor);
@@ -82,6 +85,7 @@ private:
     std::vector<iovec> pieces_;
     bool closed_ = false;
     bool peer_closed_ = false;
+    bool peer_lied_ = false;
     std::chrono::microseconds spin_{0};
     std::chrono::steady_clock::time_point last_bytes_{};  ///< when the client's ring last had bytes
     std::uint64_t wakes_sent_ = 0;
