@@ -1,6 +1,7 @@
 // The decoders of every frame's fields but data and data_batch (message_fuzz.cpp has those):
-// hello, auth, request, reply, error, the shared-memory frames; and the two datagrams that are not
-// frames on a stream: the udp carrier's datagram (starts with "PLXD") and the discovery answer.
+// hello, auth, request, reply, error, the shared-memory frames, call and answer, the rings request
+// and answer; and the two datagrams that are not frames on a stream: the udp carrier's datagram
+// (starts with "PLXD") and the discovery answer.
 // The input is a whole frame, as a session reads it. Property, for each decoder: what it decodes,
 // encoded again by the matching encoder, decodes to the same value.
 #include <cstddef>
@@ -16,6 +17,7 @@
 #include "plexus/proto/frame.hpp"
 #include "plexus/proto/hello.hpp"
 #include "plexus/proto/message.hpp"
+#include "plexus/proto/rings.hpp"
 #include "plexus/proto/shm.hpp"
 #include "same_json.hpp"
 
@@ -164,6 +166,26 @@ void check_answer(proto::ByteView fields) {
                       copy(again->record) == copy(answer->record) && again->reason == answer->reason);
 }
 
+void check_rings(proto::ByteView fields) {
+    // One frame type, two layouts: the client's request and the daemon's answer. Each decoder in turn.
+    if (const auto wanted = proto::decode_rings_request(fields)) {
+        const auto frame = proto::make_rings_request(*wanted);
+        const auto again = proto::decode_rings_request(fields_of(frame, proto::FrameType::rings));
+        PLEXUS_FUZZ_CHECK(again.ok() && *again == *wanted);
+        // Whatever a client asks for, the daemon's size is a power of two within the bounds.
+        const std::size_t bytes = proto::RingLayout::ring_bytes_for(*wanted);
+        PLEXUS_FUZZ_CHECK(bytes >= proto::RingLayout::min_ring_bytes &&
+                          bytes <= proto::RingLayout::max_ring_bytes && (bytes & (bytes - 1)) == 0);
+    }
+    if (const auto answer = proto::decode_rings_answer(fields)) {
+        PLEXUS_FUZZ_CHECK(answer->reason.size() <= 4096);
+        const auto frame = proto::make_rings_answer(*answer);
+        const auto again = proto::decode_rings_answer(fields_of(frame, proto::FrameType::rings));
+        PLEXUS_FUZZ_CHECK(again.ok() && again->ring_bytes == answer->ring_bytes &&
+                          again->reason == answer->reason);
+    }
+}
+
 void check_datagram(proto::ByteView datagram) {
     constexpr std::uint64_t max_message = 1u << 20;
     const auto decoded = proto::decode_datagram(datagram, max_message);
@@ -239,6 +261,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
             break;
         case proto::FrameType::answer:
             check_answer(frame.fields);
+            break;
+        case proto::FrameType::rings:
+            check_rings(frame.fields);
             break;
         case proto::FrameType::data:
         case proto::FrameType::data_batch:

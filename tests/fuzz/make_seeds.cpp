@@ -19,6 +19,7 @@
 #include "plexus/proto/frame.hpp"
 #include "plexus/proto/hello.hpp"
 #include "plexus/proto/message.hpp"
+#include "plexus/proto/rings.hpp"
 #include "plexus/proto/shm.hpp"
 #include "plexus/proto/varint.hpp"
 
@@ -184,6 +185,12 @@ int main(int argc, char** argv) {
     frames.emplace_back("shm_region_gone",
                         proto::make_shm_number_frame(proto::FrameType::shm_region_gone, 1));
     frames.emplace_back("shm_free", proto::make_shm_free_frame(1, 4096));
+    frames.emplace_back("rings_request", proto::make_rings_request(0));
+    frames.emplace_back("rings_request_small", proto::make_rings_request(64 * 1024));
+    frames.emplace_back("rings_answer", proto::make_rings_answer({512 * 1024, ""}));
+    frames.emplace_back(
+        "rings_refused",
+        proto::make_rings_answer({0, "shared-memory rings are off on this daemon (shm_ring_bytes is 0)"}));
     proto::Bytes stream;
     for (const auto& [name, frame] : frames) {
         seed("frame_decoder", name, frame);
