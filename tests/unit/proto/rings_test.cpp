@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <numeric>
+#include <thread>
 #include <vector>
 
 #include "plexus/proto/frame.hpp"
@@ -115,6 +116,44 @@ TEST(Rings_test, ImpossiblePositionsAreReportedNotTrusted) {
     std::uint8_t byte = 1;
     iovec piece{&byte, 1};
     EXPECT_FALSE(other.writer.write_some(&piece, 1, wake).has_value());
+}
+
+TEST(Rings_test, AWriterAndAReaderOnTwoThreadsPassEveryByteInOrder) {
+    // The two ends as the two processes use them, here two threads (ThreadSanitizer checks that
+    // the positions' release and acquire order the copies of the bytes): a small ring, wrapped
+    // many times, pieces of changing sizes, each side yielding when it can do nothing.
+    Ring ring(256);
+    constexpr std::size_t total = 1 << 20;
+    std::thread writer([&] {
+        std::vector<std::uint8_t> piece(97);
+        std::size_t sent = 0;
+        while (sent < total) {
+            const std::size_t size = std::min(piece.size() - sent % 13, total - sent);
+            for (std::size_t i = 0; i < size; ++i)
+                piece[i] = static_cast<std::uint8_t>((sent + i) * 7);
+            iovec at{piece.data(), size};
+            bool wake = false;
+            const auto n = ring.writer.write_some(&at, 1, wake);
+            ASSERT_TRUE(n.has_value());
+            sent += *n;
+            if (*n == 0)
+                std::this_thread::yield();
+        }
+    });
+    std::vector<std::uint8_t> out(61);
+    std::size_t received = 0;
+    while (received < total) {
+        bool wake = false;
+        const auto n = ring.reader.read_some(out.data(), out.size(), wake);
+        ASSERT_TRUE(n.has_value());
+        for (std::size_t i = 0; i < *n; ++i)
+            ASSERT_EQ(out[i], static_cast<std::uint8_t>((received + i) * 7)) << "byte " << received + i;
+        received += *n;
+        if (*n == 0)
+            std::this_thread::yield();
+    }
+    writer.join();
+    EXPECT_EQ(ring.reader.available(), std::optional<std::size_t>(0));
 }
 
 TEST(Rings_test, FramesRoundTrip) {
