@@ -1,5 +1,5 @@
-#include "plexus/proto/rings.hpp"
 #include "config_file.hpp"
+#include "plexus/proto/rings.hpp"
 
 #include <algorithm>
 #include <fstream>
@@ -146,7 +146,8 @@ void apply_config_text(const std::string& path, std::string_view text, DaemonCon
     if (config.shm_region_bytes != 0 && config.shm_region_bytes < 1024 * 1024)
         throw std::runtime_error("config " + path + ": shm_region_bytes must be 0 (off) or at least 1048576");
     config.shm_ring_bytes = whole_number(json, "shm_ring_bytes", config.shm_ring_bytes, path);
-    config.ring_spin = std::chrono::microseconds(whole_number(json, "shm_ring_spin_us", config.ring_spin.count(), path));
+    config.ring_spin =
+        std::chrono::microseconds(whole_number(json, "shm_ring_spin_us", config.ring_spin.count(), path));
     if (config.ring_spin.count() < 0 || config.ring_spin.count() > 1000)
         throw std::runtime_error("config " + path + ": shm_ring_spin_us must be between 0 and 1000");
     if (config.shm_ring_bytes != 0 && (config.shm_ring_bytes < proto::RingLayout::min_ring_bytes ||

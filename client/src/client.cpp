@@ -2,7 +2,6 @@
 
 #include "callers.hpp"
 #include "connection.hpp"
-#include "shm_regions.hpp"
 #include "daemon_link.hpp"
 #include "large_payload.hpp"
 #include "plexus/client.hpp"
@@ -12,6 +11,7 @@
 #include "plexus/proto/message.hpp"
 #include "plexus/proto/name_operations.hpp"
 #include "plexus/proto/operations.hpp"
+#include "shm_regions.hpp"
 
 namespace plexus {
 

@@ -26,11 +26,13 @@ std::chrono::nanoseconds spin_from_environment() {
 }
 
 timespec timespec_of(std::chrono::nanoseconds left) {
-    return {static_cast<time_t>(left.count() / 1'000'000'000), static_cast<long>(left.count() % 1'000'000'000)};
+    return {static_cast<time_t>(left.count() / 1'000'000'000),
+            static_cast<long>(left.count() % 1'000'000'000)};
 }
 }  // namespace
 
-std::shared_ptr<ClientRings> ClientRings::map(std::vector<int> fds, std::uint64_t ring_bytes, std::string& why) {
+std::shared_ptr<ClientRings> ClientRings::map(std::vector<int> fds, std::uint64_t ring_bytes,
+                                              std::string& why) {
     std::shared_ptr<ClientRings> rings(new ClientRings());
     for (std::size_t i = 0; i < fds.size(); ++i) {
         if (i < rings->fds_.size())
@@ -44,12 +46,14 @@ std::shared_ptr<ClientRings> ClientRings::map(std::vector<int> fds, std::uint64_
         return nullptr;
     }
     if (ring_bytes != proto::RingLayout::ring_bytes_for(ring_bytes)) {
-        why = "the daemon's rings are " + std::to_string(ring_bytes) + " bytes: not a size this library takes";
+        why =
+            "the daemon's rings are " + std::to_string(ring_bytes) + " bytes: not a size this library takes";
         return nullptr;
     }
     rings->layout_.ring_bytes = static_cast<std::size_t>(ring_bytes);
     const std::size_t size = rings->layout_.region_size();
-    void* mapped = ::mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_SHARED, rings->fds_[proto::ring_region], 0);
+    void* mapped =
+        ::mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_SHARED, rings->fds_[proto::ring_region], 0);
     if (mapped == MAP_FAILED) {
         why = std::string("mapping the rings: ") + std::strerror(errno);
         return nullptr;
@@ -57,11 +61,15 @@ std::shared_ptr<ClientRings> ClientRings::map(std::vector<int> fds, std::uint64_
     rings->region_ = static_cast<std::uint8_t*>(mapped);
     ::close(rings->fds_[proto::ring_region]);  // the mapping is all we need of it
     rings->fds_[proto::ring_region] = -1;
-    auto* to_daemon = reinterpret_cast<proto::RingControl*>(rings->region_ + proto::RingLayout::to_daemon_control);
-    auto* to_client = reinterpret_cast<proto::RingControl*>(rings->region_ + proto::RingLayout::to_client_control);
+    auto* to_daemon =
+        reinterpret_cast<proto::RingControl*>(rings->region_ + proto::RingLayout::to_daemon_control);
+    auto* to_client =
+        reinterpret_cast<proto::RingControl*>(rings->region_ + proto::RingLayout::to_client_control);
     const auto& layout = rings->layout_;
-    rings->to_daemon_ = proto::RingWriter(to_daemon, rings->region_ + layout.to_daemon_data(), layout.ring_bytes);
-    rings->from_daemon_ = proto::RingReader(to_client, rings->region_ + layout.to_client_data(), layout.ring_bytes);
+    rings->to_daemon_ =
+        proto::RingWriter(to_daemon, rings->region_ + layout.to_daemon_data(), layout.ring_bytes);
+    rings->from_daemon_ =
+        proto::RingReader(to_client, rings->region_ + layout.to_client_data(), layout.ring_bytes);
     rings->spin_ = spin_from_environment();
     return rings;
 }

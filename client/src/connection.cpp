@@ -5,13 +5,13 @@
 #include <cstdlib>
 #include <cstring>
 
+#include "loan_slot.hpp"
 #include "plexus/proto/cbor.hpp"
 #include "plexus/proto/hello.hpp"
 #include "plexus/proto/message.hpp"
 #include "plexus/proto/operations.hpp"
 #include "plexus/proto/rings.hpp"
 #include "plexus/proto/shm.hpp"
-#include "loan_slot.hpp"
 #include "tcp_handshake.hpp"
 
 namespace plexus::detail {
@@ -78,7 +78,7 @@ Connection::~Connection() {
         else
             receiving_.join();
     }
-    fail_calls();  // what is left waiting hears that the connection is gone
+    fail_calls();         // what is left waiting hears that the connection is gone
     releases_->detach();  // leases still held by views must not reach the SendBuffer that goes now
 }
 
@@ -247,7 +247,8 @@ std::shared_ptr<LoanSlot> Connection::loan(std::uint64_t handle, std::size_t siz
     return std::make_shared<LoanSlot>(shared_from_this(), handle, region, *offset, length, head.size());
 }
 
-void Connection::send_loan(std::uint64_t handle, const std::string& source, std::uint64_t seq, LoanSlot& slot) {
+void Connection::send_loan(std::uint64_t handle, const std::string& source, std::uint64_t seq,
+                           LoanSlot& slot) {
     demux_.throw_if_broken();
     const auto now = std::chrono::system_clock::now().time_since_epoch();
     const auto time_ns =

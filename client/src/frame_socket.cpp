@@ -171,7 +171,8 @@ bool FrameSocket::await_descriptor(std::deque<int>& fds, int timeout_ms) {
             return !fds.empty();
         if (!fds.empty())
             break;
-        const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+        const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+            deadline - std::chrono::steady_clock::now());
         if (left.count() <= 0)
             return false;
         pollfd readable{fd_, POLLIN, 0};

@@ -81,8 +81,8 @@ public:
 
 private:
     int fd_ = -1;
-    std::shared_ptr<ClientRings> in_rings_;   ///< the receiving thread's
-    std::shared_ptr<ClientRings> out_rings_;  ///< the senders', under SendBuffer's mutex
+    std::shared_ptr<ClientRings> in_rings_;         ///< the receiving thread's
+    std::shared_ptr<ClientRings> out_rings_;        ///< the senders', under SendBuffer's mutex
     std::chrono::microseconds receive_timeout_{0};  ///< as SO_RCVTIMEO, for the ring
 };
 

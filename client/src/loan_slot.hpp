@@ -15,8 +15,9 @@ class Connection;
 struct WriterRegion;
 
 struct LoanSlot {
-    LoanSlot(std::shared_ptr<Connection> connection_, std::uint64_t handle_, std::shared_ptr<WriterRegion> region_,
-             std::size_t offset_, std::size_t length_, std::size_t head_size_)
+    LoanSlot(std::shared_ptr<Connection> connection_, std::uint64_t handle_,
+             std::shared_ptr<WriterRegion> region_, std::size_t offset_, std::size_t length_,
+             std::size_t head_size_)
         : connection(std::move(connection_)),
           handle(handle_),
           region(std::move(region_)),

@@ -100,7 +100,7 @@ private:
     /// Everything below is used only by the thread that holds it.
     std::mutex turn_;
     static thread_local const Receiver* reading_here;  ///< the Receiver this thread reads for now
-    bool just_moved_to_rings_ = false;  ///< the rest of this socket read is descriptor markers
+    bool just_moved_to_rings_ = false;                 ///< the rest of this socket read is descriptor markers
     std::atomic<std::uint64_t> peer_max_frame_{proto::default_max_frame};
 
     std::chrono::microseconds receive_timeout_{0};  ///< SO_RCVTIMEO now set; 0 = blocking forever

@@ -50,9 +50,9 @@ public:
 
 private:
     std::mutex mutex_;
-    SendBuffer* send_;                ///< null once detached
-    std::uint64_t oldest_ = 0;        ///< the ticket of released_.front()
-    std::deque<bool> released_;       ///< per ticket from oldest_: let go of yet
+    SendBuffer* send_;           ///< null once detached
+    std::uint64_t oldest_ = 0;   ///< the ticket of released_.front()
+    std::deque<bool> released_;  ///< per ticket from oldest_: let go of yet
 };
 
 /// One data_shm message held in its region for this client.

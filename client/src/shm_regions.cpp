@@ -158,12 +158,13 @@ std::optional<std::string> ShmRegions::check(const proto::ShmDataView& data) con
 InboxSegment ShmRegions::lease(const proto::ShmDataView& data, std::shared_ptr<ReleaseBook> book,
                                std::uint64_t ticket) const {
     const auto& mapping = reader_regions_.at(data.place.region);
-    const proto::ByteView payload(mapping->data + data.place.offset, static_cast<std::size_t>(data.place.length));
+    const proto::ByteView payload(mapping->data + data.place.offset,
+                                  static_cast<std::size_t>(data.place.length));
     const auto record = proto::decode_record(data.head);  // checked by decode_shm_data
     InboxSegment segment;
-    segment.lease = std::make_shared<ShmLease>(mapping, payload,
-                                               Envelope{std::string(record->source), record->seq, record->time_ns},
-                                               std::move(book), ticket);
+    segment.lease = std::make_shared<ShmLease>(
+        mapping, payload, Envelope{std::string(record->source), record->seq, record->time_ns},
+        std::move(book), ticket);
     return segment;
 }
 
@@ -182,7 +183,8 @@ Received ShmRegions::copy_out(const ShmLease& lease) {
     const proto::Bytes copy(payload.begin(), payload.end());
     auto data = proto::decode_cbor(copy);
     if (!data)
-        throw Error(ErrorCode::refused, "bad payload from " + lease.envelope.source + ": " + data.error().message);
+        throw Error(ErrorCode::refused,
+                    "bad payload from " + lease.envelope.source + ": " + data.error().message);
     return Received{lease.envelope, std::move(*data)};
 }
 

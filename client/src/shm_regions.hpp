@@ -80,14 +80,14 @@ public:
     std::optional<std::string> check(const proto::ShmDataView& data) const;
     /// A checked data_shm frame's message, left in its region and held there (`ticket` of `book`)
     /// until the segment goes.
-    InboxSegment lease(const proto::ShmDataView& data, std::shared_ptr<ReleaseBook> book, std::uint64_t ticket) const;
+    InboxSegment lease(const proto::ShmDataView& data, std::shared_ptr<ReleaseBook> book,
+                       std::uint64_t ticket) const;
     /// Copies a held payload out (a blob straight into its Value); the lease is let go of after.
     static Received copy_out(const ShmLease& lease);
     /// Gives back a slot taken by allocate() and never sent (a loan not sent).
     void give_back(WriterRegion& region, std::size_t offset);
 
 private:
-
     ReadDemand& demand_;
     std::mutex mutex_;
     std::condition_variable freed_;  ///< a slot was freed

@@ -108,9 +108,9 @@ ReadOutcome FrameReader::ended(bool eof, const std::string& error) const {
     if (eof && begin_ == end_)
         return ReadOutcome{std::nullopt, true, false, {}};
     if (eof) {
-        return ReadOutcome{std::nullopt, false, true,
-                           "connection closed inside a frame (" + std::to_string(end_ - begin_) +
-                               " bytes of it received)"};
+        return ReadOutcome{
+            std::nullopt, false, true,
+            "connection closed inside a frame (" + std::to_string(end_ - begin_) + " bytes of it received)"};
     }
     return ReadOutcome{std::nullopt, false, false, error};
 }

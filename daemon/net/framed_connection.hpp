@@ -117,7 +117,8 @@ private:
     /// Sends what the socket takes of `batch` (at least one byte) with its descriptors attached.
     Task<proto::Result<std::size_t>> send_with_fds(const Batch& batch);
     /// Sends what the socket takes of `pieces` (at least one byte) with `fds` attached.
-    Task<proto::Result<std::size_t>> send_with_fds(const std::vector<iovec>& pieces, const std::vector<int>& fds);
+    Task<proto::Result<std::size_t>> send_with_fds(const std::vector<iovec>& pieces,
+                                                   const std::vector<int>& fds);
     /// Drops the first `sent` bytes from `buffers`.
     static void consume(std::vector<asio::const_buffer>& buffers, std::size_t sent);
     Task<void> close_after(std::chrono::steady_clock::duration grace);
@@ -157,7 +158,7 @@ private:
     bool draining_ = false;
     bool large_send_buffer_ = false;  ///< raised after the first large message
     std::chrono::milliseconds handshake_timeout_{0};
-    std::shared_ptr<CallTable> calls_;  ///< set once a call came or went on this socket
+    std::shared_ptr<CallTable> calls_;     ///< set once a call came or went on this socket
     std::shared_ptr<SessionRings> rings_;  ///< the shared-memory rings, once the peer asked for them
     bool writing_rings_ = false;           ///< the rings answer went: our frames go into the rings
 };

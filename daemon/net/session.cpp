@@ -8,9 +8,9 @@
 #include "../core/call_routing.hpp"
 #include "../core/router.hpp"
 #include "call_table.hpp"
-#include "plexus/proto/rings.hpp"
 #include "plexus/proto/call.hpp"
 #include "plexus/proto/message.hpp"
+#include "plexus/proto/rings.hpp"
 #include "plexus/proto/shm.hpp"
 #include "session_host.hpp"
 
@@ -435,7 +435,8 @@ bool Session::on_rings(const InFrame& frame) {
     if (!is_local())
         return refuse("shared-memory rings are only for a client on the daemon's machine (a Unix socket)");
     // The client may ask for smaller rings than the daemon's, never larger ones.
-    const std::size_t bytes = std::min(configured, proto::RingLayout::ring_bytes_for(*wanted ? *wanted : configured));
+    const std::size_t bytes =
+        std::min(configured, proto::RingLayout::ring_bytes_for(*wanted ? *wanted : configured));
     auto rings = SessionRings::create(executor(), bytes);
     if (!rings)
         return refuse("cannot make the rings: " + rings.error().message);

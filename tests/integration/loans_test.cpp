@@ -214,9 +214,9 @@ TEST(Loans_test, ClientsKilledWithLoansAndViewsOutstandingGiveEverySlotAndRegion
     Client observer({daemon.socket()});
     Process viewer({PLEXUS_LOAN_CLIENT, daemon.socket(), "view", "/killed/sink"}, {}, dir.file("viewer"));
     ASSERT_TRUE(eventually([&] { return observer.lookup("/killed/sink").has_value(); }));
-    Process loaner({PLEXUS_LOAN_CLIENT, daemon.socket(), "write", "/killed/source", "/killed/sink",
-                    std::to_string(mib)},
-                   {}, dir.file("loaner"));
+    Process loaner(
+        {PLEXUS_LOAN_CLIENT, daemon.socket(), "write", "/killed/source", "/killed/sink", std::to_string(mib)},
+        {}, dir.file("loaner"));
     // The viewer holds views (so the daemon holds slots for it), the loaner holds loans not sent.
     ASSERT_TRUE(eventually([&] { return viewer.out().find("holding 3") != std::string::npos; }, 20s))
         << viewer.err() << loaner.err();

@@ -1,5 +1,5 @@
-#include <cstring>
 #include "plexus_measurements.hpp"
+#include <cstring>
 
 #include <mutex>
 #include <stdexcept>

@@ -128,7 +128,7 @@ private:
     friend class Port;
     Loan() = default;
     std::shared_ptr<detail::LoanSlot> slot_;  ///< the shared-memory slot; null for a heap loan
-    std::vector<std::uint8_t> heap_;           ///< the bytes of a heap loan
+    std::vector<std::uint8_t> heap_;          ///< the bytes of a heap loan
     std::span<std::uint8_t> bytes_;
 };
 

@@ -86,7 +86,7 @@ TEST(Rings_test, ASleepingReaderIsWokenOnceAndAnAwakeOneNever) {
     write(ring, {2}, wake);
     EXPECT_TRUE(wake);
     write(ring, {3}, wake);
-    EXPECT_FALSE(wake);  // the flag was taken by the first wake-up
+    EXPECT_FALSE(wake);                          // the flag was taken by the first wake-up
     EXPECT_TRUE(ring.reader.prepare_to_wait());  // bytes are there: do not sleep
 }
 
@@ -170,7 +170,7 @@ TEST(Rings_test, FramesRoundTrip) {
     EXPECT_EQ(back->ring_bytes, 0u);
     EXPECT_EQ(back->reason, "shared-memory rings are off");
     EXPECT_FALSE(decode_rings_request(Bytes{0x01, 0x02}).ok());  // bytes after the size
-    EXPECT_FALSE(decode_rings_answer(Bytes{0x80}).ok());          // a cut varint
+    EXPECT_FALSE(decode_rings_answer(Bytes{0x80}).ok());         // a cut varint
 }
 
 TEST(Rings_test, RingSizesAreBoundedPowersOfTwo) {

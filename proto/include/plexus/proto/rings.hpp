@@ -41,7 +41,8 @@ struct RingControl {
     alignas(64) std::atomic<std::uint64_t> head;  ///< bytes ever read (the consumer's)
     std::atomic<std::uint32_t> reader_waiting;    ///< the consumer sleeps until the producer writes
 };
-static_assert(std::atomic<std::uint64_t>::is_always_lock_free && std::atomic<std::uint32_t>::is_always_lock_free,
+static_assert(std::atomic<std::uint64_t>::is_always_lock_free &&
+                  std::atomic<std::uint32_t>::is_always_lock_free,
               "ring positions are shared between processes: they must be lock-free");
 
 /// Where things are in the shared region: one page of controls, then the two rings' bytes.
