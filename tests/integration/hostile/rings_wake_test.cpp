@@ -181,5 +181,29 @@ TEST(HostileRings_test, WakeUpDescriptorsMadeBlockingAndFullCannotHangTheDaemon)
     expect_others_served(dir, daemon, good, 0, sessions + 1);
 }
 
+TEST(HostileRings_test, WakeUpsTheClientClosedCannotKillTheDaemon) {
+    // The daemon wakes the client by writing into pipes whose read ends the client was given: with
+    // no reader left, a write would raise SIGPIPE and end the daemon, unless it keeps a reader
+    // itself while the session lasts.
+    TempDir dir;
+    Daemon daemon(dir, "solo");
+    GoodClient good(daemon);
+    RingPeer peer(daemon);
+    ASSERT_TRUE(peer.start());
+    ASSERT_TRUE(open_through_rings(peer, 1, "/closed/port"));
+
+    peer.close_descriptor(proto::to_client_data);
+    peer.close_descriptor(proto::to_daemon_space);
+    peer.to_client_control().reader_waiting.store(1);  // so that the daemon signals both
+    peer.to_daemon_control().writer_waiting.store(1);
+    ASSERT_TRUE(peer.send(request_frame(2, {{"op", "node"}})));  // read, then answered, by the daemon
+
+    EXPECT_TRUE(eventually([&] {
+        return peer.to_client_control().tail.load() > peer.to_client_control().head.load();
+    })) << "the daemon never answered";
+    EXPECT_TRUE(daemon.process().running()) << "the daemon died";
+    expect_others_served(dir, daemon, good, 0, 2);
+}
+
 }  // namespace
 }  // namespace plexus::test::hostile
