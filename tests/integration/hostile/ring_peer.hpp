@@ -231,6 +231,11 @@ public:
         const std::uint64_t one = 1;
         [[maybe_unused]] const auto ignored = ::write(fd, &one, sizeof one);
     }
+    /// Closes this peer's copy of a descriptor (the region stays mapped).
+    void close_descriptor(proto::RingDescriptor which) {
+        ::close(descriptors_.at(which));
+        descriptors_.at(which) = -1;
+    }
     /// Clears O_NONBLOCK on this peer's copy of a descriptor: what the daemon shares with it (the
     /// same open file description) becomes blocking for the daemon too.
     void make_blocking(proto::RingDescriptor which) {

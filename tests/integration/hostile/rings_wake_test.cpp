@@ -93,6 +93,41 @@ TEST(HostileRings_test, SpuriousWakeUpsForASecondStallNobody) {
     EXPECT_EQ(counter(daemon_counters(dir, daemon), "protocol_errors"), 0u);
 }
 
+/// A thread of the hostile client that takes every wake-up of an eventfd made blocking, with blocking
+/// reads, before the daemon can. Stopped (released by wake-ups until it is) and joined however the
+/// test ends, so that a failed assertion does not leave it running.
+class WakeUpThief {
+public:
+    explicit WakeUpThief(int eventfd)
+        : eventfd_(eventfd), thread_([this] {
+              std::uint64_t count = 0;
+              while (!stop_ && ::read(eventfd_, &count, sizeof count) > 0) {
+              }
+              stopped_ = true;
+          }) {}
+    ~WakeUpThief() {
+        stop();
+        thread_.join();
+    }
+    WakeUpThief(const WakeUpThief&) = delete;
+    WakeUpThief& operator=(const WakeUpThief&) = delete;
+    /// Asks it to stop and wakes it, repeatedly (the daemon may take a wake-up first); true once it
+    /// has stopped.
+    bool stop() {
+        stop_ = true;
+        return eventually([&] {
+            RingPeer::signal(eventfd_);
+            return stopped_.load();
+        });
+    }
+
+private:
+    int eventfd_;
+    std::atomic<bool> stop_{false};
+    std::atomic<bool> stopped_{false};
+    std::thread thread_;
+};
+
 TEST(HostileRings_test, WakeUpDescriptorsMadeBlockingAndFullCannotHangTheDaemon) {
     // The descriptors a client gets are open file descriptions it shares with the daemon: a client
     // that clears O_NONBLOCK on its copy, then fills an eventfd's counter (to 2^64 - 2, after which
@@ -150,15 +185,7 @@ TEST(HostileRings_test, WakeUpDescriptorsMadeBlockingAndFullCannotHangTheDaemon)
         ASSERT_TRUE(open_through_rings(peer, 1, "/blocking/" + std::to_string(sessions)));
         const int fd = peer.descriptor(proto::to_daemon_data);
         peer.make_blocking(proto::to_daemon_data);
-        std::atomic<bool> stop{false};
-        std::atomic<bool> stopped{false};
-        std::thread thief([&] {
-            // Takes every wake-up before the daemon does: the daemon, woken by epoll, finds nothing.
-            std::uint64_t count = 0;
-            while (!stop && ::read(fd, &count, sizeof count) > 0) {
-            }
-            stopped = true;
-        });
+        WakeUpThief thief(fd);
         ASSERT_TRUE(eventually([&] { return peer.to_daemon_control().reader_waiting.load() != 0; }))
             << "the daemon never slept on its ring";
         // Each wake-up makes the daemon's wait end (when epoll still sees it) and races the thief
@@ -170,15 +197,33 @@ TEST(HostileRings_test, WakeUpDescriptorsMadeBlockingAndFullCannotHangTheDaemon)
                 break;
             }
         }
-        stop = true;
-        // The thief is released by a wake-up, repeated: a daemon stuck in a read may take one first.
-        ASSERT_TRUE(eventually([&] {
-            RingPeer::signal(fd);
-            return stopped.load();
-        })) << "the thief thread is stuck";
-        thief.join();
+        EXPECT_TRUE(thief.stop()) << "the thief thread is stuck";
     }
     expect_others_served(dir, daemon, good, 0, sessions + 1);
+}
+
+TEST(HostileRings_test, WakeUpsTheClientClosedCannotKillTheDaemon) {
+    // The daemon wakes the client by writing into pipes whose read ends the client was given: with
+    // no reader left, a write would raise SIGPIPE and end the daemon, unless it keeps a reader
+    // itself while the session lasts.
+    TempDir dir;
+    Daemon daemon(dir, "solo");
+    GoodClient good(daemon);
+    RingPeer peer(daemon);
+    ASSERT_TRUE(peer.start());
+    ASSERT_TRUE(open_through_rings(peer, 1, "/closed/port"));
+
+    peer.close_descriptor(proto::to_client_data);
+    peer.close_descriptor(proto::to_daemon_space);
+    peer.to_client_control().reader_waiting.store(1);  // so that the daemon signals both
+    peer.to_daemon_control().writer_waiting.store(1);
+    ASSERT_TRUE(peer.send(request_frame(2, {{"op", "node"}})));  // read, then answered, by the daemon
+
+    EXPECT_TRUE(eventually([&] {
+        return peer.to_client_control().tail.load() > peer.to_client_control().head.load();
+    })) << "the daemon never answered";
+    EXPECT_TRUE(daemon.process().running()) << "the daemon died";
+    expect_others_served(dir, daemon, good, 0, 2);
 }
 
 }  // namespace
