@@ -5,9 +5,9 @@
 //
 // The client's end of its session's shared-memory rings (proto/rings.hpp, PROTOCOL.md "Rings"):
 // frames to the daemon are copied into one ring, frames from it are copied out of the other, and
-// each side signals the other (an eventfd, or a pipe the daemon writes into) only when it sleeps. The Unix socket stays
-// for the descriptors of shared-memory regions (each comes with one byte, ahead of the frame that
-// names it) and for the end of the connection.
+// each side signals the other (an eventfd, or a pipe the daemon writes into) only when it sleeps. The Unix
+// socket stays for the descriptors of shared-memory regions (each comes with one byte, ahead of the frame
+// that names it) and for the end of the connection.
 
 #include <sys/uio.h>
 
