@@ -9,6 +9,7 @@
 #include "bridges/ends.hpp"
 #include "hosts_scenario.hpp"
 #include "options.hpp"
+#include "peers/own_process_run.hpp"
 #include "peers/peers_command.hpp"
 #include "plexus/client.hpp"
 #include "relay.hpp"
@@ -222,6 +223,19 @@ int main(int argc, char** argv) {
                     "at 64 B, 64 KiB and 1 MiB, against the relay floor with the same hops and direct TCP");
     hosts->callback([&] { status = run_hosts(hosts_options); });
 
+    // Not for people: one run of a peers system in a process of its own (own_process_run.hpp).
+    peers::PeerRunOptions run_options;
+    run_options.plexusd = PLEXUSD_PATH;
+    auto* peer_run = app.add_subcommand("peer-run", "")->group("");
+    peer_run->add_option("--system", run_options.system)->required();
+    peer_run->add_option("--scenario", run_options.scenario)->required();
+    peer_run->add_option("--size", run_options.size)->required();
+    peer_run->add_option("--count", run_options.count)->required();
+    peer_run->add_option("--plexusd", run_options.plexusd);
+    peer_run->callback([&] {
+        ::signal(SIGPIPE, SIG_IGN);  // as for `peers`
+        status = peers::run_peer_run(run_options);
+    });
 #ifdef PLEXUS_BENCH_PEERS
     // Not for people: the ZeroMQ proxy of the peers bench, a process of its own like every broker.
     std::string proxy_ready_file;
