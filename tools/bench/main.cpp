@@ -177,8 +177,8 @@ int main(int argc, char** argv) {
     peers_options.plexusd = PLEXUSD_PATH;
     auto* peers = app.add_subcommand(
         "peers",
-        "Plexus, Mosquitto, NATS, ZeroMQ (proxy), Redis and Cyclone DDS (reliable, best effort) doing the "
-        "same jobs, in the same run (DDS needs root: a network namespace of its own)");
+        "Plexus, Mosquitto, NATS, ZeroMQ (proxy), Redis, Cyclone DDS (reliable, best effort) and iceoryx "
+        "doing the same jobs, in the same run (DDS needs root: a network namespace of its own)");
     peers->add_flag("--quick", peers_options.quick, "a tenth of the messages and one run per system");
     peers->add_flag("--json", peers_options.json, "one JSON object per row");
     peers->add_option("--repeat", peers_options.repeat, "runs per system and row; medians are reported")
@@ -244,7 +244,7 @@ int main(int argc, char** argv) {
     auto* zmq_proxy = app.add_subcommand("zmq-proxy", "")->group("");
     zmq_proxy->add_option("--ready-file", proxy_ready_file)->required();
     zmq_proxy->callback([&] { status = peers::run_zmq_proxy(proxy_ready_file); });
-    // Not for people: the far end of a DDS scenario (far_end.hpp).
+    // Not for people: the far end of a DDS or iceoryx scenario (far_end.hpp).
     peers::FarEndOptions far_end_options;
     auto* far_end = app.add_subcommand("peer-far-end", "")->group("");
     far_end->add_option("--system", far_end_options.system)->required();

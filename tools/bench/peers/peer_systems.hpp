@@ -2,7 +2,7 @@
 // The peers `plexus-bench peers` compares Plexus with, each through its own server and C client library
 // (Debian 12 packages, installed by scripts/bench-peers-setup). The brokers run on 127.0.0.1 with
 // nothing persistent, and publish and subscribe without acknowledgements (fire and forget). The
-// brokerless system (Cyclone DDS) runs each run in a process of their own, with the far end
+// brokerless systems (Cyclone DDS, iceoryx) run each run in a process of their own, with the far end
 // of each scenario in another (far_end.hpp); their drivers' opening comments list their choices.
 
 #include <string>
@@ -30,10 +30,14 @@ System cyclonedds_system();
 /// Cyclone DDS, best effort, otherwise the same.
 System cyclonedds_best_effort_system();
 
-/// Body of the `peer-far-end` helper process of DDS: subscribes and reports, or
+/// iceoryx: loaned shared-memory chunks through a RouDi of the run's own.
+System iceoryx_system();
+
+/// Body of the `peer-far-end` helper process of DDS and iceoryx: subscribes and reports, or
 /// echoes, until SIGTERM. Returns the exit status.
 int run_far_end(const FarEndOptions& options);
 int run_cyclonedds_far_end(const FarEndOptions& options);
+int run_iceoryx_far_end(const FarEndOptions& options);
 
 /// Body of the `zmq-proxy --ready-file FILE` helper process: binds, writes its endpoints to FILE, forwards
 /// until killed. Returns an exit status only when it fails.

@@ -164,7 +164,7 @@ int run_peers(const PeersOptions& options) {
     if (!peers_built() && !options.json) {
         std::printf(
             "Only Plexus is built into this bench: run scripts/bench-peers-setup to add Mosquitto, NATS, "
-            "ZeroMQ, Redis and Cyclone DDS.\n");
+            "ZeroMQ, Redis, Cyclone DDS and iceoryx.\n");
     }
     const std::string self = self_path();
     int status = 0;

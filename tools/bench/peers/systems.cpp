@@ -21,6 +21,7 @@ std::vector<System> all_systems() {
     systems.push_back(redis_system());
     systems.push_back(cyclonedds_system());
     systems.push_back(cyclonedds_best_effort_system());
+    systems.push_back(iceoryx_system());
 #endif
     return systems;
 }
@@ -28,6 +29,8 @@ std::vector<System> all_systems() {
 #ifdef PLEXUS_BENCH_PEERS
 int run_far_end(const FarEndOptions& options) {
     try {
+        if (options.system == "iceoryx")
+            return run_iceoryx_far_end(options);
         return run_cyclonedds_far_end(options);  // refuses a name that is not one of its two
     } catch (const std::exception& e) {
         std::cerr << "plexus-bench peer-far-end: " << options.system << " " << options.role << " on "
