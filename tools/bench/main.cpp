@@ -252,6 +252,7 @@ int main(int argc, char** argv) {
     far_end->add_option("--topic", far_end_options.topic)->required();
     far_end->add_option("--answer-topic", far_end_options.answer_topic);
     far_end->add_option("--report", far_end_options.report);
+    far_end->add_option("--queue-capacity", far_end_options.queue_capacity);
     far_end->callback([&] { status = peers::run_far_end(far_end_options); });
 #endif
 

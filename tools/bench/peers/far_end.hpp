@@ -30,11 +30,12 @@ namespace plexus::bench::peers {
 
 /// The arguments of `plexus-bench peer-far-end`.
 struct FarEndOptions {
-    std::string system;        ///< cyclonedds, cyclonedds-be, iceoryx
-    std::string role;          ///< "subscriber" or "echo"
-    std::string topic;         ///< what it subscribes to
-    std::string answer_topic;  ///< echo: where it publishes the answers
-    std::string report;        ///< subscriber: the FIFO its reports go to
+    std::string system;              ///< cyclonedds, cyclonedds-be, iceoryx
+    std::string role;                ///< "subscriber" or "echo"
+    std::string topic;               ///< what it subscribes to
+    std::string answer_topic;        ///< echo: where it publishes the answers
+    std::string report;              ///< subscriber: the FIFO its reports go to
+    std::size_t queue_capacity = 0;  ///< iceoryx: its subscriber queue's capacity (0: iceoryx's default)
 };
 
 /// One message as a far subscriber reports it.

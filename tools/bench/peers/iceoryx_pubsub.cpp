@@ -7,7 +7,9 @@
 // - RouDi. Started by the run (roudi_process.hpp) with one mempool of chunks that fit the run's
 //   message size exactly; 280 of them: the subscriber queue's default capacity (256), one chunk
 //   held by each of up to 8 subscribers, the 8 a publisher may hold at once, 8 spare. A message is
-//   never too large: the pool is made for it. RouDi's CPU and memory are what the figures count.
+//   never too large: the pool is made for it. RouDi reserves and touches the whole pool up front, so
+//   past 1 MiB messages (which the default sizes do not pass) the queue is shortened to keep the
+//   pool within 512 MiB. RouDi's CPU and memory (the pool included) are what the figures count.
 // - Loans. The publisher loans a chunk, the scenario writes its stamp into it in place, the chunk
 //   is published: the scenario writes only the stamp per message, as it does into its reused
 //   buffer for every other system (Publisher::loan). The subscriber takes the chunk, reads the
@@ -45,11 +47,13 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 constexpr const char* system_name = "iceoryx";
-constexpr std::size_t subscriber_queue = 256;  ///< iceoryx 2.0's default (and largest) queue capacity
-constexpr std::size_t max_subscribers = 8;     ///< the fan-out's
-constexpr std::size_t publisher_loans = 8;     ///< IOX_MAX_CHUNKS_ALLOCATED_PER_PUBLISHER_SIMULTANEOUSLY
+constexpr std::size_t default_queue = 256;  ///< iceoryx 2.0's default (and largest) queue capacity
+constexpr std::size_t max_subscribers = 8;  ///< the fan-out's
+constexpr std::size_t publisher_loans = 8;  ///< IOX_MAX_CHUNKS_ALLOCATED_PER_PUBLISHER_SIMULTANEOUSLY
 constexpr std::size_t spare_chunks = 8;
-constexpr std::size_t chunk_count = subscriber_queue + max_subscribers + publisher_loans + spare_chunks;
+/// Chunks needed beside those in a subscriber queue (which, blocking, all subscribers share).
+constexpr std::size_t chunks_beside_queue = max_subscribers + publisher_loans + spare_chunks;
+constexpr std::size_t pool_budget = std::size_t{512} << 20;
 constexpr std::uint32_t payload_alignment = alignof(Stamp);
 constexpr auto far_end_wait = std::chrono::milliseconds(100);  ///< how often a far end looks at SIGTERM
 
@@ -64,8 +68,17 @@ iox::popo::PublisherOptions publisher_options() {
     return options;
 }
 
-iox::popo::SubscriberOptions subscriber_options() {
+/// The subscriber queue's capacity for chunks of `chunk_size` bytes: iceoryx's default, unless the
+/// pool that needs would pass pool_budget.
+std::size_t queue_capacity_for(std::size_t chunk_size) {
+    const std::size_t affordable = pool_budget / chunk_size;
+    return std::clamp<std::size_t>(affordable > chunks_beside_queue ? affordable - chunks_beside_queue : 1, 1,
+                                   default_queue);
+}
+
+iox::popo::SubscriberOptions subscriber_options(std::size_t queue_capacity) {
     iox::popo::SubscriberOptions options;
+    options.queueCapacity = queue_capacity;
     options.queueFullPolicy = iox::popo::QueueFullPolicy::BLOCK_PRODUCER;
     return options;
 }
@@ -126,8 +139,8 @@ private:
 /// A subscriber in the measuring process (the ping-pong's answers), sleeping on a WaitSet.
 class IceoryxSubscriber final : public Subscriber {
 public:
-    explicit IceoryxSubscriber(const std::string& topic)
-        : subscriber_(service_of(topic), subscriber_options()) {
+    IceoryxSubscriber(const std::string& topic, std::size_t queue_capacity)
+        : subscriber_(service_of(topic), subscriber_options(queue_capacity)) {
         if (waitset_.attachState(subscriber_, iox::popo::SubscriberState::HAS_DATA).has_error())
             throw std::runtime_error("iceoryx: cannot attach a subscriber to a WaitSet");
     }
@@ -174,7 +187,11 @@ private:
 class IceoryxBroker final : public Broker {
 public:
     explicit IceoryxBroker(const BrokerSetup& setup)
-        : dir_(setup.dir), self_(setup.self), roudi_(setup.dir, chunk_size(setup.message_size), chunk_count) {
+        : dir_(setup.dir),
+          self_(setup.self),
+          chunk_size_(chunk_size(setup.message_size)),
+          queue_capacity_(queue_capacity_for(chunk_size_)),
+          roudi_(setup.dir, chunk_size_, queue_capacity_ + chunks_beside_queue) {
         init_runtime("run");
     }
 
@@ -185,18 +202,24 @@ public:
     }
 
     std::unique_ptr<Subscriber> subscriber(const std::string& topic) override {
-        return std::make_unique<IceoryxSubscriber>(topic);
+        return std::make_unique<IceoryxSubscriber>(topic, queue_capacity_);
     }
 
     std::unique_ptr<Subscriber> far_subscriber(const std::string& topic) override {
-        return std::make_unique<FarSubscriber>(far_end_command(self_, system_name), topic, dir_);
+        return std::make_unique<FarSubscriber>(far_end(), topic, dir_);
     }
 
     std::unique_ptr<Echo> far_echo(const std::string& from, const std::string& to) override {
-        return std::make_unique<FarEcho>(far_end_command(self_, system_name), from, to, dir_);
+        return std::make_unique<FarEcho>(far_end(), from, to, dir_);
     }
 
 private:
+    std::vector<std::string> far_end() const {
+        auto command = far_end_command(self_, system_name);
+        command.insert(command.end(), {"--queue-capacity", std::to_string(queue_capacity_)});
+        return command;
+    }
+
     /// The run's message size, at least a stamp, rounded up to iceoryx's 8-byte chunk granularity.
     static std::size_t chunk_size(std::size_t message_size) {
         const std::size_t size = std::max(message_size, min_message_size);
@@ -205,7 +228,9 @@ private:
 
     const TempDir& dir_;
     std::string self_;
-    RoudiProcess roudi_;
+    std::size_t chunk_size_;
+    std::size_t queue_capacity_;
+    RoudiProcess roudi_;  // after the sizes it is made with
 };
 
 /// Takes every chunk `subscriber` has, one at a time, handing each to `use`, and sleeps on a
@@ -239,7 +264,8 @@ System iceoryx_system() {
 int run_iceoryx_far_end(const FarEndOptions& options) {
     stop_far_end_on_sigterm();
     init_runtime("far");
-    iox::popo::UntypedSubscriber subscriber(service_of(options.topic), subscriber_options());
+    const std::size_t queue_capacity = options.queue_capacity > 0 ? options.queue_capacity : default_queue;
+    iox::popo::UntypedSubscriber subscriber(service_of(options.topic), subscriber_options(queue_capacity));
     if (options.role == "subscriber") {
         ReportWriter reports(options.report);
         take_until_stopped(
