@@ -50,8 +50,7 @@ constexpr const char* reliable_name = "cyclonedds";
 constexpr const char* best_effort_name = "cyclonedds-be";
 constexpr int32_t history_depth = 100'000;
 constexpr auto write_retry_limit = 10s;
-constexpr uint32_t take_batch = 64;  ///< samples a far end takes at once (one report write for all)
-constexpr dds_duration_t far_end_wait = DDS_MSECS(100);  ///< how often a far end looks at SIGTERM
+constexpr uint32_t take_batch = 64;  ///< samples a far end takes at once
 
 void check(dds_return_t code, const std::string& what) {
     if (code < 0)
@@ -239,14 +238,16 @@ private:
 };
 
 /// Takes what `reader` has, in batches, handing each valid sample to `use`; waits for more until
-/// SIGTERM. `after_batch` runs after each batch (false: stop).
+/// SIGTERM. `after_batch` runs when the reader is empty and says how long the next wait may be
+/// (nullopt: stop).
 template <typename Use, typename AfterBatch>
 void take_until_stopped(dds_entity_t participant, dds_entity_t reader, Use use, AfterBatch after_batch) {
     const dds_entity_t waitset = make_waitset(participant, reader);
     std::vector<void*> samples(take_batch, nullptr);
     std::vector<dds_sample_info_t> infos(take_batch);
-    while (!far_end_stopping()) {
-        const dds_return_t woken = dds_waitset_wait(waitset, nullptr, 0, far_end_wait);
+    for (NextWait wait = keep_waiting(); wait && !far_end_stopping(); wait = after_batch()) {
+        const dds_return_t woken = dds_waitset_wait(
+            waitset, nullptr, 0, std::chrono::duration_cast<std::chrono::nanoseconds>(*wait).count());
         if (woken < 0 && far_end_stopping())
             return;
         check(woken, "wait");
@@ -265,8 +266,6 @@ void take_until_stopped(dds_entity_t participant, dds_entity_t reader, Use use, 
             if (taken < static_cast<dds_return_t>(take_batch))
                 break;
         }
-        if (!after_batch())
-            return;
     }
 }
 
@@ -306,7 +305,7 @@ int run_cyclonedds_far_end(const FarEndOptions& options) {
                     std::memcpy(&stamp, sample.data._buffer, sizeof stamp);
                 reports.add(stamp, now);
             },
-            [&] { return reports.flush(); });
+            [&] { return reports.after_batch(); });
         return 0;
     }
     if (options.role == "echo") {
@@ -314,7 +313,7 @@ int run_cyclonedds_far_end(const FarEndOptions& options) {
         take_until_stopped(
             participant.get(), reader,
             [&](const plexus_bench_Payload& sample, std::int64_t /*now*/) { write_sample(writer, sample); },
-            [] { return true; });
+            keep_waiting);
         return 0;
     }
     throw std::invalid_argument("unknown far-end role '" + options.role + "'");

@@ -22,6 +22,9 @@ using Clock = std::chrono::steady_clock;
 // reports, so that a far subscriber does not wait for a measuring process busy elsewhere.
 constexpr int fifo_capacity = 1 << 20;
 constexpr std::size_t read_chunk = 64 * 1024;
+constexpr std::size_t reports_per_write = 256;
+constexpr auto longest_hold = std::chrono::milliseconds(1);     ///< of a report, before it is written
+constexpr auto sigterm_check = std::chrono::milliseconds(100);  ///< how often a far end looks at SIGTERM
 
 volatile sig_atomic_t stop_requested = 0;
 
@@ -142,6 +145,27 @@ ReportWriter::ReportWriter(const std::string& fifo) {
 
 ReportWriter::~ReportWriter() {
     ::close(fd_);
+}
+
+void ReportWriter::add(const Stamp& stamp, std::int64_t arrived_ns) {
+    if (pending_.empty())
+        oldest_ns_ = arrived_ns;
+    pending_.push_back({stamp, arrived_ns});
+}
+
+NextWait ReportWriter::after_batch() {
+    if (pending_.empty())
+        return sigterm_check;
+    const auto held = std::chrono::nanoseconds(steady_ns() - oldest_ns_);
+    if (pending_.size() < reports_per_write && held < longest_hold)
+        return std::chrono::ceil<std::chrono::milliseconds>(longest_hold - held);
+    if (!flush())
+        return std::nullopt;
+    return sigterm_check;
+}
+
+NextWait keep_waiting() {
+    return sigterm_check;
 }
 
 bool ReportWriter::flush() {

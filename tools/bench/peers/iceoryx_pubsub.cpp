@@ -55,7 +55,6 @@ constexpr std::size_t spare_chunks = 8;
 constexpr std::size_t chunks_beside_queue = max_subscribers + publisher_loans + spare_chunks;
 constexpr std::size_t pool_budget = std::size_t{512} << 20;
 constexpr std::uint32_t payload_alignment = alignof(Stamp);
-constexpr auto far_end_wait = std::chrono::milliseconds(100);  ///< how often a far end looks at SIGTERM
 
 /// The service of a topic: iceoryx names a topic by three strings.
 iox::capro::ServiceDescription service_of(const std::string& topic) {
@@ -234,20 +233,19 @@ private:
 };
 
 /// Takes every chunk `subscriber` has, one at a time, handing each to `use`, and sleeps on a
-/// WaitSet for more, until SIGTERM. `after_batch` runs when the subscriber is empty (false: stop).
+/// WaitSet for more, until SIGTERM. `after_batch` runs when the subscriber is empty and says how
+/// long the next wait may be (nullopt: stop).
 template <typename Use, typename AfterBatch>
 void take_until_stopped(iox::popo::UntypedSubscriber& subscriber, Use use, AfterBatch after_batch) {
     iox::popo::WaitSet<> waitset;
     if (waitset.attachState(subscriber, iox::popo::SubscriberState::HAS_DATA).has_error())
         throw std::runtime_error("iceoryx: cannot attach a subscriber to a WaitSet");
-    while (!far_end_stopping()) {
-        waitset.timedWait(iox_duration(far_end_wait));
+    for (NextWait wait = keep_waiting(); wait && !far_end_stopping(); wait = after_batch()) {
+        waitset.timedWait(iox_duration(*wait));
         for (auto taken = subscriber.take(); !taken.has_error(); taken = subscriber.take()) {
             use(taken.value(), steady_ns());
             subscriber.release(taken.value());
         }
-        if (!after_batch())
-            break;
     }
     waitset.detachState(subscriber, iox::popo::SubscriberState::HAS_DATA);
 }
@@ -270,7 +268,7 @@ int run_iceoryx_far_end(const FarEndOptions& options) {
         ReportWriter reports(options.report);
         take_until_stopped(
             subscriber, [&](const void* chunk, std::int64_t now) { reports.add(stamp_in(chunk), now); },
-            [&] { return reports.flush(); });
+            [&] { return reports.after_batch(); });
         return 0;
     }
     if (options.role == "echo") {
@@ -287,7 +285,7 @@ int run_iceoryx_far_end(const FarEndOptions& options) {
                 std::memcpy(answer.value(), &stamp, sizeof stamp);
                 answers.publish(answer.value());
             },
-            [] { return true; });
+            keep_waiting);
         return 0;
     }
     throw std::invalid_argument("unknown far-end role '" + options.role + "'");
