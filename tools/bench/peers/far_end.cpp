@@ -52,7 +52,12 @@ FarSubscriber::FarSubscriber(std::vector<std::string> command, const std::string
         throw std::runtime_error("cannot open the FIFO " + fifo + ": " + std::strerror(errno));
     ::fcntl(fifo_, F_SETPIPE_SZ, fifo_capacity);  // a smaller pipe only costs the far end waits
     command.insert(command.end(), {"--role", "subscriber", "--topic", topic, "--report", fifo});
-    process_ = std::make_unique<ChildProcess>(command, dir.file(name + ".log"));
+    try {
+        process_ = std::make_unique<ChildProcess>(command, dir.file(name + ".log"));
+    } catch (...) {
+        ::close(fifo_);  // the destructor does not run for a constructor that throws
+        throw;
+    }
 }
 
 FarSubscriber::~FarSubscriber() {
