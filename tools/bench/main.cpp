@@ -9,6 +9,7 @@
 #include "bridges/ends.hpp"
 #include "hosts_scenario.hpp"
 #include "options.hpp"
+#include "peers/own_process_run.hpp"
 #include "peers/peers_command.hpp"
 #include "plexus/client.hpp"
 #include "relay.hpp"
@@ -178,7 +179,9 @@ int main(int argc, char** argv) {
     peers::PeersOptions peers_options;
     peers_options.plexusd = PLEXUSD_PATH;
     auto* peers = app.add_subcommand(
-        "peers", "Plexus, Mosquitto, NATS, ZeroMQ (proxy) and Redis doing the same jobs, in the same run");
+        "peers",
+        "Plexus, Mosquitto, NATS, ZeroMQ (proxy), Redis, Cyclone DDS (reliable, best effort) and iceoryx "
+        "doing the same jobs, in the same run (DDS needs root: a network namespace of its own)");
     peers->add_flag("--quick", peers_options.quick, "a tenth of the messages and one run per system");
     peers->add_flag("--json", peers_options.json, "one JSON object per row");
     peers->add_option("--repeat", peers_options.repeat, "runs per system and row; medians are reported")
@@ -225,12 +228,35 @@ int main(int argc, char** argv) {
                     "at 64 B, 64 KiB and 1 MiB, against the relay floor with the same hops and direct TCP");
     hosts->callback([&] { status = run_hosts(hosts_options); });
 
+    // Not for people: one run of a peers system in a process of its own (own_process_run.hpp).
+    peers::PeerRunOptions run_options;
+    run_options.plexusd = PLEXUSD_PATH;
+    auto* peer_run = app.add_subcommand("peer-run", "")->group("");
+    peer_run->add_option("--system", run_options.system)->required();
+    peer_run->add_option("--scenario", run_options.scenario)->required();
+    peer_run->add_option("--size", run_options.size)->required();
+    peer_run->add_option("--count", run_options.count)->required();
+    peer_run->add_option("--plexusd", run_options.plexusd);
+    peer_run->callback([&] {
+        ::signal(SIGPIPE, SIG_IGN);  // as for `peers`
+        status = peers::run_peer_run(run_options);
+    });
 #ifdef PLEXUS_BENCH_PEERS
     // Not for people: the ZeroMQ proxy of the peers bench, a process of its own like every broker.
     std::string proxy_ready_file;
     auto* zmq_proxy = app.add_subcommand("zmq-proxy", "")->group("");
     zmq_proxy->add_option("--ready-file", proxy_ready_file)->required();
     zmq_proxy->callback([&] { status = peers::run_zmq_proxy(proxy_ready_file); });
+    // Not for people: the far end of a DDS or iceoryx scenario (far_end.hpp).
+    peers::FarEndOptions far_end_options;
+    auto* far_end = app.add_subcommand("peer-far-end", "")->group("");
+    far_end->add_option("--system", far_end_options.system)->required();
+    far_end->add_option("--role", far_end_options.role)->required();
+    far_end->add_option("--topic", far_end_options.topic)->required();
+    far_end->add_option("--answer-topic", far_end_options.answer_topic);
+    far_end->add_option("--report", far_end_options.report);
+    far_end->add_option("--queue-capacity", far_end_options.queue_capacity);
+    far_end->callback([&] { status = peers::run_far_end(far_end_options); });
 #endif
 
     bridges::BridgesOptions bridges_options;

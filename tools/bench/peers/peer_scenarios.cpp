@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstring>
 #include <exception>
 #include <functional>
 #include <stdexcept>
@@ -76,22 +77,34 @@ double peak_rss_mb(const std::vector<pid_t>& pids) {
     return total;
 }
 
+/// Publishes one message with `stamp`: written into a buffer the system lends where it lends one
+/// (iceoryx), as the scenario writes it into its own reused `message` for the others. Either way
+/// only the stamp is written per message: no system's filler is rewritten.
+void send(Publisher& publisher, std::string& message, const Stamp& stamp) {
+    if (const std::span<char> lent = publisher.loan(message.size()); !lent.empty()) {
+        std::memcpy(lent.data(), &stamp, sizeof stamp);
+        publisher.publish_loan();
+        return;
+    }
+    put_stamp(message, stamp);
+    publisher.publish(message);
+}
+
 /// Publishes warm-up messages until every subscriber has received one: subscriptions take
-/// effect asynchronously on some systems (ZeroMQ's, Redis's), and first messages pay for
-/// connection set-up everywhere. Warm-up messages arriving later are ignored by their kind.
+/// effect asynchronously on some systems (ZeroMQ's, Redis's, DDS's discovery), and first messages
+/// pay for connection set-up everywhere. Warm-up messages arriving later are ignored by their kind.
 void warm_up(Publisher& publisher, const std::vector<Subscriber*>& subscribers, std::size_t size) {
     std::string message(size, 'w');
-    put_stamp(message, {Kind::warm_up, 0, 0, 0});
     std::vector<bool> seen(subscribers.size(), false);
-    std::string received;
+    Arrival arrival;
     const auto deadline = Clock::now() + warm_up_deadline;
     while (std::find(seen.begin(), seen.end(), false) != seen.end()) {
         if (Clock::now() > deadline)
             throw std::runtime_error("no message reached every subscriber within 15 s of warm-up");
-        publisher.publish(message);
+        send(publisher, message, {Kind::warm_up, 0, 0, 0});
         publisher.sync();
         for (std::size_t i = 0; i < subscribers.size(); ++i) {
-            if (!seen[i] && subscribers[i]->receive(received, 20ms))
+            if (!seen[i] && subscribers[i]->receive_stamp(arrival, 20ms))
                 seen[i] = true;
         }
     }
@@ -110,13 +123,13 @@ struct Reception {
 void receive_stream(Subscriber& subscriber, std::size_t expected, const std::atomic<bool>& publisher_done,
                     Reception& reception) {
     reception.latencies_us.reserve(expected);
-    std::string message;
+    Arrival arrival;
     auto quiet_since = Clock::now();
     bool saw_done = false;
     while (reception.received < expected) {
         bool got = false;
         try {
-            got = subscriber.receive(message, receive_slice);
+            got = subscriber.receive_stamp(arrival, receive_slice);
         } catch (const std::exception& e) {
             reception.lost_connection = e.what();
             return;
@@ -131,24 +144,28 @@ void receive_stream(Subscriber& subscriber, std::size_t expected, const std::ato
                 return;
             continue;
         }
-        const Stamp stamp = get_stamp(message);
-        if (stamp.kind != Kind::data)
+        if (arrival.stamp.kind != Kind::data)
             continue;
-        reception.latencies_us.push_back(static_cast<double>(steady_ns() - stamp.send_ns) / 1e3);
+        reception.latencies_us.push_back(static_cast<double>(arrival.arrived_ns - arrival.stamp.send_ns) /
+                                         1e3);
         ++reception.received;
-        reception.last = now;
+        // When it arrived, which for a far subscriber is a moment before its report reached us.
+        reception.last = Clock::time_point(
+            std::chrono::duration_cast<Clock::duration>(std::chrono::nanoseconds(arrival.arrived_ns)));
         quiet_since = now;
     }
 }
 
 /// One publisher streams `count` messages (every `period`, or as fast as it can when zero) to
-/// `subscriber_count` subscribers, each receiving on its own thread.
+/// `subscriber_count` subscribers, each receiving on its own thread (or, for the systems that
+/// give far subscribers, each in a process of its own, reporting to a thread here).
 PeerResult stream(Broker& broker, const Workload& workload, std::size_t subscriber_count,
                   Clock::duration period) {
     std::vector<std::unique_ptr<Subscriber>> subscribers;
     std::vector<Subscriber*> subscriber_pointers;
     for (std::size_t i = 0; i < subscriber_count; ++i) {
-        subscribers.push_back(broker.subscriber("stream"));
+        auto subscriber = broker.far_subscriber("stream");
+        subscribers.push_back(subscriber ? std::move(subscriber) : broker.subscriber("stream"));
         subscriber_pointers.push_back(subscribers.back().get());
     }
     auto publisher =
@@ -172,8 +189,7 @@ PeerResult stream(Broker& broker, const Workload& workload, std::size_t subscrib
             std::this_thread::sleep_until(next);  // pacing the stream, not waiting for an outcome
             next += period;
         }
-        put_stamp(message, {Kind::data, 0, seq, steady_ns()});
-        publisher->publish(message);
+        send(*publisher, message, {Kind::data, 0, seq, steady_ns()});
     }
     publisher->sync();
     publisher_done = true;
@@ -248,35 +264,48 @@ PeerResult result_of_rounds(Timed timed, double round_trip_per_sample, const Wor
     return result;
 }
 
-/// Request on "ping", answer on "pong", one at a time; the echo runs on its own thread.
-PeerResult pingpong(Broker& broker, const Workload& workload) {
-    auto echo_in = broker.subscriber("ping");
-    auto answer_in = broker.subscriber("pong");
-    auto ping_out = broker.publisher("ping", Traffic::latency);
-    auto pong_out = broker.publisher("pong", Traffic::latency);
-    warm_up(*ping_out, {echo_in.get()}, workload.size);
-    warm_up(*pong_out, {answer_in.get()}, workload.size);
-
-    std::atomic<bool> stop{false};
-    Worker echo([&] {
+/// Echoes every data message of `echo_in` on `pong_out` until `stop`, on a thread of its own.
+std::unique_ptr<Worker> echo_thread(Subscriber& echo_in, Publisher& pong_out, const std::atomic<bool>& stop) {
+    return std::make_unique<Worker>([in = &echo_in, out = &pong_out, stop = &stop] {
         std::string request;
-        while (!stop.load()) {
-            if (echo_in->receive(request, receive_slice) && get_stamp(request).kind == Kind::data)
-                pong_out->publish(request);
+        while (!stop->load()) {
+            if (in->receive(request, receive_slice) && get_stamp(request).kind == Kind::data)
+                out->publish(request);
         }
     });
+}
+
+/// Request on "ping", answer on "pong", one at a time. The echo runs on a thread of its own, or
+/// in a process of its own for the systems that give a far echo (it also echoes warm-ups).
+PeerResult pingpong(Broker& broker, const Workload& workload) {
+    auto far_echo = broker.far_echo("ping", "pong");
+    std::unique_ptr<Subscriber> echo_in;
+    std::unique_ptr<Publisher> pong_out;
+    if (!far_echo) {
+        echo_in = broker.subscriber("ping");
+        pong_out = broker.publisher("pong", Traffic::latency);
+    }
+    auto answer_in = broker.subscriber("pong");
+    auto ping_out = broker.publisher("ping", Traffic::latency);
+    if (far_echo) {
+        warm_up(*ping_out, {answer_in.get()}, workload.size);
+    } else {
+        warm_up(*ping_out, {echo_in.get()}, workload.size);
+        warm_up(*pong_out, {answer_in.get()}, workload.size);
+    }
+
+    std::atomic<bool> stop{false};
+    const auto echo = far_echo ? nullptr : echo_thread(*echo_in, *pong_out, stop);
     const SetOnExit stop_on_exit(stop);  // declared after the echo: ends it before it is joined
     std::string message(workload.size, 'q');
-    std::string answer;
+    Arrival answer;
     auto half_round_trip = [&](std::uint64_t seq) {
-        put_stamp(message, {Kind::data, 0, seq, 0});
         const auto sent = Clock::now();
-        ping_out->publish(message);
+        send(*ping_out, message, {Kind::data, 0, seq, 0});
         for (;;) {
-            if (!answer_in->receive(answer, ping_pong_answer_wait))
+            if (!answer_in->receive_stamp(answer, ping_pong_answer_wait))
                 throw std::runtime_error("a ping-pong message was lost (no answer within 5 s)");
-            const Stamp stamp = get_stamp(answer);
-            if (stamp.kind == Kind::data && stamp.seq == seq)
+            if (answer.stamp.kind == Kind::data && answer.stamp.seq == seq)
                 break;
         }
         const double half = microseconds(Clock::now() - sent) / 2;
@@ -285,7 +314,8 @@ PeerResult pingpong(Broker& broker, const Workload& workload) {
     };
     Timed timed = time_rounds(broker, workload.count, half_round_trip);
     stop = true;
-    echo.join();
+    if (echo)
+        echo->join();
     return result_of_rounds(std::move(timed), 2, workload, broker);
 }
 

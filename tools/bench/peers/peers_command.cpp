@@ -11,6 +11,7 @@
 
 #include "../measurement.hpp"
 #include "../run_deadline.hpp"
+#include "own_process_run.hpp"
 #include "peer_scenarios.hpp"
 #include "pubsub.hpp"
 
@@ -133,7 +134,7 @@ void print_json(const Row& row) {
 void print_table(const Row& row, int repeat) {
     std::printf("\n%s, %s: %s (%zu per run, median of %d)\n", name_of(row.scenario).c_str(),
                 size_label(row.size).c_str(), what_is_measured(row.scenario).c_str(), row.count, repeat);
-    std::printf("  %-10s %9s %9s %9s %12s %9s %8s %10s %8s %10s %10s\n", "system", "p50 us", "p99 us",
+    std::printf("  %-13s %9s %9s %9s %12s %9s %8s %10s %8s %10s %10s\n", "system", "p50 us", "p99 us",
                 "p99.9 us", "msgs/s", "MB/s", "lost", "cpu us/msg", "rss MB", "p50/plx", "msgs/plx");
     const PeerResult* plexus = nullptr;
     for (const auto& [system, result] : row.results) {
@@ -143,14 +144,14 @@ void print_table(const Row& row, int repeat) {
     for (const auto& [system, r] : row.results) {
         const double p50_ratio = plexus && plexus->p50_us > 0 ? r.p50_us / plexus->p50_us : 0;
         const double rate_ratio = plexus && plexus->msgs_per_s > 0 ? r.msgs_per_s / plexus->msgs_per_s : 0;
-        std::printf("  %-10s %9.1f %9.1f %9.1f %12.0f %9.1f %8.0f %10.2f %8.1f %9.2fx %9.2fx\n",
+        std::printf("  %-13s %9.1f %9.1f %9.1f %12.0f %9.1f %8.0f %10.2f %8.1f %9.2fx %9.2fx\n",
                     system.c_str(), r.p50_us, r.p99_us, r.p999_us, r.msgs_per_s, r.mb_per_s, r.lost,
                     r.cpu_us_per_msg, r.rss_mb, p50_ratio, rate_ratio);
         if (!r.warning.empty())
-            std::printf("  %-10s note: %s\n", "", r.warning.c_str());
+            std::printf("  %-13s note: %s\n", "", r.warning.c_str());
     }
     for (const auto& [system, why] : row.failures)
-        std::printf("  %-10s FAILED: %s\n", system.c_str(), why.c_str());
+        std::printf("  %-13s FAILED: %s\n", system.c_str(), why.c_str());
     std::fflush(stdout);
 }
 
@@ -163,7 +164,7 @@ int run_peers(const PeersOptions& options) {
     if (!peers_built() && !options.json) {
         std::printf(
             "Only Plexus is built into this bench: run scripts/bench-peers-setup to add Mosquitto, NATS, "
-            "ZeroMQ and Redis.\n");
+            "ZeroMQ, Redis, Cyclone DDS and iceoryx.\n");
     }
     const std::string self = self_path();
     int status = 0;
@@ -184,8 +185,15 @@ int run_peers(const PeersOptions& options) {
                     try {
                         const RunDeadline deadline;
                         const TempDir dir;
-                        auto broker = system.start(BrokerSetup{dir, options.plexusd, self});
-                        runs[system.name].push_back(run_scenario(scenario, *broker, {size, row.count}));
+                        const BrokerSetup setup{dir, options.plexusd, self, size};
+                        const Workload workload{size, row.count};
+                        if (system.own_process) {
+                            runs[system.name].push_back(
+                                run_in_own_process(system, scenario, workload, setup));
+                        } else {
+                            auto broker = system.start(setup);
+                            runs[system.name].push_back(run_scenario(scenario, *broker, workload));
+                        }
                     } catch (const std::exception& e) {
                         failed[system.name] = e.what();
                         std::cerr << "plexus-bench peers: " << system.name << ", " << name_of(scenario)

@@ -1,7 +1,8 @@
 #pragma once
 // The first bytes of every message the peers scenarios send: what it is, its sequence number and
-// when it was sent. The rest of the payload is filler up to the message size. All clients live
-// in the bench's one process, so the steady clock of the sender is the receiver's clock too.
+// when it was sent. The rest of the payload is filler up to the message size. The steady clock is
+// CLOCK_MONOTONIC, one clock for every process of the machine, so a receiver in another process
+// (the far ends of DDS and iceoryx) subtracts the sender's stamp from its own reading of it.
 
 #include <chrono>
 #include <cstdint>

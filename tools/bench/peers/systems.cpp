@@ -1,7 +1,10 @@
-// The systems `plexus-bench peers` knows: Plexus always, the peers when built with them.
+// The systems `plexus-bench peers` knows: Plexus always, the peers when built with them; and the
+// far ends of the brokerless peers.
 #include "pubsub.hpp"
 
 #ifdef PLEXUS_BENCH_PEERS
+#include <iostream>
+
 #include "peer_systems.hpp"
 #endif
 
@@ -16,9 +19,26 @@ std::vector<System> all_systems() {
     systems.push_back(nats_system());
     systems.push_back(zeromq_system());
     systems.push_back(redis_system());
+    systems.push_back(cyclonedds_system());
+    systems.push_back(cyclonedds_best_effort_system());
+    systems.push_back(iceoryx_system());
 #endif
     return systems;
 }
+
+#ifdef PLEXUS_BENCH_PEERS
+int run_far_end(const FarEndOptions& options) {
+    try {
+        if (options.system == "iceoryx")
+            return run_iceoryx_far_end(options);
+        return run_cyclonedds_far_end(options);  // refuses a name that is not one of its two
+    } catch (const std::exception& e) {
+        std::cerr << "plexus-bench peer-far-end: " << options.system << " " << options.role << " on "
+                  << options.topic << ": " << e.what() << '\n';
+        return 1;
+    }
+}
+#endif
 
 bool peers_built() {
 #ifdef PLEXUS_BENCH_PEERS
