@@ -10,10 +10,11 @@
 
 namespace plexus::bench::peers {
 
-System plexus_system();  // plexus_pubsub.cpp
+System plexus_system();        // plexus_pubsub.cpp
+System plexus_loans_system();  // plexus_pubsub.cpp: the same broker, bytes lent in shared memory
 
 std::vector<System> all_systems() {
-    std::vector<System> systems{plexus_system()};
+    std::vector<System> systems{plexus_system(), plexus_loans_system()};
 #ifdef PLEXUS_BENCH_PEERS
     systems.push_back(mosquitto_system());
     systems.push_back(nats_system());
