@@ -82,6 +82,19 @@ int main(int argc, char** argv) {
         "monitor-scaling", "total throughput of 1, 2, 4 independent connections with a ~20 us monitor each");
     add_common(scaling);
     scaling->callback([&] { status = run_monitor_scaling(options); });
+    auto* streams = app.add_subcommand(
+        "streams", "deliveries/s and CPU per message of 1, 10, 100, 1,000 independent 64 B streams");
+    add_common(streams);
+    streams->add_option("--streams", options.streams, "the rows: streams per run")
+        ->delimiter(',')
+        ->check(CLI::Range(1, 100000))
+        ->capture_default_str();
+    streams
+        ->add_option("--clients", options.stream_clients,
+                     "writer clients (and as many reader clients) the streams are spread over")
+        ->check(CLI::Range(1, 1000))
+        ->capture_default_str();
+    streams->callback([&] { status = run_streams(options); });
 
     auto* arbitration = app.add_subcommand("arbitration",
                                            "added CPU per message with 2, 4, 8 competing connections "

@@ -9,14 +9,17 @@
 namespace plexus::bench {
 
 struct Options {
-    std::size_t size = 64;      ///< payload bytes per message
-    int hops = 1;               ///< 1: one daemon (relay); 2: two, linked by tcp
-    std::size_t count = 0;      ///< messages (throughput) or round trips (latency) per run; 0: by size
-    int repeat = 5;             ///< runs per system; the median of each figure is reported
-    bool json = false;          ///< one JSON object per line instead of a table
-    std::size_t capacity = 0;   ///< reader queue length asked of plexusd; 0: the daemon's default
-    std::string plexusd;        ///< path of the daemon binary
-    std::size_t ports = 1000;   ///< memory: ports to open
+    std::size_t size = 64;     ///< payload bytes per message
+    int hops = 1;              ///< 1: one daemon (relay); 2: two, linked by tcp
+    std::size_t count = 0;     ///< messages (throughput) or round trips (latency) per run; 0: by size
+    int repeat = 5;            ///< runs per system; the median of each figure is reported
+    bool json = false;         ///< one JSON object per line instead of a table
+    std::size_t capacity = 0;  ///< reader queue length asked of plexusd; 0: the daemon's default
+    std::string plexusd;       ///< path of the daemon binary
+    std::size_t ports = 1000;  ///< memory: ports to open
+    /// streams: how many independent streams each row runs, and the clients they are spread over.
+    std::vector<int> streams{1, 10, 100, 1000};
+    int stream_clients = 16;
     bool empty_accept = false;  ///< monitor: also run an accept that returns true without reading msg
     /// latency: Plexus writes loans (Port::loan, send_loan) and reads views (read_view) instead of
     /// write/read: zero-copy on one machine. Neither side touches the payload past its first 64 bytes.

@@ -24,6 +24,7 @@ int run_monitor(const Options& options);
 int run_monitor_latency(const Options& options);
 /// Total throughput of 1, 2 and 4 independent monitored connections with a ~20 us script.
 int run_monitor_scaling(const Options& options);
+int run_streams(const Options& options);
 /// Added CPU per message with 2, 4 and 8 competing connections (constraints, priority), and the
 /// switch time back to a stream once a competitor's hold ends.
 int run_arbitration(const Options& options);
