@@ -12,9 +12,6 @@
 namespace plexus::detail {
 
 namespace {
-// Descriptors one read of the socket can bring (the kernel sends at most 253 with one message).
-constexpr std::size_t max_received_fds = 253;
-
 std::chrono::nanoseconds spin_from_environment() {
     // Off unless asked for: on a machine of two cores a spinning receiver takes the core the
     // daemon needs to produce what it waits for (docs/BENCHMARKS.md, "Rings").
@@ -96,14 +93,9 @@ void ClientRings::empty_eventfd(int fd) {
 bool ClientRings::drain_socket(int socket_fd, std::deque<int>& fds, std::optional<std::string>& failure) {
     for (;;) {
         std::uint8_t markers[64];
-        iovec piece{markers, sizeof markers};
-        alignas(cmsghdr) char control[CMSG_SPACE(sizeof(int) * max_received_fds)];
-        msghdr message{};
-        message.msg_iov = &piece;
-        message.msg_iovlen = 1;
-        message.msg_control = control;
-        message.msg_controllen = sizeof control;
-        const ssize_t n = ::recvmsg(socket_fd, &message, MSG_DONTWAIT | MSG_CMSG_CLOEXEC);
+        bool cut_off = false;
+        const ssize_t n =
+            receive_with_descriptors(socket_fd, markers, sizeof markers, MSG_DONTWAIT, fds, cut_off);
         if (n == 0)
             return false;
         if (n < 0) {
@@ -114,7 +106,7 @@ bool ClientRings::drain_socket(int socket_fd, std::deque<int>& fds, std::optiona
             failure = std::strerror(errno);
             return false;
         }
-        if (!take_descriptors(message, fds)) {
+        if (cut_off) {
             failure = "descriptors from the daemon were cut off";
             return false;
         }

@@ -22,6 +22,8 @@ namespace {
 constexpr std::size_t max_received_fds = 253;
 }  // namespace
 
+namespace {
+
 bool take_descriptors(msghdr& message, std::deque<int>& fds) {
     if (message.msg_controllen == 0)
         return true;
@@ -36,6 +38,22 @@ bool take_descriptors(msghdr& message, std::deque<int>& fds) {
         }
     }
     return (message.msg_flags & MSG_CTRUNC) == 0;
+}
+
+}  // namespace
+
+ssize_t receive_with_descriptors(int fd, std::uint8_t* at, std::size_t room, int flags, std::deque<int>& fds,
+                                 bool& cut_off) {
+    iovec piece{at, room};
+    alignas(cmsghdr) char control[CMSG_SPACE(sizeof(int) * max_received_fds)];
+    msghdr message{};
+    message.msg_iov = &piece;
+    message.msg_iovlen = 1;
+    message.msg_control = control;
+    message.msg_controllen = sizeof control;
+    const ssize_t n = ::recvmsg(fd, &message, flags | MSG_CMSG_CLOEXEC);
+    cut_off = n > 0 && !take_descriptors(message, fds);
+    return n;
 }
 
 int FrameSocket::connect_unix(const std::string& path) {
@@ -96,18 +114,10 @@ FrameSocket::~FrameSocket() {
 SocketReceived FrameSocket::receive(std::uint8_t* at, std::size_t room, std::deque<int>& fds, int flags) {
     if (in_rings_)
         return in_rings_->receive(at, room, fd_, fds, receive_timeout_, (flags & MSG_DONTWAIT) == 0);
-    // recvmsg, not recv: shared-memory regions arrive as descriptors attached to the bytes, and a
-    // recv would close them unseen.
-    iovec piece{at, room};
-    alignas(cmsghdr) char control[CMSG_SPACE(sizeof(int) * max_received_fds)];
-    msghdr message{};
-    message.msg_iov = &piece;
-    message.msg_iovlen = 1;
-    message.msg_control = control;
-    message.msg_controllen = sizeof control;
-    const ssize_t n = ::recvmsg(fd_, &message, flags | MSG_CMSG_CLOEXEC);
+    bool cut_off = false;
+    const ssize_t n = receive_with_descriptors(fd_, at, room, flags, fds, cut_off);
     SocketReceived result;
-    if (n > 0 && !take_descriptors(message, fds))
+    if (cut_off)
         result.failure = "descriptors from the daemon were cut off";
     if (n == 0) {
         result.failure = "the daemon closed the connection";

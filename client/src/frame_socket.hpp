@@ -34,9 +34,12 @@ struct SocketSent {
     std::optional<std::string> failure;  ///< the connection failed: why
 };
 
-/// Appends the descriptors (SCM_RIGHTS) that came with a received `message` to `fds`; false when
-/// some were cut off (MSG_CTRUNC: more came than the control buffer held).
-bool take_descriptors(msghdr& message, std::deque<int>& fds);
+/// Receives up to `room` bytes into `at` with recvmsg (`flags` as recvmsg's) and appends the
+/// descriptors (SCM_RIGHTS) that came with them to `fds`: shared-memory regions arrive so, and a
+/// recv would close them unseen. Returns recvmsg's result; `cut_off` is set when some descriptors
+/// were cut off (MSG_CTRUNC: more came than one receive holds).
+ssize_t receive_with_descriptors(int fd, std::uint8_t* at, std::size_t room, int flags, std::deque<int>& fds,
+                                 bool& cut_off);
 
 /// A connected stream socket, closed with the object.
 class FrameSocket {

@@ -198,7 +198,7 @@ void Receiver::receive_large_payload(int flags) {
         if (large_->left > 0)
             return;
     }
-    demux_.deliver(large_->handle, InboxSegment{nullptr, {}, std::move(large_->message)});
+    demux_.deliver(large_->handle, InboxSegment{nullptr, {}, std::move(large_->message), nullptr});
     large_.reset();
 }
 

@@ -199,7 +199,50 @@ inline void PrintTo(End end, std::ostream* out) {
     *out << end_name(end);
 }
 
-class Stream {
+/// What a test reads from a peer that hands over frames one at a time (Derived::next_frame with
+/// a deadline): every frame until the end, the reply to a request. A Stream reads them from its
+/// socket, a RingPeer (ring_peer.hpp) from its ring.
+template <typename Derived>
+class FrameSource {
+public:
+    /// Every frame until the peer closes (or the deadline passes).
+    std::vector<Frame> frames_until_closed(Clock::time_point deadline) {
+        std::vector<Frame> frames;
+        while (auto frame = self().next_frame(deadline))
+            frames.push_back(std::move(*frame));
+        return frames;
+    }
+    std::vector<Frame> frames_until_closed() { return frames_until_closed(Clock::now() + exchange_timeout); }
+
+    /// The reply to request `id`, skipping other frames (the peer's hello among them); nullopt if
+    /// none came in time.
+    std::optional<proto::Reply> reply_to(std::uint64_t id) {
+        const auto deadline = Clock::now() + exchange_timeout;
+        while (auto frame = self().next_frame(deadline)) {
+            if (frame->type == FrameType::error) {
+                auto reason = proto::decode_error(frame->fields);
+                ADD_FAILURE() << "error frame instead of a reply: "
+                              << (reason ? *reason : reason.error().message);
+                return std::nullopt;
+            }
+            if (frame->type != FrameType::reply)
+                continue;
+            auto reply = proto::decode_reply(frame->fields);
+            if (!reply) {
+                ADD_FAILURE() << "undecodable reply: " << reply.error().message;
+                return std::nullopt;
+            }
+            if (reply->id == id)
+                return *reply;
+        }
+        return std::nullopt;
+    }
+
+private:
+    Derived& self() { return static_cast<Derived&>(*this); }
+};
+
+class Stream : public FrameSource<Stream> {
 public:
     static Stream tcp(const std::string& host_port) {
         const sockaddr_in address = inet_address(host_port);
@@ -292,38 +335,6 @@ public:
             if (end_ != End::open || !read_some(deadline))
                 return std::nullopt;
         }
-    }
-
-    /// Every frame until the peer closes (or the deadline passes); end() says which.
-    std::vector<Frame> frames_until_closed(Clock::time_point deadline) {
-        std::vector<Frame> frames;
-        while (auto frame = next_frame(deadline))
-            frames.push_back(std::move(*frame));
-        return frames;
-    }
-    std::vector<Frame> frames_until_closed() { return frames_until_closed(Clock::now() + exchange_timeout); }
-
-    /// The reply to request `id`, skipping the peer's hello; nullopt if none came in time.
-    std::optional<proto::Reply> reply_to(std::uint64_t id) {
-        const auto deadline = Clock::now() + exchange_timeout;
-        while (auto frame = next_frame(deadline)) {
-            if (frame->type == FrameType::error) {
-                auto reason = proto::decode_error(frame->fields);
-                ADD_FAILURE() << "error frame instead of a reply: "
-                              << (reason ? *reason : reason.error().message);
-                return std::nullopt;
-            }
-            if (frame->type != FrameType::reply)
-                continue;
-            auto reply = proto::decode_reply(frame->fields);
-            if (!reply) {
-                ADD_FAILURE() << "undecodable reply: " << reply.error().message;
-                return std::nullopt;
-            }
-            if (reply->id == id)
-                return *reply;
-        }
-        return std::nullopt;
     }
 
     End end() const { return end_; }

@@ -17,7 +17,7 @@
 
 namespace plexus::test::hostile {
 
-class RingPeer {
+class RingPeer : public FrameSource<RingPeer> {
 public:
     /// Connects to the daemon's Unix socket; nothing is sent yet.
     explicit RingPeer(const Daemon& daemon) : fd_(::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0)) {
@@ -164,38 +164,6 @@ public:
         }
     }
     std::optional<Frame> next_frame() { return next_frame(Clock::now() + exchange_timeout); }
-
-    /// Every frame until the daemon closes the socket (and the ring is empty) or the deadline.
-    std::vector<Frame> frames_until_closed(Clock::time_point deadline) {
-        std::vector<Frame> frames;
-        while (auto frame = next_frame(deadline))
-            frames.push_back(std::move(*frame));
-        return frames;
-    }
-    std::vector<Frame> frames_until_closed() { return frames_until_closed(Clock::now() + exchange_timeout); }
-
-    /// The reply to request `id` from the ring, skipping other frames; nullopt if none came in time.
-    std::optional<proto::Reply> reply_to(std::uint64_t id) {
-        const auto deadline = Clock::now() + exchange_timeout;
-        while (auto frame = next_frame(deadline)) {
-            if (frame->type == FrameType::error) {
-                auto reason = proto::decode_error(frame->fields);
-                ADD_FAILURE() << "error frame instead of a reply: "
-                              << (reason ? *reason : reason.error().message);
-                return std::nullopt;
-            }
-            if (frame->type != FrameType::reply)
-                continue;
-            auto reply = proto::decode_reply(frame->fields);
-            if (!reply) {
-                ADD_FAILURE() << "undecodable reply: " << reply.error().message;
-                return std::nullopt;
-            }
-            if (reply->id == id)
-                return *reply;
-        }
-        return std::nullopt;
-    }
 
     /// Waits until the daemon closes the socket, reading nothing from the ring; the end it saw.
     End wait_for_socket_end(Clock::time_point deadline) {
