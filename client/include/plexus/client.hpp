@@ -135,7 +135,9 @@ private:
 /// A message read where it arrived (Port::read_view): a blob a writer on this machine put in
 /// shared memory is read in place, without a copy, until the view goes (then its slot is released;
 /// a reader that dies releases it too). Any other message is held as read(). Hold views briefly:
-/// a writer's region fills while its slots are held. Movable, not copyable; usable from any thread.
+/// a writer's region fills while its slots are held. A release is a small frame to the daemon; let a
+/// view go before this client's next write and it travels with that write instead of on its own
+/// (which costs the daemon a wake-up when it sleeps). Movable, not copyable; usable from any thread.
 class MessageView {
 public:
     MessageView(MessageView&&) noexcept = default;

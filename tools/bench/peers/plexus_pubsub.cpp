@@ -129,12 +129,16 @@ private:
     void run() {
         using namespace std::chrono_literals;
         while (!stop_) {
-            const auto view = in_.read_view(100ms);
+            auto view = in_.read_view(100ms);
             if (!view)
                 continue;
-            const auto bytes = view->bytes();
-            Loan answer = out_.loan(bytes.size());
-            std::memcpy(answer.bytes().data(), bytes.data(), std::min(bytes.size(), sizeof(Stamp)));
+            const std::size_t size = view->bytes().size();
+            const Stamp stamp = stamp_in(view->bytes());
+            // Let go of the ping before answering: its release then travels with the answer's frame
+            // instead of in a frame of its own (which would wake the daemon once more).
+            view.reset();
+            Loan answer = out_.loan(size);
+            std::memcpy(answer.bytes().data(), &stamp, std::min(size, sizeof stamp));
             out_.send_loan(std::move(answer));
         }
     }
