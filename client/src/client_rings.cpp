@@ -196,6 +196,7 @@ SocketSent ClientRings::send_some(const iovec* pieces, std::size_t count) {
 }
 
 bool ClientRings::wait_writable(int socket_fd, int timeout_ms) {
+    std::lock_guard one_sleeper(writer_wait_);
     if (to_daemon_.prepare_to_wait())
         return true;
     pollfd watched[2] = {{fds_[proto::to_daemon_space], POLLIN, 0}, {socket_fd, POLLRDHUP, 0}};

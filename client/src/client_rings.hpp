@@ -1,7 +1,9 @@
 #pragma once
 // Threading: receive() belongs to the receiving thread; send_some() is called under SendBuffer's
-// mutex and wait_writable() by a sender or the backlog thread. No lock of its own: the two rings
-// are one producer and one consumer each, and their flags are atomics (client/src/LOCK_ORDER.md).
+// mutex and wait_writable() by a sender or the backlog thread, perhaps both at once. The rings are
+// one producer and one consumer each, and their positions and flags atomics; the one lock,
+// writer_wait_, lets one thread at a time sleep on the ring to the daemon (a leaf:
+// client/src/LOCK_ORDER.md).
 //
 // The client's end of its session's shared-memory rings (proto/rings.hpp, PROTOCOL.md "Rings"):
 // frames to the daemon are copied into one ring, frames from it are copied out of the other, and
@@ -57,6 +59,11 @@ private:
     std::uint8_t* region_ = nullptr;
     std::array<int, proto::ring_descriptors> fds_{-1, -1, -1, -1, -1};
     proto::RingWriter to_daemon_;
+    /// Held by the thread that sleeps for room in to_daemon_. The ring has one `writer_waiting`
+    /// flag: a second sleeper would clear it on waking while the first still sleeps, and the
+    /// daemon, seeing no one asleep, would not signal (a lost wake-up: the writer slept its whole
+    /// timeout, 100 ms, with room to write).
+    std::mutex writer_wait_;
     proto::RingReader from_daemon_;
     bool socket_ended_ = false;  ///< the receiving thread's: the daemon closed its socket
     /// How long the receiving thread looks at an empty ring before it sleeps (PLEXUS_SPIN_US).
