@@ -13,6 +13,7 @@
 
 #include <unistd.h>
 
+#include "measurement.hpp"
 #include "plexus/client.hpp"
 #include "process_stats.hpp"
 #include "scenarios.hpp"
@@ -82,11 +83,6 @@ Run run_once(const Topology& topology, const std::string& script, int connection
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     const double messages = static_cast<double>(connections) * count;
     return {messages / seconds, (cpu_seconds(processes) - cpu_before) * 1e6 / messages};
-}
-
-double median(std::vector<double> values) {
-    std::sort(values.begin(), values.end());
-    return values[values.size() / 2];
 }
 
 }  // namespace

@@ -15,6 +15,7 @@
 
 #include <unistd.h>
 
+#include "measurement.hpp"
 #include "plexus/client.hpp"
 #include "process_stats.hpp"
 #include "scenarios.hpp"
@@ -100,11 +101,6 @@ StreamsRun run_once(const Topology& topology, int streams, int clients, int roun
     const double messages = static_cast<double>(streams) * rounds;
     return {messages / seconds, (cpu_seconds(everyone) - cpu_before) * 1e6 / messages,
             (cpu_seconds(daemon) - daemon_before) * 1e6 / messages};
-}
-
-double median(std::vector<double> values) {
-    std::sort(values.begin(), values.end());
-    return values[values.size() / 2];
 }
 
 }  // namespace

@@ -18,20 +18,6 @@ namespace {
 // Longer than the run deadline the bench arms around every run: that one ends a wedged run.
 constexpr std::chrono::seconds run_wait{run_deadline_s + 30};
 
-nlohmann::json to_json(const PeerResult& r) {
-    nlohmann::json figures{{"p50_us", r.p50_us},
-                           {"p99_us", r.p99_us},
-                           {"p999_us", r.p999_us},
-                           {"msgs_per_s", r.msgs_per_s},
-                           {"mb_per_s", r.mb_per_s},
-                           {"lost", r.lost},
-                           {"cpu_us_per_msg", r.cpu_us_per_msg},
-                           {"rss_mb", r.rss_mb}};
-    if (!r.warning.empty())
-        figures["warning"] = r.warning;
-    return figures;
-}
-
 PeerResult from_json(const nlohmann::json& figures) {
     PeerResult r;
     r.p50_us = figures.at("p50_us").get<double>();
@@ -62,6 +48,20 @@ std::optional<nlohmann::json> figures_in(const std::string& output) {
 }
 
 }  // namespace
+
+nlohmann::json to_json(const PeerResult& r) {
+    nlohmann::json figures{{"p50_us", r.p50_us},
+                           {"p99_us", r.p99_us},
+                           {"p999_us", r.p999_us},
+                           {"msgs_per_s", r.msgs_per_s},
+                           {"mb_per_s", r.mb_per_s},
+                           {"lost", r.lost},
+                           {"cpu_us_per_msg", r.cpu_us_per_msg},
+                           {"rss_mb", r.rss_mb}};
+    if (!r.warning.empty())
+        figures["warning"] = r.warning;
+    return figures;
+}
 
 PeerResult run_in_own_process(const System& system, Scenario scenario, const Workload& workload,
                               const BrokerSetup& setup) {

@@ -10,6 +10,8 @@
 #include <cstddef>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 #include "peer_scenarios.hpp"
 #include "pubsub.hpp"
 
@@ -28,6 +30,9 @@ struct PeerRunOptions {
 /// throws with the process's last output if it printed none.
 PeerResult run_in_own_process(const System& system, Scenario scenario, const Workload& workload,
                               const BrokerSetup& setup);
+
+/// A run's figures as the JSON keys every row of `peers --json` has (p50_us ... rss_mb, warning).
+nlohmann::json to_json(const PeerResult& result);
 
 /// Body of `plexus-bench peer-run`: prints the figures of one run as JSON; returns the exit status.
 int run_peer_run(const PeerRunOptions& options);

@@ -113,19 +113,10 @@ struct Row {
 
 void print_json(const Row& row) {
     for (const auto& [system, r] : row.results) {
-        nlohmann::json line{{"system", system},
-                            {"scenario", name_of(row.scenario)},
-                            {"size", row.size},
-                            {"p50_us", r.p50_us},
-                            {"p99_us", r.p99_us},
-                            {"p999_us", r.p999_us},
-                            {"msgs_per_s", r.msgs_per_s},
-                            {"mb_per_s", r.mb_per_s},
-                            {"lost", r.lost},
-                            {"cpu_us_per_msg", r.cpu_us_per_msg},
-                            {"rss_mb", r.rss_mb}};
-        if (!r.warning.empty())
-            line["warning"] = r.warning;
+        nlohmann::json line = to_json(r);
+        line["system"] = system;
+        line["scenario"] = name_of(row.scenario);
+        line["size"] = row.size;
         std::cout << line.dump() << '\n';
     }
     std::cout.flush();
