@@ -72,7 +72,7 @@ void Demux::deliver(const std::shared_ptr<const proto::Bytes>& block, std::span<
                 run_handle = data.handle;
                 run = nullptr;
                 if (Box* box = box_locked(data.handle)) {
-                    run = &box->segments.emplace_back(InboxSegment{block, {}, std::nullopt});
+                    run = &box->segments.emplace_back(InboxSegment{block, {}, std::nullopt, nullptr});
                     satisfy_locked(*box);
                     if (box->waiting > 0)
                         wake.push_back(boxes_[data.handle]);

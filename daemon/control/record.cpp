@@ -65,7 +65,7 @@ Task<proto::Reply> ControlPlane::record_start(std::shared_ptr<Session> session,
     if (!started)
         co_return refuse("cannot record: " + started.error().message);
     const std::uint64_t id = next_recording_++;
-    Recording recording{session, std::move(*started)};
+    Recording recording{session, std::move(*started), false, std::nullopt};
     if (asked->forwarded) {
         // Asked by another daemon for its client: alive while that client keeps asking.
         recording.owner.reset();
