@@ -95,6 +95,29 @@ inline int milliseconds_until(Clock::time_point deadline) {
     return left <= 0 ? 0 : static_cast<int>(left);
 }
 
+/// Sends all of `bytes` on the non-blocking socket `fd`, waiting for room until `deadline`; false
+/// if the peer went away first (it may close on the first bad byte) or the deadline passed.
+inline bool send_all(int fd, ByteView bytes, Clock::time_point deadline) {
+    std::size_t sent = 0;
+    while (sent < bytes.size()) {
+        const ssize_t n = ::send(fd, bytes.data() + sent, bytes.size() - sent, MSG_NOSIGNAL);
+        if (n > 0) {
+            sent += static_cast<std::size_t>(n);
+            continue;
+        }
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
+            pollfd p{fd, POLLOUT, 0};
+            if (::poll(&p, 1, milliseconds_until(deadline)) <= 0)
+                return false;
+            continue;
+        }
+        return false;  // EPIPE, ECONNRESET: the peer has closed
+    }
+    return true;
+}
+
 // ---------------------------------------------------------------------------------------------
 // Frames
 
@@ -290,26 +313,7 @@ public:
     ~Stream() { close(); }
 
     /// Sends all of `bytes`; false if the peer went away first (it may close on the first bad byte).
-    bool send(ByteView bytes, Clock::time_point deadline) {
-        std::size_t sent = 0;
-        while (sent < bytes.size()) {
-            const ssize_t n = ::send(fd_, bytes.data() + sent, bytes.size() - sent, MSG_NOSIGNAL);
-            if (n > 0) {
-                sent += static_cast<std::size_t>(n);
-                continue;
-            }
-            if (n < 0 && errno == EINTR)
-                continue;
-            if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
-                pollfd p{fd_, POLLOUT, 0};
-                if (::poll(&p, 1, milliseconds_until(deadline)) <= 0)
-                    return false;
-                continue;
-            }
-            return false;  // EPIPE, ECONNRESET: the peer has closed
-        }
-        return true;
-    }
+    bool send(ByteView bytes, Clock::time_point deadline) { return send_all(fd_, bytes, deadline); }
     bool send(ByteView bytes) { return send(bytes, Clock::now() + exchange_timeout); }
 
     void shutdown_write() { ::shutdown(fd_, SHUT_WR); }

@@ -90,27 +90,7 @@ public:
     const std::vector<Frame>& socket_frames() const { return socket_frames_; }
 
     /// Sends raw bytes on the socket (after the switch, a protocol error).
-    bool send_on_socket(ByteView bytes) {
-        std::size_t sent = 0;
-        const auto deadline = Clock::now() + exchange_timeout;
-        while (sent < bytes.size()) {
-            const ssize_t n = ::send(fd_, bytes.data() + sent, bytes.size() - sent, MSG_NOSIGNAL);
-            if (n > 0) {
-                sent += static_cast<std::size_t>(n);
-                continue;
-            }
-            if (n < 0 && errno == EINTR)
-                continue;
-            if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
-                pollfd p{fd_, POLLOUT, 0};
-                if (::poll(&p, 1, milliseconds_until(deadline)) <= 0)
-                    return false;
-                continue;
-            }
-            return false;
-        }
-        return true;
-    }
+    bool send_on_socket(ByteView bytes) { return send_all(fd_, bytes, Clock::now() + exchange_timeout); }
 
     /// Writes `bytes` into the ring to the daemon as a well-behaved client does, waking it every
     /// time (a spurious wake-up costs it nothing but a look); false when the daemon's position is
