@@ -30,7 +30,7 @@ constexpr auto unregister_grace = std::chrono::seconds(1);
 Daemon::Daemon(asio::io_context& io, DaemonConfig config)
     : io_(io),
       config_(std::move(config)),
-      space_(io.get_executor()),
+      shards_(io, config_.threads),
       tcp_acceptor_(io),
       unix_acceptor_(io),
       udp_(io, config_.udp, config_.secret),
@@ -41,6 +41,10 @@ Daemon::Daemon(asio::io_context& io, DaemonConfig config)
     const bool inline_monitors = config_.monitors.inline_cost_limit.count() > 0;
     workers_ = std::make_shared<monitor::Workers>(config_.monitor_threads, inline_monitors ? &io_ : nullptr);
     scripts_ = std::make_unique<ScriptHost>(io_, *this, workers_);
+    // A connection from a port of a data thread to a sink on another thread crosses in mail.
+    router_.crossing_for = [this](const Port& source, const std::shared_ptr<MessageSink>& sink) {
+        return shards_.crossing(source.shard(), sink);
+    };
 }
 
 Daemon::~Daemon() {
@@ -197,7 +201,9 @@ int Daemon::run() {
     wait_for_signal();
     spdlog::info("plexusd node '{}' listening on {} and {}; name server {}", config_.node, address(),
                  config_.socket_path, config_.names.text());
+    shards_.start();
     io_.run();
+    shards_.stop();
     // Coroutines still parked on a Signal (loops of connections that never closed) are destroyed
     // now, while the daemon they refer to still exists; otherwise their frames leak at exit.
     asio::use_service<SignalService>(io_).destroy_parked();
@@ -276,23 +282,39 @@ Task<void> Daemon::accept_unix() {
             co_await back_off_after_accept_error();
             continue;
         }
-        start_session(Socket(std::move(socket)), "local session");
+        start_session(Socket(std::move(socket)), "local session", shards_.place());
     }
 }
 
 Task<void> Daemon::back_off_after_accept_error() {
     // Out of file descriptors (or memory) the failure repeats at once: retrying without a pause
     // would spin the daemon's only thread and flood the log while sessions wait to close.
-    ++counters_.accept_errors;
+    ++counters().accept_errors;
     constexpr auto pause_length = std::chrono::milliseconds(100);
     asio::steady_timer pause(io_, pause_length);
     co_await pause.async_wait(use_nothrow);
 }
 
-void Daemon::start_session(Socket socket, const std::string& description) {
-    ++counters_.sessions_accepted;
+void Daemon::start_session(Socket socket, const std::string& description, std::size_t shard) {
+    ++counters().sessions_accepted;
     const auto id = next_session_++;
-    auto session = std::make_shared<Session>(std::move(socket), *this, id);
+    if (shard != 0) {
+        // Its data thread runs it from now on: the socket moves to that thread's io_context.
+        boost::system::error_code ec;
+        const auto protocol = socket.local_endpoint(ec).protocol();
+        if (ec) {
+            spdlog::warn("{}: cannot move it to data thread {}: {}", description, shard, ec.message());
+            return;
+        }
+        Socket moved(shards_[shard].io());
+        moved.assign(protocol, socket.release(), ec);
+        if (ec) {
+            spdlog::warn("{}: cannot move it to data thread {}: {}", description, shard, ec.message());
+            return;
+        }
+        socket = std::move(moved);
+    }
+    auto session = std::make_shared<Session>(std::move(socket), *this, id, shard);
     session->set_description(description + " #" + std::to_string(id));
     sessions_[id] = session;
     session->require_secret(config_.secret);  // only TCP peers are asked for it
@@ -308,6 +330,16 @@ std::shared_ptr<Session> Daemon::session(std::uint64_t id) const {
 }
 
 void Daemon::session_closed(Session& session) {
+    if (Shards::here() == 0) {
+        forget_session(session);
+        return;
+    }
+    // A data thread's session: its ports and its entry are the control thread's to let go.
+    auto self = std::static_pointer_cast<Session>(session.shared_from_this());
+    asio::post(io_, [this, self] { forget_session(*self); });
+}
+
+void Daemon::forget_session(Session& session) {
     sessions_.erase(session.id());
     if (session.is_link())
         std::erase_if(session.link_port()->inbound, [&](const std::weak_ptr<Inlet>& inlet) {
@@ -340,7 +372,7 @@ proto::Result<std::shared_ptr<Port>> Daemon::open_hosted_port(const std::string&
 void Daemon::forget_port(std::shared_ptr<Port> port) {
     const std::string name = port->name();
     auto removed = router_.close(name);
-    space_.notify();
+    notify_space();
     spdlog::info("port {} closed", name);
     if (stopping_ || !names_)
         return;

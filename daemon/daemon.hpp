@@ -1,7 +1,9 @@
 #pragma once
-// Threading: the whole daemon runs on one io_context, one thread at a time (like Redis and
-// Mosquitto); no locks. That thread is the main one, or the LoopStandIn while a cheap monitor running
-// inline overruns (monitor/loop_stand_in.hpp).
+// Threading: the daemon runs on one io_context, one thread at a time (like Redis and Mosquitto); no
+// locks. That thread is the main one, or the LoopStandIn while a cheap monitor running inline
+// overruns (monitor/loop_stand_in.hpp). With `--threads N` (N > 1) local sessions and their ports
+// run on N data threads beside it, and the gates (net/handler_gate.hpp) keep this thread's
+// handlers and theirs apart: what is written here for one thread stays right.
 
 #include <map>
 #include <memory>
@@ -22,6 +24,7 @@
 #include "net/asio.hpp"
 #include "net/call_table.hpp"
 #include "net/session_host.hpp"
+#include "net/shards.hpp"
 #include "net/signal.hpp"
 #include "net/udp_socket.hpp"
 #include "plexus/proto/control.hpp"
@@ -50,7 +53,11 @@ public:
         return control_.handle(std::move(session), std::move(request));
     }
     void session_closed(Session& session) override;
-    Signal& space() override { return space_; }
+    void expect_space() override { shards_.current().expect_space(); }
+    Task<bool> wait_for_space(std::chrono::steady_clock::duration timeout) override {
+        return shards_.current().wait_for_space(timeout);
+    }
+    asio::any_io_executor control_executor() override { return io_.get_executor(); }
     std::shared_ptr<Session> session(std::uint64_t id) const override;
     std::uint64_t next_session_id() { return next_session_++; }
 
@@ -72,12 +79,14 @@ public:
         return names_->mcast_group(std::move(source));
     }
     const arbitration::Clock& clock() const override { return clock_; }
-    DaemonCounters& counters() override { return counters_; }
+    /// The calling thread's counters (each of the daemon's threads keeps its own).
+    DaemonCounters& counters() override { return shards_.current().counters(); }
+    DaemonCounters total_counters() const override { return shards_.total(); }
     CallTable& calls() override { return *calls_; }
     std::size_t session_count() const override { return sessions_.size(); }
     bool stopping() const override { return stopping_; }
     /// Called whenever a strict queue drops below capacity: wakes writers held back.
-    void notify_space() override { space_.notify(); }
+    void notify_space() override { shards_.space_appeared(); }
     void forget_port(std::shared_ptr<Port> port) override;
     void keep_link(std::weak_ptr<Peer> link) override { links_.push_back(std::move(link)); }
 
@@ -93,17 +102,20 @@ private:
     /// Arms the SIGINT/SIGTERM handler: the first starts shutdown(), a second stops at once.
     void wait_for_signal();
     Task<void> announce_ready();
-    void start_session(Socket socket, const std::string& description);
+    /// Starts a session on `shard` (0: this thread; else a data thread, the socket moved there).
+    void start_session(Socket socket, const std::string& description, std::size_t shard = 0);
+    /// What session_closed() does, on this thread.
+    void forget_session(Session& session);
 
     asio::io_context& io_;
     DaemonConfig config_;
+    /// The data threads (`--threads`); stopped by run() before it returns, while the rest exists.
+    Shards shards_;
     /// The threads monitors run on; shared with the stages, which may outlive the daemon (see stage.hpp).
     std::shared_ptr<monitor::Workers> workers_;
     std::unique_ptr<ScriptHost> scripts_;  ///< before router_: monitors in connections die first
     arbitration::SteadyClock clock_;       ///< event lifetimes and stimulation decay
     Router router_;
-    Signal space_;
-    DaemonCounters counters_;
     std::shared_ptr<CallTable> calls_;  ///< made first thing: sessions and links use it
     std::unique_ptr<names::NameServer> embedded_names_;
     std::unique_ptr<names::NameClient> names_;

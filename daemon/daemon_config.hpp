@@ -43,6 +43,9 @@ struct DaemonConfig {
     std::chrono::milliseconds handshake_timeout{10000};
     monitor::MonitorPolicy monitors;  ///< memory cap, time budget, quarantine of every port monitor
     std::size_t monitor_threads = 0;  ///< worker threads for monitors; 0: one per core
+    /// Threads that move data (`--threads`): 1, the control thread does everything; N > 1, N data
+    /// threads beside it, local sessions pinned to them in turn (net/shards.hpp).
+    std::size_t threads = 1;
     /// Least size of the shared-memory region a local client may get per port it writes large
     /// payloads through (a region holds at least four of the port's first large payload); 0 turns
     /// shared memory off. Small on purpose: the slots in use stay warm in the cache, and fewer
@@ -80,6 +83,22 @@ struct DaemonCounters {
     std::uint64_t handshake_timeouts = 0;  ///< peers cut off for not completing their handshake in time
     std::uint64_t ring_sessions = 0;       ///< sessions that moved to shared-memory rings
     std::uint64_t rings_refused = 0;       ///< rings asked for and refused (off, not local, no memory)
+
+    /// Adds another thread's counters (`--threads`: each thread of the daemon keeps its own).
+    DaemonCounters& operator+=(const DaemonCounters& other) {
+        sessions_accepted += other.sessions_accepted;
+        accept_errors += other.accept_errors;
+        protocol_errors += other.protocol_errors;
+        dropped_unknown_port += other.dropped_unknown_port;
+        dropped_link_down += other.dropped_link_down;
+        shm_passed += other.shm_passed;
+        shm_copied += other.shm_copied;
+        auth_failures += other.auth_failures;
+        handshake_timeouts += other.handshake_timeouts;
+        ring_sessions += other.ring_sessions;
+        rings_refused += other.rings_refused;
+        return *this;
+    }
 };
 
 }  // namespace plexus::daemon

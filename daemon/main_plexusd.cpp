@@ -24,6 +24,8 @@ namespace {
 
 /// More monitor threads than this is a typo, not a machine: each is a thread with its own stack.
 constexpr std::uint64_t most_monitor_threads = 1024;
+/// Data threads beyond this are a typo: each costs every control-thread handler a lock.
+constexpr std::uint64_t most_data_threads = 64;
 
 std::string host_name() {
     char buffer[256] = {};
@@ -77,6 +79,12 @@ int main(int argc, char** argv) {
                    "threads that run port monitors, so that a slow script delays only its own "
                    "connection (0: one per core)")
         ->transform(plexus::daemon::whole_number(0, most_monitor_threads))
+        ->capture_default_str();
+    app.add_option("--threads", config.threads,
+                   "threads that move data: 1, one thread does everything; N > 1, N data threads "
+                   "beside the control thread, local clients shared among them (a connection keeps "
+                   "its order; one between two threads costs a copy and a hand-over)")
+        ->transform(plexus::daemon::whole_number(1, most_data_threads))
         ->capture_default_str();
     bool no_inline_monitors = false;
     app.add_flag("--no-inline-monitors", no_inline_monitors,

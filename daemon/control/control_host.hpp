@@ -43,7 +43,10 @@ public:
     virtual ScriptHost& scripts() = 0;
     /// Where arbitration reads the time (event lifetimes, stimulation decay).
     virtual const arbitration::Clock& clock() const = 0;
+    /// The calling thread's counters, to count on.
     virtual DaemonCounters& counters() = 0;
+    /// Every thread's counters added up, to show.
+    virtual DaemonCounters total_counters() const = 0;
     /// The calls in progress through this daemon (request/reply).
     virtual CallTable& calls() = 0;
     /// Sessions open now.

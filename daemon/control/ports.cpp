@@ -24,6 +24,8 @@ Task<proto::Reply> ControlPlane::open_port(std::shared_ptr<Session> session, con
     if (!opened)
         co_return refuse(opened.error().message);
     auto port = *opened;
+    // Its thread, before the name server hears of it: connections made from now on cross to it.
+    port->set_shard(session->shard());
     port->served = asked->serve;
     auto registered = co_await host_.names().register_port(name);
     if (!registered || session->closed()) {

@@ -44,7 +44,7 @@ void send_call(Connection& connection, const Message& call) {
     if (connection.send_monitors)
         connection.send_monitors->submit(call);
     else
-        connection.sink->deliver(call);
+        connection.way_out().deliver(call);
 }
 
 }  // namespace plexus::daemon

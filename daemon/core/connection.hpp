@@ -35,6 +35,9 @@ public:
     /// The send-side monitors when the sink runs them itself, for every connection it serves (mcast:
     /// once per source port); null when each connection runs its own (Connection::send_monitors).
     virtual std::shared_ptr<MessageFilter> shared_send_stage() const { return nullptr; }
+    /// The daemon's thread this sink is used on (`--threads`): a port's is its session's data
+    /// thread; 0, the control thread, for everything else (links, datagram senders).
+    virtual std::size_t shard() const { return 0; }
 };
 
 /// A directed connection out of a port of this daemon.
@@ -51,6 +54,11 @@ struct Connection final : FilterClient {
     bool persistent = false;  ///< made with --persist: the name server keeps it across restarts
     int priority = 0;         ///< qos.prio: its port hands each message to higher ones first (Router::add)
     std::shared_ptr<MessageSink> sink;
+    /// Set when the sink lives on another of the daemon's data threads than the source port
+    /// (`--threads`): the way there (net/shard_crossing.hpp). Null otherwise.
+    std::shared_ptr<MessageSink> crossing;
+    /// Where the source's messages go: the crossing when there is one, else the sink itself.
+    MessageSink& way_out() const { return crossing ? *crossing : *sink; }
     /// The send-side monitors, before the sink; null when there are none (or when an mcast sender
     /// runs them for all the port's mcast connections at once).
     std::shared_ptr<MessageFilter> send_monitors;
@@ -66,26 +74,26 @@ struct Connection final : FilterClient {
     bool carries_calls() const { return carrier.rfind("udp", 0) != 0 && carrier.rfind("mcast", 0) != 0; }
 
     /// How many more messages the source may write into this connection.
-    std::size_t room() const { return room_after(sink->room(), send_monitors.get()); }
+    std::size_t room() const { return room_after(way_out().room(), send_monitors.get()); }
     /// The connection is going: the sink sends what it holds, then lets go; messages still in the
     /// send-side monitors reach it first.
     void close_after_flush() {
         if (send_monitors && send_monitors->in_flight() > 0)
             closing_ = true;  // filtered() closes the sink after the last of them
         else
-            sink->close_after_flush();
+            way_out().close_after_flush();
     }
     /// What the send-side monitors passed goes on to the sink, in order.
     void filtered(std::vector<Filtered>& results) override {
         for (auto& result : results) {
             if (result.verdict == FilterVerdict::pass)
-                sink->deliver(result.message);
+                way_out().deliver(result.message);
             else
                 dropped_by_monitor += result.message.count();
         }
         if (closing_ && send_monitors->in_flight() == 0) {
             closing_ = false;
-            sink->close_after_flush();
+            way_out().close_after_flush();
         }
     }
 

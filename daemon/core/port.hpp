@@ -33,6 +33,10 @@ public:
     const ReaderQueue& queue() const { return queue_; }
     bool closed() const { return closed_; }
 
+    /// The daemon's thread it lives on: its session's (`--threads`; 0 for the control thread).
+    std::size_t shard() const override { return shard_; }
+    void set_shard(std::size_t shard) { shard_ = shard; }
+
     bool full() const override { return queue_.full(); }
     std::size_t room() const override { return queue_.room(); }
     void deliver(const Message& message) override;
@@ -88,6 +92,7 @@ private:
     std::uint64_t owner_;
     ReaderQueue queue_;
     bool closed_ = false;
+    std::size_t shard_ = 0;
     std::vector<std::pair<std::weak_ptr<void>, std::function<void()>>> on_close_;
     std::vector<std::pair<std::weak_ptr<void>, int>> priorities_;
 };

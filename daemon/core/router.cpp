@@ -64,6 +64,8 @@ proto::Status Router::add(const std::shared_ptr<Port>& source, std::shared_ptr<C
     }
     // Kept in descending qos.prio, in the order made among equals: a message reaches (and wakes
     // the link of) a connection of higher priority before any of lower priority.
+    if (crossing_for)
+        connection->crossing = crossing_for(*source, connection->sink);
     auto& out = source->outgoing;
     const auto place = std::find_if(out.begin(), out.end(), [&](const std::shared_ptr<Connection>& c) {
         return c->priority < connection->priority;
@@ -121,7 +123,7 @@ void Router::route(Port& source, const Message& message) {
         }
         connection->sent += message.count();
         if (!connection->send_monitors) {
-            connection->sink->deliver(message);  // a batch stays whole unless the sink splits it
+            connection->way_out().deliver(message);  // a batch stays whole unless the sink splits it
             continue;
         }
         // The monitors see records one by one; what they pass reaches the sink through

@@ -1,6 +1,7 @@
 #pragma once
 // Threading: owned by the daemon's one thread; no locking, no sockets.
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -38,6 +39,11 @@ public:
     static std::size_t room(const Port& source);
     /// Hands a message written into `source` to every connection out of it.
     static void route(Port& source, const Message& message);
+
+    /// Set when the daemon runs on several threads (`--threads`): the way from a port of one thread
+    /// to a sink on another, or null when the port may deliver to it directly. add() asks it.
+    std::function<std::shared_ptr<MessageSink>(const Port& source, const std::shared_ptr<MessageSink>& sink)>
+        crossing_for;
 
 private:
     std::map<std::string, std::shared_ptr<Port>> ports_;

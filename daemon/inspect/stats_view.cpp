@@ -76,7 +76,7 @@ nlohmann::json stats_view(ControlHost& host, const ShmUsage& shm, const std::str
                          {"outgoing", connections},
                          {"inbound", inbound}});
     }
-    const auto& counters = host.counters();
+    const auto counters = host.total_counters();
     const auto& scripts = host.scripts();
     nlohmann::json view{{"node", host.config().node},
                         {"address", host.address()},
@@ -92,9 +92,9 @@ nlohmann::json stats_view(ControlHost& host, const ShmUsage& shm, const std::str
                           {"dropped_link_down", counters.dropped_link_down},
                           {"shm_passed", counters.shm_passed},
                           {"shm_copied", counters.shm_copied},
-                          {"shm_regions", shm.regions},
-                          {"shm_bytes", shm.bytes},
-                          {"shm_slots", shm.slots},
+                          {"shm_regions", shm.regions.load()},
+                          {"shm_bytes", shm.bytes.load()},
+                          {"shm_slots", shm.slots.load()},
                           {"ring_sessions", counters.ring_sessions},
                           {"rings_refused", counters.rings_refused},
                           {"udp_datagrams_sent", host.udp().counters().datagrams_sent},

@@ -5,6 +5,7 @@
 #include <spdlog/spdlog.h>
 
 #include "framed_connection.hpp"
+#include "handler_gate.hpp"
 
 namespace plexus::daemon {
 
@@ -58,6 +59,16 @@ void CallTable::refuse(FramedConnection& back, std::uint64_t back_id, std::strin
 }
 
 void CallTable::handed_on(std::uint64_t id, const std::shared_ptr<FramedConnection>& out) {
+    if (on_data_thread()) {
+        // Written by a session of a data thread (`--threads`): the table is the control thread's.
+        // Its answer, which that session hands to the control thread too, comes after this.
+        std::weak_ptr<CallTable> weak = weak_from_this();
+        asio::post(executor_, [weak, id, out] {
+            if (auto table = weak.lock())
+                table->handed_on(id, out);
+        });
+        return;
+    }
     const auto entry = entries_.find(id);
     if (entry == entries_.end())
         return;  // failed meanwhile (its deadline passed while it waited in a queue)
@@ -122,6 +133,15 @@ void CallTable::pass_back(std::weak_ptr<FramedConnection> back, std::uint64_t ba
 }
 
 void CallTable::closed(const FramedConnection& connection) {
+    if (on_data_thread()) {
+        // A session of a data thread closed: the table is the control thread's (see handed_on).
+        std::weak_ptr<CallTable> weak = weak_from_this();
+        asio::post(executor_, [weak, gone = connection.shared_from_this()] {
+            if (auto table = weak.lock())
+                table->closed(*gone);
+        });
+        return;
+    }
     std::vector<std::uint64_t> lost;
     std::vector<std::uint64_t> orphaned;
     for (const auto& [id, entry] : entries_) {

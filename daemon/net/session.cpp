@@ -27,10 +27,11 @@ bool is_data(proto::FrameType type) {
 }
 }  // namespace
 
-Session::Session(Socket socket, SessionHost& daemon, std::uint64_t id)
+Session::Session(Socket socket, SessionHost& daemon, std::uint64_t id, std::size_t shard)
     : FramedConnection(std::move(socket), daemon.config().max_frame, [&daemon] { daemon.notify_space(); }),
       daemon_(daemon),
       id_(id),
+      shard_(shard),
       request_done_(executor()) {}
 
 proto::Status Session::on_hello(const proto::Hello& hello) {
@@ -97,6 +98,10 @@ Task<bool> Session::on_frame(InFrame frame) {
             co_return co_await on_data(std::move(frame));
         case proto::FrameType::shm_release:
             co_return on_release(frame);
+        case proto::FrameType::call:
+        case proto::FrameType::answer:
+            co_return co_await asio::co_spawn(daemon_.control_executor(), on_call_frame(std::move(frame)),
+                                              asio::use_awaitable);
         case proto::FrameType::request: {
             auto request = proto::decode_request(frame.fields);
             if (!request) {
@@ -132,7 +137,11 @@ Task<void> Session::serve(proto::Request request) {
     const auto id = request.id;
     proto::Reply reply;
     try {
-        reply = co_await daemon_.handle_request(self, std::move(request));
+        if (shard_ == 0)
+            reply = co_await daemon_.handle_request(self, std::move(request));
+        else
+            reply = co_await asio::co_spawn(daemon_.control_executor(), daemon_.handle_request(self, std::move(request)),
+                                            asio::use_awaitable);
     } catch (const std::exception& e) {
         // A malformed field (wrong JSON type) must not take the daemon down: refuse the request.
         reply =
@@ -223,7 +232,8 @@ std::optional<Session::Incoming> Session::decode_shm(InFrame& frame) {
 
 bool Session::passes_shm(const Port& port, const ShmRegion& region) const {
     for (const auto& connection : port.outgoing) {
-        if (connection->remote || connection->send_monitors)
+        // A reader on another of the daemon's threads gets a copy: lending crosses no thread.
+        if (connection->remote || connection->send_monitors || connection->crossing)
             return false;
         const auto* inlet = dynamic_cast<const Inlet*>(connection->sink.get());
         // A recorded port's tap keeps the payload: it is copied out once, as for monitors.
@@ -237,17 +247,6 @@ bool Session::passes_shm(const Port& port, const ShmRegion& region) const {
             return false;
     }
     return true;
-}
-
-Message Session::copy_out_of_shm(const Message& message) {
-    const ShmSlot& slot = *message.shm;
-    const auto data = *proto::decode_shm_place(message.record);  // checked when it arrived
-    const std::size_t size = data.head.size() + slot.length;
-    auto chunk = std::make_shared<Chunk>(size);
-    std::memcpy(chunk->data(), data.head.data(), data.head.size());
-    std::memcpy(chunk->data() + data.head.size(), slot.region->data() + slot.offset, slot.length);
-    const proto::ByteView record(chunk->data(), size);
-    return Message{std::move(chunk), record, message.seq, 0};
 }
 
 bool Session::on_release(const InFrame& frame) {
@@ -364,9 +363,10 @@ FramedConnection::FrameAction Session::on_frame_now(InFrame& frame) {
         return on_release(frame) ? FrameAction::handled : FrameAction::stop;
     if (frame.type == proto::FrameType::rings)
         return on_rings(frame) ? FrameAction::handled : FrameAction::stop;
-    if (frame.type == proto::FrameType::call)
+    // On a data thread calls and answers go to the control thread, by on_frame.
+    if (frame.type == proto::FrameType::call && shard_ == 0)
         return on_call(frame) ? FrameAction::handled : FrameAction::stop;
-    if (frame.type == proto::FrameType::answer)
+    if (frame.type == proto::FrameType::answer && shard_ == 0)
         return on_answer(frame) ? FrameAction::handled : FrameAction::stop;
     if (!is_data(frame.type))
         return FrameAction::wait;
@@ -381,8 +381,14 @@ FramedConnection::FrameAction Session::on_frame_now(InFrame& frame) {
     return FrameAction::wait;
 }
 
+Task<bool> Session::on_call_frame(InFrame frame) {
+    auto self = shared_from_this();  // kept while the control thread serves it
+    co_return frame.type == proto::FrameType::call ? on_call(frame) : on_answer(frame);
+}
+
 Task<bool> Session::on_data(InFrame frame) {
     for (;;) {
+        daemon_.expect_space();  // before looking: room that appears meanwhile must wake us
         switch (try_deliver(frame)) {
             case DataOutcome::delivered:
                 co_return true;
@@ -544,7 +550,7 @@ Task<void> Session::wait_for_space() {
     // While held back this session does not read its socket, so a client that dies now would go
     // unnoticed: look for a hang-up every time the wait times out.
     constexpr auto hang_up_check = std::chrono::milliseconds(100);
-    if (co_await daemon_.space().wait_for(hang_up_check))
+    if (co_await daemon_.wait_for_space(hang_up_check))
         co_return;
     if (peer_hung_up())
         close("the peer went away while held back by a full reader");

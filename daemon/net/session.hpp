@@ -1,5 +1,6 @@
 #pragma once
-// Threading: one io_context thread.
+// Threading: its shard's thread (`--threads`: a data thread, or the control thread); requests,
+// calls and answers are served on the control thread (net/handler_gate.hpp).
 
 #include <map>
 #include <memory>
@@ -18,9 +19,11 @@ class SessionHost;
 /// TCP, another daemon forwarding a request, or another daemon's link carrying one connection.
 class Session : public FramedConnection {
 public:
-    Session(Socket socket, SessionHost& daemon, std::uint64_t id);
+    /// `shard`: the daemon's thread the socket's io_context runs on (0: the control thread).
+    Session(Socket socket, SessionHost& daemon, std::uint64_t id, std::size_t shard = 0);
 
     std::uint64_t id() const { return id_; }
+    std::size_t shard() const { return shard_; }
     const std::string& role() const { return role_; }
     bool is_link() const { return link_port_ != nullptr; }
     const std::shared_ptr<Port>& link_port() const { return link_port_; }
@@ -79,8 +82,6 @@ private:
     /// that maps regions and may be sent `region`: only then may a message keep its payload in
     /// shared memory.
     bool passes_shm(const Port& port, const ShmRegion& region) const;
-    /// The message with its payload copied out of shared memory into a record of its own.
-    static Message copy_out_of_shm(const Message& message);
     /// True while this client leaves so many shm_free frames unread that its data_shm frames must wait.
     bool frees_pile_up();
     /// A shm_release frame: the client is done with its oldest data_shm messages.
@@ -104,10 +105,14 @@ private:
     /// An answer frame: from a server's client, for a call delivered to it.
     bool on_answer(const InFrame& frame);
     Task<void> serve(proto::Request request);
+    /// A call or answer frame, served on the control thread (where the call table is); false when
+    /// the session was failed for it.
+    Task<bool> on_call_frame(InFrame frame);
     Task<void> wait_for_space();
 
     SessionHost& daemon_;
     std::uint64_t id_;
+    std::size_t shard_;
     /// Requests being served: a peer that sends requests without reading the replies is held back
     /// (its socket no longer read) once this many are in progress, so replies cannot pile up.
     std::size_t requests_in_flight_ = 0;

@@ -93,4 +93,15 @@ void ShmRegion::free(std::uint64_t offset) {
         writer->send(proto::make_shm_free_frame(id_, offset));
 }
 
+Message copy_out_of_shm(const Message& message) {
+    const ShmSlot& slot = *message.shm;
+    const auto data = *proto::decode_shm_place(message.record);  // checked when it arrived
+    const std::size_t size = data.head.size() + slot.length;
+    auto chunk = std::make_shared<Chunk>(size);
+    std::memcpy(chunk->data(), data.head.data(), data.head.size());
+    std::memcpy(chunk->data() + data.head.size(), slot.region->data() + slot.offset, slot.length);
+    const proto::ByteView record(chunk->data(), size);
+    return Message{std::move(chunk), record, message.seq, 0};
+}
+
 }  // namespace plexus::daemon

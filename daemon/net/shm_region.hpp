@@ -10,11 +10,13 @@
 // (shm_free). Otherwise the daemon copies the payload out at once and the message goes on as any
 // other: monitors, arbitration and links never see a region.
 
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <vector>
 
+#include "../core/message.hpp"
 #include "plexus/proto/bytes.hpp"
 
 namespace plexus::daemon {
@@ -22,10 +24,11 @@ namespace plexus::daemon {
 class FramedConnection;
 
 /// Bytes of shared memory the daemon's regions hold together, against its configured cap.
+/// Atomic: payloads are held and freed on the writers' data threads (`--threads`).
 struct ShmUsage {
-    std::size_t bytes = 0;
-    std::size_t regions = 0;
-    std::size_t slots = 0;  ///< payloads held for readers in all regions
+    std::atomic<std::size_t> bytes{0};
+    std::atomic<std::size_t> regions{0};
+    std::atomic<std::size_t> slots{0};  ///< payloads held for readers in all regions
 };
 
 /// One region: a sealed memfd (it can neither shrink nor grow, so nobody can make a mapping of it
@@ -96,5 +99,8 @@ struct ShmSlot {
     std::uint64_t offset;
     std::uint64_t length;
 };
+
+/// The message with its payload copied out of shared memory into a record of its own.
+Message copy_out_of_shm(const Message& message);
 
 }  // namespace plexus::daemon

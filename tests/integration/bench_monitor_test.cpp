@@ -50,19 +50,19 @@ TEST(BenchMonitor_test, MonitorLatencyMeasuresInlineAndOnAWorkerBesideNone) {
 }
 
 TEST(BenchStreams_test, EveryRowDeliversItsStreamsAndSaysWhatTheDaemonSpent) {
-    std::set<int> streams;
+    std::set<std::pair<int, int>> rows;  // (--threads, streams)
     for (const auto& row : bench_rows({"streams", "--json", "--streams", "1,3,40", "--clients", "4",
-                                       "--count", "4000", "--repeat", "1"})) {
-        for (const char* key : {"scenario", "streams", "msgs_per_s", "against_first", "cpu_us_per_msg",
-                                "daemon_cpu_us_per_msg"})
+                                       "--count", "4000", "--repeat", "1", "--daemon-threads", "1,2"})) {
+        for (const char* key : {"scenario", "threads", "streams", "msgs_per_s", "against_first",
+                                "against_first_daemon", "cpu_us_per_msg", "daemon_cpu_us_per_msg"})
             EXPECT_TRUE(row.contains(key)) << key << " missing in " << row.dump();
         EXPECT_EQ(row.at("scenario"), "streams");
         EXPECT_GT(row.at("msgs_per_s").get<double>(), 0) << row.dump();
         EXPECT_GE(row.at("cpu_us_per_msg").get<double>(), row.at("daemon_cpu_us_per_msg").get<double>())
             << row.dump();
-        streams.insert(row.at("streams").get<int>());
+        rows.insert({row.at("threads").get<int>(), row.at("streams").get<int>()});
     }
-    EXPECT_EQ(streams, (std::set<int>{1, 3, 40}));
+    EXPECT_EQ(rows, (std::set<std::pair<int, int>>{{1, 1}, {1, 3}, {1, 40}, {2, 1}, {2, 3}, {2, 40}}));
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstdio>
 #include <cstdlib>
@@ -209,6 +210,12 @@ void Daemon::start(const TempDir& dir, const std::string& node, const std::strin
         argv_.insert(argv_.end(), {"--names", names});
     }
     argv_.insert(argv_.end(), extra.begin(), extra.end());
+    // PLEXUS_TEST_THREADS=N runs every daemon of a test with --threads N (unless the test chose):
+    // the suites of tests/integration/CMakeLists.txt that run again on several data threads.
+    if (const char* threads = std::getenv("PLEXUS_TEST_THREADS");
+        threads && std::find(extra.begin(), extra.end(), "--threads") == extra.end()) {
+        argv_.insert(argv_.end(), {"--threads", threads});
+    }
     launch();
     auto info = nlohmann::json::parse(read_file(ready_));
     names_ = info.at("names");

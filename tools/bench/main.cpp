@@ -94,6 +94,12 @@ int main(int argc, char** argv) {
                      "writer clients (and as many reader clients) the streams are spread over")
         ->check(CLI::Range(1, 1000))
         ->capture_default_str();
+    streams
+        ->add_option("--daemon-threads", options.daemon_threads,
+                     "plexusd --threads for each set of rows, e.g. 1,2: one daemon each, their runs alternating")
+        ->delimiter(',')
+        ->check(CLI::Range(1, 64))
+        ->capture_default_str();
     streams->callback([&] { status = run_streams(options); });
 
     auto* arbitration = app.add_subcommand("arbitration",

@@ -20,6 +20,8 @@ struct Options {
     /// streams: how many independent streams each row runs, and the clients they are spread over.
     std::vector<int> streams{1, 10, 100, 1000};
     int stream_clients = 16;
+    /// streams: plexusd's --threads for each set of rows (one daemon each, runs alternating).
+    std::vector<int> daemon_threads{1};
     bool empty_accept = false;  ///< monitor: also run an accept that returns true without reading msg
     /// latency: Plexus writes loans (Port::loan, send_loan) and reads views (read_view) instead of
     /// write/read: zero-copy on one machine. Neither side touches the payload past its first 64 bytes.

@@ -7,6 +7,12 @@
 // deliveries per second over all streams (first write to last read), and the CPU time the daemon
 // and this process spent per message, against one stream in the same run. The daemon's own CPU
 // per message is printed apart: it is what a second daemon thread could share.
+//
+// --daemon-threads 1,2 runs the rows against a daemon of each kind (plexusd --threads), their runs
+// alternating. All writer clients connect before the reader clients, so with N data threads and
+// C clients a multiple of N, stream s's writer and reader land on the same thread (sessions go to
+// the threads in turn): independent streams, what threads are for. With one client pair (the
+// 1-stream row) they land on two threads, and every message crosses between them.
 #include <algorithm>
 #include <chrono>
 #include <iostream>
@@ -44,10 +50,10 @@ StreamsRun run_once(const Topology& topology, int streams, int clients, int roun
     options.socket = topology.near_socket();
     std::vector<ClientPorts> writers(static_cast<std::size_t>(clients));
     std::vector<ClientPorts> readers(static_cast<std::size_t>(clients));
-    for (int c = 0; c < clients; ++c) {
+    for (int c = 0; c < clients; ++c)
         writers[c].client = std::make_unique<Client>(options);
+    for (int c = 0; c < clients; ++c)
         readers[c].client = std::make_unique<Client>(options);
-    }
     for (int s = 0; s < streams; ++s) {
         const std::string suffix =
             std::to_string(run) + "/" + std::to_string(streams) + "/" + std::to_string(s);
@@ -106,24 +112,35 @@ StreamsRun run_once(const Topology& topology, int streams, int clients, int roun
 }  // namespace
 
 int run_streams(const Options& options) {
-    TempDir dir;
-    const auto topology = Topology::plexus(dir, options.plexusd, 1);
+    std::vector<std::unique_ptr<TempDir>> dirs;  // one each: a daemon's socket and files
+    std::vector<std::unique_ptr<Topology>> daemons;
+    for (const int threads : options.daemon_threads) {
+        dirs.push_back(std::make_unique<TempDir>());
+        daemons.push_back(Topology::plexus(*dirs.back(), options.plexusd, 1, {"--threads", std::to_string(threads)}));
+    }
     const int total = options.count > 0 ? static_cast<int>(options.count) : 2000000;  // messages per run
     struct Row {
+        std::size_t daemon;
         int streams;
         std::vector<double> rates, cpu, daemon_cpu;
     };
     std::vector<Row> rows;
-    for (const int streams : options.streams)
-        rows.push_back({streams, {}, {}, {}});
+    for (std::size_t d = 0; d < daemons.size(); ++d) {
+        for (const int streams : options.streams)
+            rows.push_back({d, streams, {}, {}, {}});
+    }
     for (int run = 0; run < options.repeat; ++run) {
-        for (auto& row : rows) {
-            const int clients = std::min(row.streams, options.stream_clients);
-            const int rounds = std::max(flush_every, total / row.streams);
-            const StreamsRun result = run_once(*topology, row.streams, clients, rounds, run);
-            row.rates.push_back(result.msgs_per_s);
-            row.cpu.push_back(result.cpu_us_per_msg);
-            row.daemon_cpu.push_back(result.daemon_us_per_msg);
+        for (const int streams : options.streams) {
+            for (auto& row : rows) {  // the same row of each daemon, one after the other
+                if (row.streams != streams)
+                    continue;
+                const int clients = std::min(row.streams, options.stream_clients);
+                const int rounds = std::max(flush_every, total / row.streams);
+                const StreamsRun result = run_once(*daemons[row.daemon], row.streams, clients, rounds, run);
+                row.rates.push_back(result.msgs_per_s);
+                row.cpu.push_back(result.cpu_us_per_msg);
+                row.daemon_cpu.push_back(result.daemon_us_per_msg);
+            }
         }
     }
     const double first = median(rows.front().rates);
@@ -133,13 +150,22 @@ int run_streams(const Options& options) {
                   << options.repeat << " runs, " << std::thread::hardware_concurrency() << " cores\n";
     for (const auto& row : rows) {
         const double rate = median(row.rates);
+        const int threads = options.daemon_threads[row.daemon];
+        // Against the same number of streams on the first daemon (--daemon-threads' first).
+        double same_on_first = rate;
+        for (const auto& other : rows) {
+            if (other.daemon == 0 && other.streams == row.streams)
+                same_on_first = median(other.rates);
+        }
         if (options.json)
-            std::cout << R"({"scenario":"streams","streams":)" << row.streams << R"(,"msgs_per_s":)" << rate
-                      << R"(,"against_first":)" << rate / first << R"(,"cpu_us_per_msg":)" << median(row.cpu)
-                      << R"(,"daemon_cpu_us_per_msg":)" << median(row.daemon_cpu) << "}\n";
+            std::cout << R"({"scenario":"streams","threads":)" << threads << R"(,"streams":)" << row.streams
+                      << R"(,"msgs_per_s":)" << rate << R"(,"against_first":)" << rate / first
+                      << R"(,"against_first_daemon":)" << rate / same_on_first << R"(,"cpu_us_per_msg":)"
+                      << median(row.cpu) << R"(,"daemon_cpu_us_per_msg":)" << median(row.daemon_cpu) << "}\n";
         else
-            std::cout << "  " << row.streams << " stream(s): " << static_cast<long>(rate) << " msgs/s, "
-                      << rate / first << "x the first row, " << median(row.cpu) << " us CPU per message ("
+            std::cout << "  --threads " << threads << ", " << row.streams << " stream(s): " << static_cast<long>(rate)
+                      << " msgs/s, " << rate / first << "x the first row, " << rate / same_on_first
+                      << "x the first daemon's, " << median(row.cpu) << " us CPU per message ("
                       << median(row.daemon_cpu) << " in the daemon)\n";
     }
     return 0;
