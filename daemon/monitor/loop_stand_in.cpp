@@ -37,6 +37,8 @@ void LoopStandIn::take_over() {
         stepped_in_.store(true, std::memory_order_release);
     }
     takeovers_.fetch_add(1, std::memory_order_relaxed);
+    if (hand_over_.lend)
+        hand_over_.lend();
     changed_.notify_all();
 }
 
@@ -49,6 +51,9 @@ void LoopStandIn::give_back() {
     changed_.notify_all();
     changed_.wait(lock, [this] { return !running_; });
     stepped_in_.store(false, std::memory_order_release);
+    lock.unlock();
+    if (hand_over_.reclaim)
+        hand_over_.reclaim();
 }
 
 void LoopStandIn::run() {
@@ -60,8 +65,12 @@ void LoopStandIn::run() {
         if (ending_)
             return;
         lock.unlock();
+        if (hand_over_.lent)
+            hand_over_.lent();
         while (!wants_back_.load(std::memory_order_acquire) && !loop_.stopped())
             loop_.run_one_for(look_back);
+        if (hand_over_.returned)
+            hand_over_.returned();
         lock.lock();
         // A stopped loop runs nothing more: wait here for the daemon's thread to want it back.
         changed_.wait(lock, [this] { return ending_ || back_wanted_; });

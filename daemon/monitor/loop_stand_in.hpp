@@ -15,6 +15,7 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <functional>
 #include <mutex>
 #include <thread>
 
@@ -40,10 +41,21 @@ public:
     /// How many times it took over, for `plexus stats`.
     std::uint64_t takeovers() const { return takeovers_.load(std::memory_order_relaxed); }
 
+    /// What the daemon does around a hand-over when the loop's thread holds more than the loop
+    /// (`--threads`: the data threads' gates, net/handler_gate.hpp). Set before the first take_over().
+    struct HandOver {
+        std::function<void()> lend;      ///< take_over(), on the loop's thread: let go of what it holds
+        std::function<void()> lent;      ///< on the stand-in, before it runs the loop: act as the loop's thread
+        std::function<void()> returned;  ///< on the stand-in, after it stopped: no longer
+        std::function<void()> reclaim;   ///< give_back(), on the loop's thread: take it again
+    };
+    void set_hand_over(HandOver hand_over) { hand_over_ = std::move(hand_over); }
+
 private:
     void run();
 
     boost::asio::io_context& loop_;
+    HandOver hand_over_;
     std::mutex mutex_;
     std::condition_variable changed_;
     bool running_ = false;                 ///< under mutex_: the stand-in runs the loop

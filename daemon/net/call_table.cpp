@@ -72,6 +72,12 @@ void CallTable::handed_on(std::uint64_t id, const std::shared_ptr<FramedConnecti
     const auto entry = entries_.find(id);
     if (entry == entries_.end())
         return;  // failed meanwhile (its deadline passed while it waited in a queue)
+    if (out->closed()) {
+        // Posted by a data thread, and the socket closed before this ran: it will not tell us.
+        fail(id, proto::CallOutcome::lost,
+             "the server went away with the call (" + out->description() + " closed)");
+        return;
+    }
     entry->second.out = out.get();
     out->carry_calls(shared_from_this());
 }

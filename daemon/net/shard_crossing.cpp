@@ -8,16 +8,33 @@
 namespace plexus::daemon {
 
 namespace {
+bool same_unit(const Message& a, const Message& b) {
+    return a.storage && a.storage == b.storage && a.record.data() == b.record.data() &&
+           a.record.size() == b.record.size();
+}
+
 /// The message with a record of its own (see ShardCrossing): the chunk it was read into stays
-/// with the thread that read it.
+/// with the thread that read it. The same unit handed to several connections (a port's
+/// connections one after the other) is copied once, and stays one unit where it arrives: an mcast
+/// sender sends a unit once for all the connections it serves.
 Message own_copy(const Message& message) {
-    if (message.shm)
-        return copy_out_of_shm(message);  // sessions do not lend across threads; safe if one did
-    auto chunk = std::make_shared<Chunk>(message.record.size());
-    std::memcpy(chunk->data(), message.record.data(), message.record.size());
+    thread_local Message last_original;  // held: its chunk cannot be reused while it is compared
+    thread_local Message last_copy;
+    if (same_unit(message, last_original))
+        return last_copy;
     Message copy = message;
-    copy.record = proto::ByteView(chunk->data(), message.record.size());
-    copy.storage = std::move(chunk);
+    if (message.shm) {
+        copy = copy_out_of_shm(message);  // sessions do not lend across threads; safe if one did
+    } else {
+        auto chunk = std::make_shared<Chunk>(message.record.size());
+        std::memcpy(chunk->data(), message.record.data(), message.record.size());
+        copy.record = proto::ByteView(chunk->data(), message.record.size());
+        copy.storage = std::move(chunk);
+    }
+    if (!message.shm && !message.call) {  // a call's ticket must end with its last real copy
+        last_original = message;
+        last_copy = copy;
+    }
     return copy;
 }
 }  // namespace

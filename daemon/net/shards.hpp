@@ -126,6 +126,16 @@ public:
     /// thread's (its sessions write into ports here directly).
     void space_appeared();
 
+    // The control loop handed to a stand-in while the control thread finishes a long script
+    // (monitor/loop_stand_in.hpp): the gates go with the loop.
+    /// On the control thread, inside a handler: lets go of the gates it holds for it.
+    void lend_gates() { gates_.release_all(); }
+    /// On the stand-in's thread: its handlers take the gates as the control thread's do.
+    void act_as_control() { this_thread_role = &stand_in_role_; }
+    void stop_acting_as_control() { this_thread_role = nullptr; }
+    /// On the control thread, once the stand-in stopped: holds the gates again for its handler.
+    void reclaim_gates() { gates_.hold_all(); }
+
     /// The way from a port on `source` to `sink` when `sink` is on another data thread or on the
     /// control thread; null when the source may deliver to it directly.
     std::shared_ptr<MessageSink> crossing(std::size_t source, const std::shared_ptr<MessageSink>& sink);
@@ -133,6 +143,7 @@ public:
 private:
     std::vector<std::shared_ptr<Shard>> shards_;
     ShardGates gates_;
+    ThreadRole stand_in_role_{&gates_, 0, 0};
     std::size_t next_ = 0;
     bool started_ = false;
 };
