@@ -44,7 +44,8 @@ Daemon::Daemon(asio::io_context& io, DaemonConfig config)
     if (auto* stand_in = workers_->stand_in(); stand_in && shards_.data_threads() > 0) {
         // A script overrunning inline keeps the control thread: the data threads go on meanwhile.
         stand_in->set_hand_over({[this] { shards_.lend_gates(); }, [this] { shards_.act_as_control(); },
-                                 [this] { shards_.stop_acting_as_control(); }, [this] { shards_.reclaim_gates(); }});
+                                 [this] { shards_.stop_acting_as_control(); },
+                                 [this] { shards_.reclaim_gates(); }});
     }
     // A connection from a port of a data thread to a sink on another thread crosses in mail.
     router_.crossing_for = [this](const Port& source, const std::shared_ptr<MessageSink>& sink) {

@@ -44,8 +44,8 @@ public:
     /// What the daemon does around a hand-over when the loop's thread holds more than the loop
     /// (`--threads`: the data threads' gates, net/handler_gate.hpp). Set before the first take_over().
     struct HandOver {
-        std::function<void()> lend;      ///< take_over(), on the loop's thread: let go of what it holds
-        std::function<void()> lent;      ///< on the stand-in, before it runs the loop: act as the loop's thread
+        std::function<void()> lend;  ///< take_over(), on the loop's thread: let go of what it holds
+        std::function<void()> lent;  ///< on the stand-in, before it runs the loop: act as the loop's thread
         std::function<void()> returned;  ///< on the stand-in, after it stopped: no longer
         std::function<void()> reclaim;   ///< give_back(), on the loop's thread: take it again
     };

@@ -140,7 +140,8 @@ Task<void> Session::serve(proto::Request request) {
         if (shard_ == 0)
             reply = co_await daemon_.handle_request(self, std::move(request));
         else
-            reply = co_await asio::co_spawn(daemon_.control_executor(), daemon_.handle_request(self, std::move(request)),
+            reply = co_await asio::co_spawn(daemon_.control_executor(),
+                                            daemon_.handle_request(self, std::move(request)),
                                             asio::use_awaitable);
     } catch (const std::exception& e) {
         // A malformed field (wrong JSON type) must not take the daemon down: refuse the request.

@@ -41,7 +41,10 @@ Message own_copy(const Message& message) {
 
 ShardCrossing::ShardCrossing(std::shared_ptr<Shard> source, std::shared_ptr<Shard> target,
                              std::shared_ptr<MessageSink> sink)
-    : source_(std::move(source)), target_(std::move(target)), sink_(std::move(sink)), room_seen_(sink_->room()) {}
+    : source_(std::move(source)),
+      target_(std::move(target)),
+      sink_(std::move(sink)),
+      room_seen_(sink_->room()) {}
 
 std::size_t ShardCrossing::room() const {
     const std::size_t seen = room_seen_.load(std::memory_order_relaxed);
@@ -58,7 +61,8 @@ void ShardCrossing::ask_for_room() const {
 }
 
 void ShardCrossing::deliver(const Message& message) {
-    const std::size_t flight = in_flight_.fetch_add(message.count(), std::memory_order_relaxed) + message.count();
+    const std::size_t flight =
+        in_flight_.fetch_add(message.count(), std::memory_order_relaxed) + message.count();
     target_->send(shared_from_this(), own_copy(message), false);
     // This one filled the room: the writer holds back next, so ask now to be told when it may go on
     // (a batch cut to fit is held back without looking at room() again).

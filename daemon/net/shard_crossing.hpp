@@ -22,7 +22,8 @@ class Shard;
 /// reader once nothing refers to it, and that check is not one another thread can take part in.
 class ShardCrossing final : public MessageSink, public std::enable_shared_from_this<ShardCrossing> {
 public:
-    ShardCrossing(std::shared_ptr<Shard> source, std::shared_ptr<Shard> target, std::shared_ptr<MessageSink> sink);
+    ShardCrossing(std::shared_ptr<Shard> source, std::shared_ptr<Shard> target,
+                  std::shared_ptr<MessageSink> sink);
 
     bool full() const override { return room() == 0; }
     std::size_t room() const override;
@@ -50,8 +51,8 @@ private:
     std::shared_ptr<Shard> source_;
     std::shared_ptr<Shard> target_;
     std::shared_ptr<MessageSink> sink_;
-    std::atomic<std::size_t> room_seen_;      ///< the sink's room, as its thread last saw it
-    std::atomic<std::size_t> in_flight_{0};   ///< messages sent and not yet delivered
+    std::atomic<std::size_t> room_seen_;       ///< the sink's room, as its thread last saw it
+    std::atomic<std::size_t> in_flight_{0};    ///< messages sent and not yet delivered
     mutable std::atomic<bool> asking_{false};  ///< waiting for room (Shard::want_room)
 };
 

@@ -162,8 +162,9 @@ void Shards::stop() {
     if (!started_)
         return;
     started_ = false;
-    // The control thread holds no gate between two handlers; the data threads finish theirs.
-    for (std::size_t n = 1; n < shards_.size(); ++n)
+    // The control thread holds no gate between two handlers; the data threads finish theirs. The
+    // control shard drops its mail too: a crossing in it holds its shard (a cycle otherwise).
+    for (std::size_t n = shards_.size(); n-- > 0;)
         shards_[n]->stop();
     if (this_thread_role == &control_role)
         this_thread_role = nullptr;

@@ -78,9 +78,9 @@ private:
     std::vector<std::string> watch_names_;         ///< the recorded ports, by the index events name
     /// Atomic: ports on several data threads (`--threads`) meet new connections at once.
     std::atomic<std::uint32_t> next_connection_{0};
-    std::unique_ptr<RecordingFiles> files_;        ///< the thread's, once it runs
-    std::vector<Connection> connections_;          ///< the thread's: by the index entries name
-    std::string decision_buffer_;                  ///< the thread's: one decision's text at a time
+    std::unique_ptr<RecordingFiles> files_;  ///< the thread's, once it runs
+    std::vector<Connection> connections_;    ///< the thread's: by the index entries name
+    std::string decision_buffer_;            ///< the thread's: one decision's text at a time
 
     mutable std::mutex queue_mutex_;
     std::condition_variable wake_;

@@ -375,6 +375,14 @@ std::vector<nlohmann::json> json_lines(const std::string& text) {
     return lines;
 }
 
+void fill_stream_bytes(std::span<std::uint8_t> bytes, int stream, std::uint32_t i) {
+    std::uint32_t x = static_cast<std::uint32_t>(stream) * 7919u + i * 2654435761u + 1;
+    for (auto& b : bytes) {
+        x = x * 1664525u + 1013904223u;
+        b = static_cast<std::uint8_t>(x >> 24);
+    }
+}
+
 std::string numbered_lines(int from, int count) {
     std::string lines;
     for (int i = from; i < from + count; ++i)

@@ -10,6 +10,7 @@
 #include <functional>
 #include <map>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -179,6 +180,9 @@ bool wait_port(const TempDir& dir, const Daemon& daemon, const std::string& port
 
 /// "from\n" ... "from+count-1\n": numbered lines for `plexus write`, and what a reader prints of them.
 std::string numbered_lines(int from, int count);
+/// The bytes of message `i` of stream `stream`: a pattern of both, so that a message that arrives
+/// changed, or out of place, or in another stream, is told apart.
+void fill_stream_bytes(std::span<std::uint8_t> bytes, int stream, std::uint32_t i);
 
 /// Exit status of a forked child (Host::fork_inside), or -1 (after killing it) if it is still
 /// running at the deadline.

@@ -32,25 +32,17 @@ std::size_t size_of(std::uint32_t i) {
     }
 }
 
-void fill(std::span<std::uint8_t> bytes, int stream, std::uint32_t i) {
-    std::uint32_t x = static_cast<std::uint32_t>(stream) * 7919u + i * 2654435761u + 1;
-    for (auto& b : bytes) {
-        x = x * 1664525u + 1013904223u;
-        b = static_cast<std::uint8_t>(x >> 24);
-    }
-}
-
 void write_stream(Port& port, int stream) {
     for (std::uint32_t i = 0; i < per_stream; ++i) {
         const std::size_t size = size_of(i);
         if (i % 50 == 23) {
             Loan loan = port.loan(size);
-            fill(loan.bytes(), stream, i);
+            fill_stream_bytes(loan.bytes(), stream, i);
             port.send_loan(std::move(loan), i % 3 == 0);
             continue;
         }
         std::vector<std::uint8_t> bytes(size);
-        fill(bytes, stream, i);
+        fill_stream_bytes(bytes, stream, i);
         port.write(Value::binary(std::move(bytes)), i % 10 == 0 || size > 1000);
     }
     port.flush();
@@ -61,7 +53,7 @@ std::string read_stream(Port& port, int stream, bool views) {
     std::uint64_t expected_seq = 0;
     for (std::uint32_t i = 0; i < per_stream; ++i) {
         std::vector<std::uint8_t> expected(size_of(i));
-        fill(expected, stream, i);
+        fill_stream_bytes(expected, stream, i);
         std::span<const std::uint8_t> got;
         std::optional<MessageView> view;
         std::optional<Received> message;

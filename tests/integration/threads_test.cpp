@@ -7,7 +7,6 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
-#include <atomic>
 #include <cstring>
 #include <optional>
 #include <thread>
@@ -26,18 +25,10 @@ std::size_t size_of(std::uint32_t i) {
     return i % 97 == 5 ? 200 * 1024 : 8 + i % 120;  // now and then a blob through shared memory
 }
 
-void fill(std::span<std::uint8_t> bytes, int stream, std::uint32_t i) {
-    std::uint32_t x = static_cast<std::uint32_t>(stream) * 7919u + i * 2654435761u + 1;
-    for (auto& b : bytes) {
-        x = x * 1664525u + 1013904223u;
-        b = static_cast<std::uint8_t>(x >> 24);
-    }
-}
-
 void write_stream(Port& port, int stream) {
     for (std::uint32_t i = 0; i < per_stream; ++i) {
         std::vector<std::uint8_t> bytes(size_of(i));
-        fill(bytes, stream, i);
+        fill_stream_bytes(bytes, stream, i);
         port.write(Value::binary(std::move(bytes)), i % 16 == 0 || size_of(i) > 1000);
     }
     port.flush();
@@ -54,12 +45,13 @@ std::string read_stream(Port& port, int stream) {
         if (!message->data.is_binary())
             return name + ": message " + std::to_string(i) + " is not a blob";
         std::vector<std::uint8_t> expected(size_of(i));
-        fill(expected, stream, i);
+        fill_stream_bytes(expected, stream, i);
         const auto& got = message->data.get_binary();
         if (got.size() != expected.size() || std::memcmp(got.data(), expected.data(), got.size()) != 0)
             return name + ": message " + std::to_string(i) + " arrived changed or out of order";
         if (last_seq != 0 && message->envelope.seq != last_seq + 1)
-            return name + ": seq " + std::to_string(message->envelope.seq) + " after " + std::to_string(last_seq);
+            return name + ": seq " + std::to_string(message->envelope.seq) + " after " +
+                   std::to_string(last_seq);
         last_seq = message->envelope.seq;
     }
     if (port.read(std::chrono::milliseconds(0)))
@@ -89,7 +81,8 @@ TEST(Threads_test, EveryConnectionKeepsItsOrderAcrossDataThreadsUnderBackPressur
             const int s = static_cast<int>(streams.size());
             Stream stream{writing[w]->open("/threads/source" + std::to_string(s)), {}};
             for (int r : {(w + 1) % readers, (w + 2) % readers}) {
-                stream.sinks.push_back(reading[r]->open("/threads/sink" + std::to_string(s) + "." + std::to_string(r), small));
+                stream.sinks.push_back(
+                    reading[r]->open("/threads/sink" + std::to_string(s) + "." + std::to_string(r), small));
                 writing[w]->connect(stream.source.name(), stream.sinks.back().name());
             }
             streams.push_back(std::move(stream));

@@ -95,8 +95,9 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(1, 1000))
         ->capture_default_str();
     streams
-        ->add_option("--daemon-threads", options.daemon_threads,
-                     "plexusd --threads for each set of rows, e.g. 1,2: one daemon each, their runs alternating")
+        ->add_option(
+            "--daemon-threads", options.daemon_threads,
+            "plexusd --threads for each set of rows, e.g. 1,2: one daemon each, their runs alternating")
         ->delimiter(',')
         ->check(CLI::Range(1, 64))
         ->capture_default_str();

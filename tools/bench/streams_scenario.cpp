@@ -116,7 +116,8 @@ int run_streams(const Options& options) {
     std::vector<std::unique_ptr<Topology>> daemons;
     for (const int threads : options.daemon_threads) {
         dirs.push_back(std::make_unique<TempDir>());
-        daemons.push_back(Topology::plexus(*dirs.back(), options.plexusd, 1, {"--threads", std::to_string(threads)}));
+        daemons.push_back(
+            Topology::plexus(*dirs.back(), options.plexusd, 1, {"--threads", std::to_string(threads)}));
     }
     const int total = options.count > 0 ? static_cast<int>(options.count) : 2000000;  // messages per run
     struct Row {
@@ -163,10 +164,11 @@ int run_streams(const Options& options) {
                       << R"(,"against_first_daemon":)" << rate / same_on_first << R"(,"cpu_us_per_msg":)"
                       << median(row.cpu) << R"(,"daemon_cpu_us_per_msg":)" << median(row.daemon_cpu) << "}\n";
         else
-            std::cout << "  --threads " << threads << ", " << row.streams << " stream(s): " << static_cast<long>(rate)
-                      << " msgs/s, " << rate / first << "x the first row, " << rate / same_on_first
-                      << "x the first daemon's, " << median(row.cpu) << " us CPU per message ("
-                      << median(row.daemon_cpu) << " in the daemon)\n";
+            std::cout << "  --threads " << threads << ", " << row.streams
+                      << " stream(s): " << static_cast<long>(rate) << " msgs/s, " << rate / first
+                      << "x the first row, " << rate / same_on_first << "x the first daemon's, "
+                      << median(row.cpu) << " us CPU per message (" << median(row.daemon_cpu)
+                      << " in the daemon)\n";
     }
     return 0;
 }
