@@ -1,5 +1,7 @@
 #pragma once
-// Threading: owned by the daemon's one thread; no locking.
+// Threading: its source port's thread (with `--threads`, a data thread; the control thread may
+// use it too, never at the same time: net/handler_gate.hpp); no locking. A sink on another thread
+// is reached through Connection::crossing.
 
 #include <cstdint>
 #include <memory>

@@ -1,6 +1,6 @@
 #pragma once
-// Threading: owned by the daemon's one thread; no locking. Its monitors may run elsewhere (a
-// MessageFilter): their verdicts come back here, on the daemon's thread, in order.
+// Threading: its port's thread (see port.hpp); no locking. Its monitors may run elsewhere (a
+// MessageFilter): their verdicts come back here, on the control thread, in order.
 
 #include <cstdint>
 #include <memory>

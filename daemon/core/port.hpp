@@ -1,5 +1,6 @@
 #pragma once
-// Threading: owned by the daemon's one thread; no locking.
+// Threading: the thread of the session that opened it (`--threads`: a data thread, which the
+// control thread never runs beside: net/handler_gate.hpp); no locking.
 
 #include <cstdint>
 #include <functional>

@@ -1,5 +1,5 @@
 #pragma once
-// Threading: owned by the daemon's one thread; no locking.
+// Threading: its port's thread (see port.hpp); no locking.
 
 #include <cstddef>
 #include <cstdint>

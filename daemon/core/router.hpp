@@ -1,5 +1,6 @@
 #pragma once
-// Threading: owned by the daemon's one thread; no locking, no sockets.
+// Threading: the control thread (ports are opened, connected and closed there; route(), room()
+// and blocked() run on the source port's thread); no locking, no sockets.
 
 #include <functional>
 #include <map>
