@@ -2,12 +2,6 @@
 
 namespace plexus::daemon::arbitration {
 
-namespace {
-const char* side_name(proto::Side side) {
-    return side == proto::Side::send ? "send" : "recv";
-}
-}  // namespace
-
 bool arbitration_only(const proto::Clause& clause) {
     return clause.modifier == "portmonitor" && !clause.find("file") &&
            (clause.find("constraint") || clause.find("aux"));
@@ -38,7 +32,7 @@ proto::Status configure_member(Member& member, const proto::Carrier& carrier) {
             if (param.key == "constraint" && clause.side == proto::Side::send)
                 continue;  // a route constraint, over the source port's events (route_constraint)
             if (clause.side != proto::Side::recv)
-                return proto::Error{"'" + param.key + "' in a " + side_name(clause.side) +
+                return proto::Error{"'" + param.key + "' in a " + proto::side_name(clause.side) +
                                     ".portmonitor clause: arbitration happens in the input port, so it "
                                     "belongs to a recv. clause"};
             if (param.key == "aux") {

@@ -125,10 +125,6 @@ Message encode_message(const proto::RecordView& record, const nlohmann::json& pa
     return Message{std::move(chunk), view, record.seq};
 }
 
-const char* side_name(proto::Side side) {
-    return side == proto::Side::send ? "send" : "recv";
-}
-
 // --- The PortMonitor functions: Lua wrappers around the Monitor shell's ---
 
 Monitor& owner(lua_State* L) {
@@ -403,7 +399,7 @@ proto::Status LuaMonitor::create() {
         lua_createtable(L, 0, static_cast<int>(spec.options.size()) + 4);
         const std::pair<const char*, std::string> fixed[] = {{"source", spec.source},
                                                              {"destination", spec.destination},
-                                                             {"side", side_name(spec.side)},
+                                                             {"side", proto::side_name(spec.side)},
                                                              {"carrier", spec.carrier}};
         for (const auto& [key, value] : fixed) {
             lua_pushlstring(L, value.data(), value.size());

@@ -21,17 +21,13 @@ constexpr double min_trig_interval = 0.001;
 
 std::atomic<std::uint64_t> next_monitor_id{1};
 
-const char* side_name(proto::Side side) {
-    return side == proto::Side::send ? "send" : "recv";
-}
-
 }  // namespace
 
 Monitor::Monitor(MonitorSpec spec, const MonitorPolicy& policy, MonitorHost& host)
     : id_(next_monitor_id++), spec_(std::move(spec)), policy_(policy), host_(host) {}
 
 std::string Monitor::description() const {
-    return spec_.script.name + " (" + side_name(spec_.side) + " " + spec_.source + " -> " +
+    return spec_.script.name + " (" + proto::side_name(spec_.side) + " " + spec_.source + " -> " +
            spec_.destination + ")";
 }
 
@@ -220,7 +216,7 @@ void Monitor::log(LogLevel level, std::string_view line) const {
 nlohmann::json Monitor::stats() const {
     return {{"script", spec_.script.name},
             {"type", spec_.type == MonitorType::plugin ? "so" : "lua"},
-            {"side", side_name(spec_.side)},
+            {"side", proto::side_name(spec_.side)},
             {"messages", counters_.messages.load()},
             {"dropped", counters_.dropped.load()},
             {"rewritten", counters_.rewritten.load()},

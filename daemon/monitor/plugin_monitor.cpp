@@ -18,10 +18,6 @@ namespace {
 
 namespace values = plugin_values;
 
-const char* side_name(proto::Side side) {
-    return side == proto::Side::send ? "send" : "recv";
-}
-
 class PluginMonitor final : public MonitorBackend {
 public:
     PluginMonitor(Monitor& monitor, std::shared_ptr<PluginLibrary> library)
@@ -84,7 +80,7 @@ proto::Status PluginMonitor::create() {
     const std::string which = "plugin '" + spec.script.name + "'";
     std::vector<plexus_option> options{{"source", spec.source.c_str()},
                                        {"destination", spec.destination.c_str()},
-                                       {"side", side_name(spec.side)},
+                                       {"side", proto::side_name(spec.side)},
                                        {"carrier", spec.carrier.c_str()}};
     for (const auto& [key, value] : spec.options)
         options.push_back({key.c_str(), value.c_str()});

@@ -9,12 +9,11 @@
 #include <cerrno>
 #include <cstring>
 
+#include "plexus/proto/errno_text.hpp"
+
 namespace plexus::daemon {
 
 namespace {
-std::string system_error(const char* what) {
-    return std::string(what) + ": " + std::strerror(errno);
-}
 
 /// Reads and so clears an eventfd's counter without ever blocking: RWF_NOWAIT is a flag of this
 /// call, where O_NONBLOCK is one of the open file description, which the client shares. -1 with
@@ -35,23 +34,23 @@ proto::Result<std::unique_ptr<SessionRings>> SessionRings::create(asio::any_io_e
     const std::size_t size = rings->layout_.region_size();
     rings->region_fd_ = ::memfd_create("plexus-rings", MFD_CLOEXEC | MFD_ALLOW_SEALING);
     if (rings->region_fd_ < 0)
-        return proto::Error{system_error("memfd_create")};
+        return proto::Error{proto::errno_text("memfd_create")};
     rings->fds_[proto::ring_region] = rings->region_fd_;
     if (::ftruncate(rings->region_fd_, static_cast<off_t>(size)) != 0)
-        return proto::Error{system_error("ftruncate")};
+        return proto::Error{proto::errno_text("ftruncate")};
     // Sealed before the client has it: it can never shrink the region under our mapping (a
     // fault, a SIGBUS in the daemon) nor grow it.
     if (::fcntl(rings->region_fd_, F_ADD_SEALS, F_SEAL_SHRINK | F_SEAL_GROW | F_SEAL_SEAL) != 0)
-        return proto::Error{system_error("sealing the rings")};
+        return proto::Error{proto::errno_text("sealing the rings")};
     void* mapped = ::mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_SHARED, rings->region_fd_, 0);
     if (mapped == MAP_FAILED)
-        return proto::Error{system_error("mmap")};
+        return proto::Error{proto::errno_text("mmap")};
     rings->region_ = static_cast<std::uint8_t*>(mapped);
     // The wake-ups (see the header): eventfds where the client signals us, pipes where we signal it.
     for (const auto which : {proto::to_daemon_data, proto::to_client_space}) {
         rings->fds_[which] = ::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
         if (rings->fds_[which] < 0)
-            return proto::Error{system_error("eventfd")};
+            return proto::Error{proto::errno_text("eventfd")};
     }
     if (take_count(rings->fds_[proto::to_daemon_data]) >= 0 || errno != EAGAIN)
         return proto::Error{
@@ -59,7 +58,7 @@ proto::Result<std::unique_ptr<SessionRings>> SessionRings::create(asio::any_io_e
     for (const auto which : {proto::to_client_data, proto::to_daemon_space}) {
         int ends[2] = {-1, -1};
         if (::pipe2(ends, O_CLOEXEC | O_NONBLOCK) != 0)
-            return proto::Error{system_error("pipe2")};
+            return proto::Error{proto::errno_text("pipe2")};
         rings->fds_[which] = ends[0];  // the client's, and kept open here while the session lasts
         (which == proto::to_client_data ? rings->signal_client_data_ : rings->signal_client_space_) = ends[1];
     }
@@ -77,7 +76,7 @@ proto::Result<std::unique_ptr<SessionRings>> SessionRings::create(asio::any_io_e
     if (data < 0 || space < 0) {
         if (data >= 0)
             ::close(data);
-        return proto::Error{system_error("dup")};
+        return proto::Error{proto::errno_text("dup")};
     }
     rings->data_wait_.assign(data);
     rings->space_wait_.assign(space);

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "framed_connection.hpp"
+#include "plexus/proto/errno_text.hpp"
 #include "plexus/proto/shm.hpp"
 
 #ifndef F_SEAL_FUTURE_WRITE
@@ -17,34 +18,28 @@
 
 namespace plexus::daemon {
 
-namespace {
-std::string system_error(const char* what) {
-    return std::string(what) + ": " + std::strerror(errno);
-}
-}  // namespace
-
 proto::Result<std::shared_ptr<ShmRegion>> ShmRegion::create(std::uint64_t id, std::size_t size,
                                                             std::weak_ptr<FramedConnection> writer,
                                                             std::shared_ptr<ShmUsage> usage) {
     std::shared_ptr<ShmRegion> region(new ShmRegion(id, size, std::move(writer), std::move(usage)));
     region->writer_fd_ = ::memfd_create("plexus-shm", MFD_CLOEXEC | MFD_ALLOW_SEALING);
     if (region->writer_fd_ < 0)
-        return proto::Error{system_error("memfd_create")};
+        return proto::Error{proto::errno_text("memfd_create")};
     if (::ftruncate(region->writer_fd_, static_cast<off_t>(size)) != 0)
-        return proto::Error{system_error("ftruncate")};
+        return proto::Error{proto::errno_text("ftruncate")};
     // Sealed before anyone else has it: a client that could shrink the file would make every
     // mapping of the cut pages fault (SIGBUS), the daemon's included. Not yet F_SEAL_SEAL: future
     // writes are sealed once the writer has mapped it (seal_for_readers).
     if (::fcntl(region->writer_fd_, F_ADD_SEALS, F_SEAL_SHRINK | F_SEAL_GROW) != 0)
-        return proto::Error{system_error("sealing the region")};
+        return proto::Error{proto::errno_text("sealing the region")};
     // A second open file description, read-only: what readers get and what the daemon maps.
     const std::string path = "/proc/self/fd/" + std::to_string(region->writer_fd_);
     region->reader_fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
     if (region->reader_fd_ < 0)
-        return proto::Error{system_error("reopening the region read-only")};
+        return proto::Error{proto::errno_text("reopening the region read-only")};
     void* mapped = ::mmap(nullptr, size, PROT_READ, MAP_SHARED, region->reader_fd_, 0);
     if (mapped == MAP_FAILED)
-        return proto::Error{system_error("mmap")};
+        return proto::Error{proto::errno_text("mmap")};
     region->data_ = static_cast<const std::uint8_t*>(mapped);
     region->usage_->bytes += size;
     ++region->usage_->regions;

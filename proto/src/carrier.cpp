@@ -6,15 +6,11 @@ namespace plexus::proto {
 
 namespace {
 
-std::string_view side_name(Side side) {
-    return side == Side::send ? "send" : "recv";
-}
-
 bool is_name_char(char c) {
     return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' || c == '-';
 }
 
-std::string show_char(char c) {
+std::string show_carrier_char(char c) {
     const auto byte = static_cast<unsigned char>(c);
     if (byte <= 0x20 || byte >= 0x7f) {
         constexpr std::string_view digits = "0123456789abcdef";
@@ -24,7 +20,7 @@ std::string show_char(char c) {
     return std::string(1, c);  // NOLINT(modernize-return-braced-init-list)
 }
 
-std::string quoted(std::string_view text) {
+std::string in_quotes(std::string_view text) {
     return "'" + std::string(text) + "'";
 }
 
@@ -36,8 +32,9 @@ std::string at(std::size_t position) {
 std::optional<std::string> name_error(std::string_view kind, std::string_view name, std::size_t position) {
     for (std::size_t i = 0; i < name.size(); ++i) {
         if (!is_name_char(name[i])) {
-            return "character '" + show_char(name[i]) + "'" + at(position + i) + " is not allowed in " +
-                   std::string(kind) + " " + quoted(name) + " (use A-Z a-z 0-9 _ -)";
+            return "character '" + show_carrier_char(name[i]) + "'" + at(position + i) +
+                   " is not allowed in " + std::string(kind) + " " + in_quotes(name) +
+                   " (use A-Z a-z 0-9 _ -)";
         }
     }
     return std::nullopt;
@@ -53,6 +50,10 @@ struct Part {
 };
 
 }  // namespace
+
+const char* side_name(Side side) {
+    return side == Side::send ? "send" : "recv";
+}
 
 const CarrierParam* Clause::find(std::string_view key) const {
     for (const auto& param : params) {
@@ -95,7 +96,8 @@ Result<Carrier> parse_carrier(std::string_view text) {
     for (std::size_t i = 0; i < text.size(); ++i) {
         const auto byte = static_cast<unsigned char>(text[i]);
         if (byte < 0x20 || byte >= 0x7f) {
-            return Error{"character '" + show_char(text[i]) + "'" + at(i) + " is not allowed in a carrier"};
+            return Error{"character '" + show_carrier_char(text[i]) + "'" + at(i) +
+                         " is not allowed in a carrier"};
         }
     }
     std::vector<Part> parts;
@@ -116,7 +118,7 @@ Result<Carrier> parse_carrier(std::string_view text) {
     const Part& base = parts.front();
     if (base.text.starts_with("send.") || base.text.starts_with("recv.")) {
         return Error{"carrier must start with a base carrier, e.g. 'tcp+" + std::string(base.text) +
-                     "', not with the clause " + quoted(base.text)};
+                     "', not with the clause " + in_quotes(base.text)};
     }
     if (auto error = name_error("base carrier", base.text, base.position)) {
         return Error{*error};
@@ -131,15 +133,15 @@ Result<Carrier> parse_carrier(std::string_view text) {
         const std::optional<std::string_view> value =
             dot == std::string_view::npos ? std::nullopt : std::optional(part.text.substr(dot + 1));
         if (key.empty()) {
-            return Error{"empty key in " + quoted(part.text) + at(part.position)};
+            return Error{"empty key in " + in_quotes(part.text) + at(part.position)};
         }
         if (key == "send" || key == "recv") {
             if (!value) {
-                return Error{quoted(key) + at(part.position) + " needs a modifier name: '" +
+                return Error{in_quotes(key) + at(part.position) + " needs a modifier name: '" +
                              std::string(key) + ".NAME'"};
             }
             if (value->empty()) {
-                return Error{"empty modifier name in " + quoted(part.text) + at(part.position)};
+                return Error{"empty modifier name in " + in_quotes(part.text) + at(part.position)};
             }
             if (auto error = name_error("modifier name", *value, part.position + dot + 1)) {
                 return Error{*error};
@@ -158,15 +160,15 @@ Result<Carrier> parse_carrier(std::string_view text) {
             continue;
         }
         if (carrier.clauses.empty()) {
-            return Error{quoted(part.text) + at(part.position) + " comes before any send./recv. clause"};
+            return Error{in_quotes(part.text) + at(part.position) + " comes before any send./recv. clause"};
         }
         if (value && value->empty()) {
-            return Error{"missing value after " + quoted(part.text) + at(part.position) + " (write '" +
+            return Error{"missing value after " + in_quotes(part.text) + at(part.position) + " (write '" +
                          std::string(key) + "' alone for a flag)"};
         }
         Clause& clause = carrier.clauses.back();
         if (clause.find(key) != nullptr) {
-            return Error{"duplicate key " + quoted(key) + at(part.position) + " in clause '" +
+            return Error{"duplicate key " + in_quotes(key) + at(part.position) + " in clause '" +
                          std::string(side_name(clause.side)) + "." + clause.modifier + "'"};
         }
         clause.params.push_back(
@@ -178,9 +180,9 @@ Result<Carrier> parse_carrier(std::string_view text) {
 Status validate_carrier(const Carrier& carrier, const CarrierSupport& support) {
     if (!contains(support.bases, carrier.base)) {
         if (contains(support.unimplemented_bases, carrier.base)) {
-            return Error{"carrier " + quoted(carrier.base) + " is not supported by this build"};
+            return Error{"carrier " + in_quotes(carrier.base) + " is not supported by this build"};
         }
-        return Error{"unknown carrier " + quoted(carrier.base)};
+        return Error{"unknown carrier " + in_quotes(carrier.base)};
     }
     for (const auto& clause : carrier.clauses) {
         if (contains(support.modifiers, clause.modifier)) {
@@ -188,9 +190,9 @@ Status validate_carrier(const Carrier& carrier, const CarrierSupport& support) {
         }
         const std::string name = std::string(side_name(clause.side)) + "." + clause.modifier;
         if (contains(support.unimplemented_modifiers, clause.modifier)) {
-            return Error{"modifier " + quoted(name) + " is not supported by this build"};
+            return Error{"modifier " + in_quotes(name) + " is not supported by this build"};
         }
-        return Error{"unknown modifier " + quoted(name)};
+        return Error{"unknown modifier " + in_quotes(name)};
     }
     return Ok{};
 }

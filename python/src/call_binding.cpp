@@ -7,6 +7,7 @@
 #include <plexus/proto/port_name.hpp>
 
 #include "conversion.hpp"
+#include "errors.hpp"
 
 namespace py = pybind11;
 
@@ -18,11 +19,6 @@ std::chrono::milliseconds milliseconds_of(double seconds) {
     if (!(seconds > 0) || seconds > 86'400)
         throw Error(ErrorCode::usage, "timeout must be more than 0 and at most 86400 seconds");
     return std::chrono::milliseconds(static_cast<long long>(seconds * 1000.0 + 0.5));
-}
-
-void require_port_name(const std::string& name) {
-    if (auto error = proto::port_name_error(name))
-        throw Error(ErrorCode::usage, *error);
 }
 
 /// The Python exception for `error`, as the translator raises it (plexus._errors).

@@ -8,6 +8,7 @@
 
 #include "call_binding.hpp"
 #include "conversion.hpp"
+#include "errors.hpp"
 #include "plexus/proto/name_operations.hpp"
 #include "plexus/proto/operations.hpp"
 #include "port_binding.hpp"
@@ -17,12 +18,6 @@ namespace py = pybind11;
 namespace plexus::python {
 
 namespace {
-
-/// Refuses a bad port name with the CLI's message, before asking the daemon.
-void require_port_name(const std::string& name) {
-    if (auto error = proto::port_name_error(name))
-        throw Error(ErrorCode::usage, *error);
-}
 
 std::unique_ptr<Client> make_client(const std::optional<std::string>& socket, double request_timeout) {
     Client::Options options;

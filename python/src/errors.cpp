@@ -1,6 +1,7 @@
 #include "errors.hpp"
 
 #include <plexus/client.hpp>
+#include <plexus/proto/port_name.hpp>
 
 namespace py = pybind11;
 
@@ -37,6 +38,11 @@ void register_error_translator() {
             raise(error);
         }
     });
+}
+
+void require_port_name(const std::string& name) {
+    if (auto error = proto::port_name_error(name))
+        throw Error(ErrorCode::usage, *error);
 }
 
 }  // namespace plexus::python

@@ -109,11 +109,6 @@ std::vector<Port> open_competitors(Client& client, const Layout& layout, Kind ki
     return ports;
 }
 
-Value detection(std::size_t size) {
-    constexpr std::size_t overhead = 20;
-    return Value{{"c", 0.9}, {"pad", std::string(size > overhead ? size - overhead : 0, 'x')}};
-}
-
 /// Medians of the switch time, in ms, over `repeat` switches on a stream at 1 kHz.
 double measure_switch(const Topology& topology, Kind kind, int n, int repeat, const std::string& name) {
     Client writer = connect_client(topology.near_socket());
@@ -181,12 +176,6 @@ double measure_switch(const Topology& topology, Kind kind, int n, int repeat, co
         throw std::runtime_error("arbitration switch: the switcher never won");
     std::sort(switches.begin(), switches.end());
     return switches[switches.size() / 2];
-}
-
-void check_detection(const Received& message) {
-    if (!message.data.is_object() || !message.data.contains("c"))
-        throw std::runtime_error("a message arrived without its field c: " +
-                                 message.data.dump().substr(0, 80));
 }
 
 }  // namespace

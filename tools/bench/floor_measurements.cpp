@@ -15,14 +15,6 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-constexpr auto stall_timeout = 10s;
-
-std::uint64_t now_ns() {
-    return static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
-                                          std::chrono::system_clock::now().time_since_epoch())
-                                          .count());
-}
-
 void check_payload(const FloorFrame& frame, std::size_t size) {
     if (frame.payload.size() != size) {
         throw std::runtime_error("floor: got a " + std::to_string(frame.payload.size()) +

@@ -13,6 +13,7 @@
 #include "hosts_scenario.hpp"
 #include "plexus_measurements.hpp"
 #include "process_stats.hpp"
+#include "report.hpp"
 
 namespace plexus::bench {
 
@@ -28,22 +29,6 @@ struct Size {
 };
 // Enough calls for a stable p99 at 64 B, about 50 MiB each way at 64 KiB, about 50 at 1 MiB.
 constexpr Size sizes[] = {{64, 2000, 200}, {64 << 10, 800, 50}, {1 << 20, 50, 10}};
-
-double rounded(double value) {
-    return std::round(value * 1000) / 1000;
-}
-
-double ratio(double a, double b) {
-    return b > 0 ? a / b : 0;
-}
-
-std::string size_text(std::size_t size) {
-    if (size >= (1u << 20))
-        return std::to_string(size >> 20) + " MiB";
-    if (size >= (1u << 10))
-        return std::to_string(size >> 10) + " KiB";
-    return std::to_string(size) + " B";
-}
 
 void print_json(const std::vector<Row>& rows) {
     for (const auto& row : rows) {

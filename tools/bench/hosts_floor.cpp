@@ -24,7 +24,6 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-constexpr auto stall_timeout = 10s;
 // A lossy stream is over once nothing has arrived for this long (as for Plexus).
 constexpr auto idle_timeout = 500ms;
 // plexusd's UdpConfig::fragment_bytes, datagrams_per_call and socket buffers (udp_socket.cpp).
@@ -36,12 +35,6 @@ constexpr std::uint16_t group_port = 10200;
 
 std::runtime_error system_error(const std::string& what) {
     return std::runtime_error("floor: " + what + ": " + std::strerror(errno));
-}
-
-std::uint64_t now_ns() {
-    return static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
-                                          std::chrono::system_clock::now().time_since_epoch())
-                                          .count());
 }
 
 sockaddr_in ipv4(const std::string& address, std::uint16_t port) {

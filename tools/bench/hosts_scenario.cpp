@@ -23,6 +23,7 @@
 #include "plexus/client.hpp"
 #include "plexus_measurements.hpp"
 #include "process_stats.hpp"
+#include "report.hpp"
 #include "run_deadline.hpp"
 #include "topology.hpp"
 
@@ -188,18 +189,6 @@ struct ConnectTimes {
 };
 
 // --- printing ----------------------------------------------------------------------------
-
-double rounded(double value) {
-    return std::round(value * 1000) / 1000;
-}
-
-std::string size_text(std::size_t size) {
-    return size >= large ? std::to_string(size >> 20) + " MiB" : std::to_string(size) + " B";
-}
-
-double ratio(double a, double b) {
-    return b > 0 ? a / b : 0;
-}
 
 std::string floor_text(const std::string& carrier, const std::string& scenario) {
     if (carrier == "tcp")

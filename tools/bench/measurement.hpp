@@ -5,10 +5,21 @@
 
 #include <chrono>
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <vector>
 
 namespace plexus::bench {
+
+/// Longer than any healthy wait of a measurement; a stall fails the run instead of hanging it.
+constexpr std::chrono::seconds stall_timeout{10};
+
+/// Wall-clock nanoseconds: the stamp a message carries from one process (or host) to another.
+inline std::uint64_t now_ns() {
+    return static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                          std::chrono::system_clock::now().time_since_epoch())
+                                          .count());
+}
 
 /// The figures of one run (or the medians of several).
 struct RunResult {

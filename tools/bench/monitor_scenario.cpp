@@ -36,18 +36,6 @@ PortMonitor.update = function(msg)
 end
 )";
 
-/// A detection-like map of about `size` CBOR bytes: {"c": 0.9, "pad": "xx..."}.
-Value detection(std::size_t size) {
-    constexpr std::size_t overhead = 20;  // map header, two keys, a double, the string's header
-    return Value{{"c", 0.9}, {"pad", std::string(size > overhead ? size - overhead : 0, 'x')}};
-}
-
-void check_detection(const Received& message) {
-    if (!message.data.is_object() || !message.data.contains("c"))
-        throw std::runtime_error("a message arrived without its field c: " +
-                                 message.data.dump().substr(0, 80));
-}
-
 }  // namespace
 
 int run_monitor(const Options& options) {

@@ -16,6 +16,11 @@
 
 namespace plexus::bench {
 
+/// A detection-like map of about `size` CBOR bytes: {"c": 0.9, "pad": "xx..."}.
+Value detection(std::size_t size);
+/// Throws unless `message` is such a map (a monitor or arbitration let through what it should not).
+void check_detection(const Received& message);
+
 /// A client of the daemon at `socket`.
 Client connect_client(const std::string& socket);
 /// Registration with the name server may lag behind open(): waits until both ends are known.

@@ -19,6 +19,7 @@
 
 #include "plexus_measurements.hpp"
 #include "record_scenario.hpp"
+#include "report.hpp"
 #include "run_deadline.hpp"
 #include "topology.hpp"
 
@@ -92,10 +93,6 @@ void print_table(const Scenario& scenario, const std::vector<RunResult>& medians
     std::printf("\n  recorder: %llu messages kept, %llu lost over the recording runs\n\n",
                 static_cast<unsigned long long>(scenario.kept),
                 static_cast<unsigned long long>(scenario.lost));
-}
-
-double ratio(double a, double b) {
-    return b > 0 ? a / b : 0;
 }
 
 }  // namespace

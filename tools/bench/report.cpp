@@ -8,12 +8,23 @@
 
 namespace plexus::bench {
 
-namespace {
-
-/// Three decimals are more than the measurements are worth; they keep the JSON short.
 double rounded(double value) {
     return std::round(value * 1000) / 1000;
 }
+
+double ratio(double a, double b) {
+    return b > 0 ? a / b : 0;
+}
+
+std::string size_text(std::size_t size) {
+    if (size >= (1u << 20))
+        return std::to_string(size >> 20) + " MiB";
+    if (size >= (1u << 10))
+        return std::to_string(size >> 10) + " KiB";
+    return std::to_string(size) + " B";
+}
+
+namespace {
 
 nlohmann::ordered_json as_json(const std::string& system, const std::string& scenario, std::size_t size,
                                const RunResult& run) {

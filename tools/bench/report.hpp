@@ -10,6 +10,13 @@
 
 namespace plexus::bench {
 
+/// Three decimals are more than the measurements are worth; they keep the JSON short.
+double rounded(double value);
+/// a / b, or 0 when there is no b to compare with.
+double ratio(double a, double b);
+/// "64 B", "4 KiB", "1 MiB".
+std::string size_text(std::size_t size);
+
 /// One scenario measured on both systems (medians over the runs).
 struct ScenarioResult {
     std::string scenario;       ///< e.g. "latency_1hop"; the JSON `scenario`

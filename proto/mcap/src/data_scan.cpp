@@ -10,11 +10,11 @@
 
 namespace plexus::mcap {
 
-namespace {
-
-std::string at(std::uint64_t offset) {
+std::string at_offset(std::uint64_t offset) {
     return "offset " + std::to_string(offset) + ": ";
 }
+
+namespace {
 
 std::string name_of(std::uint8_t opcode) {
     const std::string_view name = format::opcode_name(opcode);
@@ -28,7 +28,7 @@ proto::Status unpack_chunk(const ScannedRecord& chunk_record, proto::Bytes& reco
     auto chunk = parse_chunk(chunk_record.content, chunk_record.where());
     if (!chunk)
         return chunk.error();
-    const std::string where = at(chunk_record.offset) + "chunk record: ";
+    const std::string where = at_offset(chunk_record.offset) + "chunk record: ";
     if (chunk->uncompressed_size > format::max_uncompressed_chunk)
         return proto::Error{where + "its uncompressed size " + std::to_string(chunk->uncompressed_size) +
                             " exceeds this reader's limit of " +
@@ -61,7 +61,7 @@ proto::Result<bool> visit_chunk_records(std::uint64_t chunk_offset, proto::ByteV
     std::size_t position = 0;
     while (position < records.size()) {
         const std::size_t left = records.size() - position;
-        const std::string where = at(chunk_offset) + "chunk record: ";
+        const std::string where = at_offset(chunk_offset) + "chunk record: ";
         if (left < format::record_header_size)
             return proto::Error{where + "its records end inside a record header at uncompressed byte " +
                                 std::to_string(position)};
@@ -88,15 +88,15 @@ proto::Result<bool> visit_chunk_records(std::uint64_t chunk_offset, proto::ByteV
 
 std::string ScannedRecord::where() const {
     if (position_in_chunk)
-        return at(offset) + "chunk record, " + name_of(opcode) + " record at uncompressed byte " +
+        return at_offset(offset) + "chunk record, " + name_of(opcode) + " record at uncompressed byte " +
                std::to_string(*position_in_chunk);
-    return at(offset) + name_of(opcode) + " record";
+    return at_offset(offset) + name_of(opcode) + " record";
 }
 
 proto::Result<RecordHeader> read_record_header(const InputSource& source, std::uint64_t offset,
                                                std::uint64_t limit, const std::string& region) {
     if (offset > limit || limit - offset < format::record_header_size)
-        return proto::Error{at(offset) + "the " + region + " ends inside a record header"};
+        return proto::Error{at_offset(offset) + "the " + region + " ends inside a record header"};
     std::array<std::uint8_t, format::record_header_size> bytes{};
     if (auto status = source.read(offset, bytes); !status)
         return status.error();
@@ -105,7 +105,7 @@ proto::Result<RecordHeader> read_record_header(const InputSource& source, std::u
     header.offset = offset;
     header.length = load_u64(bytes.data() + 1);
     if (header.length > limit - offset - format::record_header_size)
-        return proto::Error{at(offset) + "the " + name_of(header.opcode) + " record's length " +
+        return proto::Error{at_offset(offset) + "the " + name_of(header.opcode) + " record's length " +
                             std::to_string(header.length) + " runs past the end of the " + region +
                             " at offset " + std::to_string(limit)};
     return header;
@@ -127,7 +127,7 @@ proto::Status scan_data_section(const InputSource& source, std::uint64_t begin, 
         if (!header)
             return header.error();
         if (header->length > format::max_record)
-            return proto::Error{at(offset) + "the " + name_of(header->opcode) + " record's length " +
+            return proto::Error{at_offset(offset) + "the " + name_of(header->opcode) + " record's length " +
                                 std::to_string(header->length) + " exceeds this reader's limit"};
         const bool is_chunk = header->opcode == static_cast<std::uint8_t>(format::Opcode::chunk);
         if (is_chunk && visitor.want_chunk && !visitor.want_chunk(offset)) {
@@ -147,7 +147,8 @@ proto::Status scan_data_section(const InputSource& source, std::uint64_t begin, 
             if (!stated)
                 return stated.error();
             if (crc_complete && *stated != 0 && *stated != crc.value())
-                return proto::Error{at(offset) + "data section CRC mismatch (the data end record says " +
+                return proto::Error{at_offset(offset) +
+                                    "data section CRC mismatch (the data end record says " +
                                     std::to_string(*stated) + ", the bytes before it give " +
                                     std::to_string(crc.value()) + ")"};
             return proto::Ok{};  // the data section is over
@@ -171,7 +172,7 @@ proto::Status scan_data_section(const InputSource& source, std::uint64_t begin, 
     }
     // Every writer ends the data section with DataEnd; a scan that misses it has been led off
     // the records by a damaged length, and its CRC check would be skipped.
-    return proto::Error{at(end) + "the data section ends without a data end record"};
+    return proto::Error{at_offset(end) + "the data section ends without a data end record"};
 }
 
 proto::Error truncation_error(const InputSource& source, std::uint64_t begin) {
@@ -180,16 +181,17 @@ proto::Error truncation_error(const InputSource& source, std::uint64_t begin) {
     std::string last = "header";
     while (true) {
         if (offset == size)
-            return {at(size) + "truncated: the file ends after a complete " + last + " record (no footer)"};
+            return {at_offset(size) + "truncated: the file ends after a complete " + last +
+                    " record (no footer)"};
         if (size - offset < format::record_header_size)
-            return {at(offset) + "truncated: the file ends inside a record header (no footer)"};
+            return {at_offset(offset) + "truncated: the file ends inside a record header (no footer)"};
         std::array<std::uint8_t, format::record_header_size> bytes{};
         if (auto status = source.read(offset, bytes); !status)
             return status.error();
         last = name_of(bytes[0]);
         const std::uint64_t length = load_u64(bytes.data() + 1);
         if (length > size - offset - format::record_header_size)
-            return {at(offset) + "truncated: the file ends inside a " + last + " record (no footer)"};
+            return {at_offset(offset) + "truncated: the file ends inside a " + last + " record (no footer)"};
         offset += format::record_header_size + length;
     }
 }

@@ -13,6 +13,9 @@
 
 namespace plexus::mcap {
 
+/// "offset 1234: ", how errors say where in the file they are.
+std::string at_offset(std::uint64_t offset);
+
 struct RecordHeader {
     std::uint8_t opcode = 0;
     std::uint64_t offset = 0;  ///< of the opcode byte

@@ -14,10 +14,6 @@ namespace plexus::mcap {
 
 namespace {
 
-std::string at(std::uint64_t offset) {
-    return "offset " + std::to_string(offset) + ": ";
-}
-
 constexpr std::uint8_t opcode_of(format::Opcode opcode) {
     return static_cast<std::uint8_t>(opcode);
 }
@@ -60,17 +56,17 @@ proto::Result<Reader> Reader::open_source(std::unique_ptr<InputSource> source) {
     if (!header)
         return truncation_error(input, magic.size());
     if (header->opcode != opcode_of(format::Opcode::header))
-        return proto::Error{at(magic.size()) + "the first record is a " +
+        return proto::Error{at_offset(magic.size()) + "the first record is a " +
                             std::string(format::opcode_name(header->opcode)) + " record, not a header"};
     if (header->length > format::max_summary)
-        return proto::Error{at(magic.size()) + "header record of " + std::to_string(header->length) +
+        return proto::Error{at_offset(magic.size()) + "header record of " + std::to_string(header->length) +
                             " bytes exceeds this reader's limit"};
     proto::Bytes content;
     if (auto status = read_bytes(input, header->offset + format::record_header_size, header->length, content);
         !status)
         return status.error();
-    if (auto status =
-            parse_header(content, at(magic.size()) + "header record", reader.profile_, reader.library_);
+    if (auto status = parse_header(content, at_offset(magic.size()) + "header record", reader.profile_,
+                                   reader.library_);
         !status)
         return status.error();
     reader.data_begin_ = header->end();
@@ -84,12 +80,12 @@ proto::Result<Reader> Reader::open_source(std::unique_ptr<InputSource> source) {
     auto footer_header = read_record_header(input, reader.footer_offset_, size - magic.size(), "file");
     if (!footer_header || footer_header->opcode != opcode_of(format::Opcode::footer) ||
         footer_header->length != format::footer_content_size)
-        return proto::Error{at(reader.footer_offset_) + "no footer record before the closing magic"};
+        return proto::Error{at_offset(reader.footer_offset_) + "no footer record before the closing magic"};
     if (auto status = read_bytes(input, reader.footer_offset_ + format::record_header_size,
                                  format::footer_content_size, content);
         !status)
         return status.error();
-    auto footer = parse_footer(content, at(reader.footer_offset_) + "footer record");
+    auto footer = parse_footer(content, at_offset(reader.footer_offset_) + "footer record");
     if (!footer)
         return footer.error();
 
@@ -100,21 +96,21 @@ proto::Result<Reader> Reader::open_source(std::unique_ptr<InputSource> source) {
         return reader;
     }
     if (footer->summary_start < reader.data_begin_ || footer->summary_start > reader.footer_offset_)
-        return proto::Error{at(reader.footer_offset_) + "footer: the summary start " +
+        return proto::Error{at_offset(reader.footer_offset_) + "footer: the summary start " +
                             std::to_string(footer->summary_start) + " is outside the file's records (" +
                             std::to_string(reader.data_begin_) + " to " +
                             std::to_string(reader.footer_offset_) + ")"};
     if (footer->summary_offset_start != 0 && (footer->summary_offset_start < footer->summary_start ||
                                               footer->summary_offset_start > reader.footer_offset_))
-        return proto::Error{at(reader.footer_offset_) + "footer: the summary offset start " +
+        return proto::Error{at_offset(reader.footer_offset_) + "footer: the summary offset start " +
                             std::to_string(footer->summary_offset_start) + " is outside the summary"};
     reader.data_end_ = footer->summary_start;
 
     // The summary, with the footer up to its CRC field, which the CRC covers.
     const std::uint64_t summary_length = reader.footer_offset_ - footer->summary_start;
     if (summary_length > format::max_summary)
-        return proto::Error{at(footer->summary_start) + "a summary of " + std::to_string(summary_length) +
-                            " bytes exceeds this reader's limit"};
+        return proto::Error{at_offset(footer->summary_start) + "a summary of " +
+                            std::to_string(summary_length) + " bytes exceeds this reader's limit"};
     proto::Bytes summary;
     if (auto status = read_bytes(input, footer->summary_start,
                                  summary_length + format::record_header_size + 16, summary);
@@ -123,7 +119,7 @@ proto::Result<Reader> Reader::open_source(std::unique_ptr<InputSource> source) {
     if (footer->summary_crc != 0) {
         const std::uint32_t actual = crc32(summary);
         if (actual != footer->summary_crc)
-            return proto::Error{at(footer->summary_start) + "summary CRC mismatch (the footer says " +
+            return proto::Error{at_offset(footer->summary_start) + "summary CRC mismatch (the footer says " +
                                 std::to_string(footer->summary_crc) + ", the bytes give " +
                                 std::to_string(actual) + ")"};
     }
@@ -143,9 +139,10 @@ proto::Status Reader::read_summary_records(std::uint64_t summary_start, proto::B
         const std::uint64_t offset = summary_start + position;
         const std::uint64_t left = summary.size() - position;
         if (left < format::record_header_size)
-            return proto::Error{at(offset) + "the summary ends inside a record header"};
+            return proto::Error{at_offset(offset) + "the summary ends inside a record header"};
         RecordHeader header{summary[position], position, load_u64(summary.data() + position + 1)};
-        const std::string where = at(offset) + std::string(format::opcode_name(header.opcode)) + " record";
+        const std::string where =
+            at_offset(offset) + std::string(format::opcode_name(header.opcode)) + " record";
         if (header.length > left - format::record_header_size)
             return proto::Error{where + ": its length " + std::to_string(header.length) +
                                 " runs past the end of the summary"};
@@ -207,14 +204,14 @@ proto::Status Reader::read_summary_records(std::uint64_t summary_start, proto::B
         statistics_.chunk_count = chunk_indexes;
 
     for (const auto& index : metadata_indexes) {
-        const std::string where = at(index.offset) + "metadata record";
+        const std::string where = at_offset(index.offset) + "metadata record";
         auto header =
             read_record_header(*source_, index.offset, index.offset + index.length, "metadata index's range");
         if (!header)
             return header.error();
         if (header->opcode != opcode_of(format::Opcode::metadata) ||
             header->end() != index.offset + index.length)
-            return proto::Error{at(index.offset) + "the metadata index named \"" + index.name +
+            return proto::Error{at_offset(index.offset) + "the metadata index named \"" + index.name +
                                 "\" does not point at a metadata record of its length"};
         proto::Bytes content;
         if (auto status =

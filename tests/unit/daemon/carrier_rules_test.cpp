@@ -12,6 +12,7 @@
 
 #include "arbitration/clock.hpp"
 #include "plexus/proto/carrier.hpp"
+#include "text_contains.hpp"
 
 namespace plexus::daemon::arbitration {
 namespace {
@@ -20,10 +21,6 @@ proto::Carrier carrier(const std::string& text) {
     auto parsed = proto::parse_carrier(text);
     EXPECT_TRUE(parsed.ok()) << text << ": " << (parsed.ok() ? "" : parsed.error().message);
     return parsed.ok() ? *parsed : proto::Carrier{};
-}
-
-bool contains(const std::string& text, const std::string& part) {
-    return text.find(part) != std::string::npos;
 }
 
 struct ConfigureMember_test : ::testing::Test {

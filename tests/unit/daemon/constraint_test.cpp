@@ -9,6 +9,7 @@
 #include <set>
 #include <string>
 #include <vector>
+#include "text_contains.hpp"
 
 namespace plexus::daemon::arbitration {
 namespace {
@@ -28,10 +29,6 @@ Constraint parse(const std::string& text) {
 
 bool value(const std::string& text, const std::set<std::string>& present) {
     return parse(text).evaluate(present);
-}
-
-bool contains(const std::string& text, const std::string& part) {
-    return text.find(part) != std::string::npos;
 }
 
 TEST(Constraint_test, EmptyTextFailsAtPositionZero) {

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "plexus/proto/carrier.hpp"
+#include "text_contains.hpp"
 
 namespace plexus::daemon::arbitration {
 namespace {
@@ -203,10 +204,6 @@ std::string params_error(const std::string& carrier) {
     auto read = PriorityParams::from_clause(clause_of(carrier));
     EXPECT_FALSE(read.ok()) << carrier << " was accepted";
     return read.ok() ? std::string() : read.error().message;
-}
-
-bool contains(const std::string& text, const std::string& part) {
-    return text.find(part) != std::string::npos;
 }
 
 TEST(PriorityParams_test, DefaultsFollowTheDesign) {

@@ -19,6 +19,9 @@ namespace plexus::proto {
 
 enum class Side { send, recv };
 
+/// "send" or "recv", as the carrier string writes a side.
+const char* side_name(Side side);
+
 struct CarrierParam {
     std::string key;
     std::optional<std::string> value;  ///< empty for a flag
