@@ -8,6 +8,8 @@
 # A precompiled header makes every header of its list visible in every file of its targets, so a
 # missing #include there goes unnoticed: configure with -DPLEXUS_PRECOMPILED_HEADERS=OFF to check.
 
+# CI turns them off and builds unity builds instead (scripts/ci-build-options; docs/SANITIZERS.md:
+# the CI run that first had them ran out of time, for a reason not known).
 option(PLEXUS_PRECOMPILED_HEADERS "Precompile the big third-party headers (faster builds)" ON)
 
 # The daemon's libraries above core/: Asio and its coroutines, json, spdlog.
