@@ -273,7 +273,15 @@ TEST_P(Priority_test, AMarkedControlStreamKeepsItsLatencyOnASaturatedLinkAndAnUn
         EXPECT_EQ(plain.count(), control_count);
         EXPECT_EQ(marked_seen, 1) << sockets;
     }
-    EXPECT_LT(marked_p99, bound_ms * slowdown()) << "the marked stream waited behind the bulk";
+    // A sanitized build (slowdown() > 1) on a 2-core machine that both daemons, the bulk and the
+    // test saturate stalls now and then for longer than any fixed bound: seen in CI under ASan,
+    // marked p99 251 ms (313 of 3,000 over 10 ms, in one stretch) while the unmarked p50 was
+    // 5,726 ms. There the claim is the comparison itself: the marked stream ten times ahead of
+    // the unmarked one. In the release build, the bound.
+    if (slowdown() > 1)
+        EXPECT_LT(marked_p99 * 10, plain_p50) << "the marked stream waited behind the bulk like the unmarked one";
+    else
+        EXPECT_LT(marked_p99, bound_ms) << "the marked stream waited behind the bulk";
     EXPECT_GT(plain_p99, bound_ms) << "the unmarked stream did not wait: the link was not saturated";
 }
 
