@@ -71,8 +71,9 @@ TEST_F(Reassembly_test, CountsEachGapAsLost) {
 TEST_F(Reassembly_test, AMessageMissingOneFragmentIsLostNeverTorn) {
     auto big = send(0, 1 << 20, 1400);
     for (std::size_t i = 0; i < big.views.size(); ++i) {
-        if (i != 300)
-            EXPECT_FALSE(stream.take(big.views[i], now));
+        if (i != 300) {
+            EXPECT_FALSE(stream.take(big.views[i], now));  // braces: EXPECT_ is an if of its own
+        }
     }
     auto next = send(1, 100, 1400);
     auto done = stream.take(next.views[0], now);

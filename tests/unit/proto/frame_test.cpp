@@ -10,9 +10,12 @@
 #include <string>
 #include <vector>
 
+#include "plexus/proto/call.hpp"
 #include "plexus/proto/control.hpp"
 #include "plexus/proto/hello.hpp"
 #include "plexus/proto/message.hpp"
+#include "plexus/proto/rings.hpp"
+#include "plexus/proto/shm.hpp"
 #include "plexus/proto/varint.hpp"
 
 // Replaces the global allocator of this test program to record the largest allocation made while
@@ -286,6 +289,29 @@ void decode_fields(const FrameDecode& frame) {
                 while (const auto record = records.next())
                     (void)decode_record(*record);
             }
+            break;
+        case FrameType::data_shm:
+            (void)decode_shm_data(frame.fields);
+            break;
+        case FrameType::shm_region:
+            (void)decode_shm_region(frame.fields);
+            break;
+        case FrameType::shm_free:
+            (void)decode_shm_free(frame.fields);
+            break;
+        case FrameType::call:
+            (void)decode_call(frame.fields);
+            break;
+        case FrameType::answer:
+            (void)decode_answer(frame.fields);
+            break;
+        case FrameType::rings:
+            (void)decode_rings_request(frame.fields);
+            (void)decode_rings_answer(frame.fields);
+            break;
+        case FrameType::shm_release:      // a count, read where it is used (daemon/net/session.cpp)
+        case FrameType::shm_region_gone:  // a region number, read by libplexus
+        case FrameType::auth:             // 32 raw bytes, compared, never decoded
             break;
     }
 }
