@@ -280,7 +280,8 @@ TEST_P(Priority_test, AMarkedControlStreamKeepsItsLatencyOnASaturatedLinkAndAnUn
     // messages: the marked median ten times below the unmarked one (it fails when marking does
     // nothing: both medians are then the queue's). In the release build, the tail's bound.
     if (slowdown() > 1)
-        EXPECT_LT(marked_p50 * 10, plain_p50) << "the marked stream waited behind the bulk like the unmarked one";
+        EXPECT_LT(marked_p50 * 10, plain_p50)
+            << "the marked stream waited behind the bulk like the unmarked one";
     else
         EXPECT_LT(marked_p99, bound_ms) << "the marked stream waited behind the bulk";
     EXPECT_GT(plain_p99, bound_ms) << "the unmarked stream did not wait: the link was not saturated";
