@@ -40,6 +40,9 @@ public:
     /// The daemon's thread this sink is used on (`--threads`): a port's is its session's data
     /// thread; 0, the control thread, for everything else (links, datagram senders).
     virtual std::size_t shard() const { return 0; }
+    /// True once nothing will ever be taken from it again (its port closed): what waits to go in
+    /// may be let go.
+    virtual bool gone() const { return false; }
 };
 
 /// A directed connection out of a port of this daemon.

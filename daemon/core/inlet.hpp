@@ -33,6 +33,7 @@ public:
     }
 
     std::size_t shard() const override { return port_->shard(); }
+    bool gone() const override { return port_->closed(); }
     bool full() const override { return room() == 0; }
     /// The port's room, less what is still in the monitors on its way there.
     std::size_t room() const override { return room_after(port_->room(), monitors.get()); }

@@ -160,6 +160,12 @@ void Outbox::fill(Batch& batch, std::size_t budget) {
                 continue;
             const bool was_full = source.queue->full();
             Message message = source.queue->pop();
+            if (message.shm && !regions_sent_.contains(message.shm->region->id()) &&
+                regions_sent_.size() >= max_regions) {
+                message = copy_out_of_shm(message);
+                if (on_shm_copy_)
+                    on_shm_copy_();
+            }
             if (source.sent_counter)
                 *source.sent_counter += message.count();
             const std::size_t offset = batch.flat.size();

@@ -96,6 +96,9 @@ public:
     /// so only a broken one gets here, and each entry holds a slot of some writer's region. A
     /// reader that does not read at all stops at what its socket buffer takes, far below.
     static constexpr std::size_t max_lent = 1u << 18;
+    /// Called for each shared-memory message this outbox copies out instead of lending it (its
+    /// peer holds max_regions others): the daemon counts them.
+    void on_shm_copy(std::function<void()> count) { on_shm_copy_ = std::move(count); }
     /// The region is gone: a later region is sent again even if it had the same id.
     void forget_region(std::uint64_t id) { regions_sent_.erase(id); }
     /// True when the region was sent on this connection (and is not gone).
@@ -103,7 +106,8 @@ public:
     /// Regions sent on this connection and not gone: each holds a descriptor in the peer.
     std::size_t regions_held() const { return regions_sent_.size(); }
     /// At most this many regions are sent to one peer; messages of further regions are copied
-    /// out. Descriptors a peer has not read yet count against the daemon's own descriptor limit.
+    /// out here, on the reader's own thread, where what it was sent is known. Descriptors a peer has not read
+    /// yet count against the daemon's own descriptor limit.
     static constexpr std::size_t max_regions = 64;
 
 private:
@@ -121,6 +125,7 @@ private:
     void add_shm_message(Batch& batch, std::uint64_t handle, Message message);
 
     std::function<void()> on_space_;
+    std::function<void()> on_shm_copy_;
     std::deque<ControlFrame> control_;
     std::size_t control_bytes_ = 0;
     std::vector<OutSource> sources_;

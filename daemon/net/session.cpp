@@ -32,7 +32,10 @@ Session::Session(Socket socket, SessionHost& daemon, std::uint64_t id, std::size
       daemon_(daemon),
       id_(id),
       shard_(shard),
-      request_done_(executor()) {}
+      request_done_(executor()) {
+    // Counted on this session's thread, in that thread's counters.
+    outbox().on_shm_copy([&daemon] { ++daemon.counters().shm_copied; });
+}
 
 proto::Status Session::on_hello(const proto::Hello& hello) {
     if (hello.role != "client" && hello.role != "daemon" && hello.role != "link") {
@@ -223,28 +226,27 @@ std::optional<Session::Incoming> Session::decode_shm(InFrame& frame) {
                     std::make_shared<const ShmSlot>(region->second, data->place.offset, data->place.length)};
     }
     // Judged again at every try: connections may change while the frame waits for room.
-    if (frame.resolved->shm && (!passes_shm(*port->second, *frame.resolved->shm->region) ||
-                                !frame.resolved->shm->region->seal_for_readers())) {
+    if (frame.resolved->shm &&
+        (!passes_shm(*port->second) || !frame.resolved->shm->region->seal_for_readers())) {
         frame.resolved = copy_out_of_shm(*frame.resolved);
         ++daemon_.counters().shm_copied;
     }
     return Incoming{data->handle, *frame.resolved};
 }
 
-bool Session::passes_shm(const Port& port, const ShmRegion& region) const {
+bool Session::passes_shm(const Port& port) const {
     for (const auto& connection : port.outgoing) {
-        // A reader on another of the daemon's threads gets a copy: lending crosses no thread.
-        if (connection->remote || connection->send_monitors || connection->crossing)
+        // A reader on another of the daemon's threads is lent the payload too (the crossing copies
+        // only the place); what is read here of it changes on the control thread alone.
+        if (connection->remote || connection->send_monitors)
             return false;
         const auto* inlet = dynamic_cast<const Inlet*>(connection->sink.get());
         // A recorded port's tap keeps the payload: it is copied out once, as for monitors.
         if (!inlet || inlet->monitors || !inlet->member().trivial() || inlet->port()->tap)
             return false;
         const auto reader = daemon_.session(inlet->port()->owner());
+        // A reader that holds too many regions already copies it out itself (Outbox::max_regions).
         if (!reader || !reader->maps_shm())
-            return false;
-        auto& sent = reader->outbox();
-        if (!sent.has_region(region.id()) && sent.regions_held() >= Outbox::max_regions)
             return false;
     }
     return true;

@@ -79,9 +79,8 @@ private:
     /// port can take it from there, else copied out of it now. Fails the session if malformed.
     std::optional<Incoming> decode_shm(InFrame& frame);
     /// True when every connection out of `port` goes, unwatched and unarbitrated, to a local client
-    /// that maps regions and may be sent `region`: only then may a message keep its payload in
-    /// shared memory.
-    bool passes_shm(const Port& port, const ShmRegion& region) const;
+    /// that maps regions: only then may a message keep its payload in shared memory.
+    bool passes_shm(const Port& port) const;
     /// True while this client leaves so many shm_free frames unread that its data_shm frames must wait.
     bool frees_pile_up();
     /// A shm_release frame: the client is done with its oldest data_shm messages.

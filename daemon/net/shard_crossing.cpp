@@ -2,8 +2,8 @@
 
 #include <cstring>
 
+#include "../core/batch.hpp"
 #include "shards.hpp"
-#include "shm_region.hpp"
 
 namespace plexus::daemon {
 
@@ -14,23 +14,20 @@ bool same_unit(const Message& a, const Message& b) {
 }
 
 /// The message with a record of its own (see ShardCrossing): the chunk it was read into stays
-/// with the thread that read it. The same unit handed to several connections (a port's
-/// connections one after the other) is copied once, and stays one unit where it arrives: an mcast
-/// sender sends a unit once for all the connections it serves.
+/// with the thread that read it. A payload lent in shared memory stays there: only its place is
+/// copied, and the slot is held from the reader's thread (shm_region.hpp). The same unit handed
+/// to several connections (a port's connections one after the other) is copied once, and stays
+/// one unit where it arrives: an mcast sender sends a unit once for all the connections it serves.
 Message own_copy(const Message& message) {
     thread_local Message last_original;  // held: its chunk cannot be reused while it is compared
     thread_local Message last_copy;
     if (same_unit(message, last_original))
         return last_copy;
     Message copy = message;
-    if (message.shm) {
-        copy = copy_out_of_shm(message);  // sessions do not lend across threads; safe if one did
-    } else {
-        auto chunk = std::make_shared<Chunk>(message.record.size());
-        std::memcpy(chunk->data(), message.record.data(), message.record.size());
-        copy.record = proto::ByteView(chunk->data(), message.record.size());
-        copy.storage = std::move(chunk);
-    }
+    auto chunk = std::make_shared<Chunk>(message.record.size());
+    std::memcpy(chunk->data(), message.record.data(), message.record.size());
+    copy.record = proto::ByteView(chunk->data(), message.record.size());
+    copy.storage = std::move(chunk);
     if (!message.shm && !message.call) {  // a call's ticket must end with its last real copy
         last_original = message;
         last_copy = copy;
@@ -46,10 +43,17 @@ ShardCrossing::ShardCrossing(std::shared_ptr<Shard> source, std::shared_ptr<Shar
       sink_(std::move(sink)),
       room_seen_(sink_->room()) {}
 
+std::size_t ShardCrossing::room_for(std::size_t seen, std::size_t flight, std::size_t bytes) {
+    // Within the bytes, the slack counts whatever the room: a writer told less would cut its batch,
+    // hold back, and wait for a wake-up that nobody owes it (deliver() asks only at 0).
+    const std::size_t allowed = bytes < slack_bytes ? seen + slack_messages : seen;
+    return flight < allowed ? allowed - flight : 0;
+}
+
 std::size_t ShardCrossing::room() const {
-    const std::size_t seen = room_seen_.load(std::memory_order_relaxed);
-    const std::size_t flight = in_flight_.load(std::memory_order_relaxed);
-    const std::size_t room = seen > flight ? seen - flight : 0;
+    const std::size_t room =
+        room_for(room_seen_.load(std::memory_order_relaxed), in_flight_.load(std::memory_order_relaxed),
+                 flight_bytes_.load(std::memory_order_relaxed));
     if (room == 0)
         ask_for_room();
     return room;
@@ -63,10 +67,12 @@ void ShardCrossing::ask_for_room() const {
 void ShardCrossing::deliver(const Message& message) {
     const std::size_t flight =
         in_flight_.fetch_add(message.count(), std::memory_order_relaxed) + message.count();
+    const std::size_t bytes =
+        flight_bytes_.fetch_add(message.record.size(), std::memory_order_relaxed) + message.record.size();
     target_->send(shared_from_this(), own_copy(message), false);
-    // This one filled the room: the writer holds back next, so ask now to be told when it may go on
-    // (a batch cut to fit is held back without looking at room() again).
-    if (flight >= room_seen_.load(std::memory_order_relaxed))
+    // This one used the last room: the writer holds back next, so ask now to be told when it may
+    // go on (a batch cut to fit is held back without looking at room() again).
+    if (room_for(room_seen_.load(std::memory_order_relaxed), flight, bytes) == 0)
         ask_for_room();
 }
 
@@ -75,17 +81,86 @@ void ShardCrossing::close_after_flush() {
 }
 
 void ShardCrossing::arrive(const Message& message) {
+    if (sink_->gone()) {
+        forget(message);  // as the port's own queue went with it
+        return;
+    }
+    if (held_.empty() && message.count() <= sink_->room()) {
+        pass(message);
+        return;
+    }
+    if (held_.empty())
+        target_->hold(shared_from_this());
+    held_.push_back(message);
+    release_held();  // what fits goes in now
+}
+
+void ShardCrossing::arrive_close() {
+    if (held_.empty())
+        sink_->close_after_flush();
+    else
+        close_held_ = true;
+}
+
+void ShardCrossing::pass(const Message& message) {
     sink_->deliver(message);
     room_seen_.store(sink_->room(), std::memory_order_relaxed);
+    forget(message);
+}
+
+void ShardCrossing::forget(const Message& message) {
     in_flight_.fetch_sub(message.count(), std::memory_order_relaxed);
+    flight_bytes_.fetch_sub(message.record.size(), std::memory_order_relaxed);
+}
+
+bool ShardCrossing::release_held() {
+    const bool gone = sink_->gone();  // its reader's queue went, and with it what waits for it
+    while (!held_.empty()) {
+        Message& head = held_.front();
+        if (gone) {
+            forget(head);
+            held_.pop_front();
+            continue;
+        }
+        const std::size_t room = sink_->room();
+        if (room == 0)
+            break;
+        if (head.count() <= room) {
+            pass(head);
+            held_.pop_front();
+        } else {
+            // Only a batch is larger than the room: its head goes in, the rest waits, so that a
+            // strict queue's bound holds for batches too (as Session::deliver_within does).
+            const auto fits = static_cast<std::uint32_t>(room);
+            pass(first_records(head, fits));
+            head = without_first_records(head, fits);
+        }
+    }
+    if (!held_.empty()) {
+        room_seen_.store(0, std::memory_order_relaxed);
+        return true;
+    }
+    if (close_held_) {
+        close_held_ = false;
+        sink_->close_after_flush();
+    }
+    return false;
 }
 
 std::size_t ShardCrossing::refresh_room() {
-    const std::size_t room = sink_->room();
-    room_seen_.store(room, std::memory_order_relaxed);
-    if (room > in_flight_.load(std::memory_order_relaxed))
+    if (sink_->gone()) {
+        // Nothing will make room there: the source hears at once (its connection went with the
+        // port), and the shard lets go of this crossing, and with it the sink and what it holds.
         asking_.store(false, std::memory_order_release);
-    return room > in_flight_.load(std::memory_order_relaxed) ? room : 0;
+        return never_full_room;
+    }
+    const std::size_t room = held_.empty() ? sink_->room() : 0;
+    room_seen_.store(room, std::memory_order_relaxed);
+    const std::size_t allowed = room_for(room, in_flight_.load(std::memory_order_relaxed),
+                                         flight_bytes_.load(std::memory_order_relaxed));
+    if (allowed > 0)
+        asking_.store(false, std::memory_order_release);
+    return allowed;
 }
 
 void ShardCrossing::wake_source() {

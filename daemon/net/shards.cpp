@@ -39,6 +39,18 @@ void Shard::want_room(std::shared_ptr<ShardCrossing> crossing) {
     schedule_locked();
 }
 
+void Shard::hold(std::shared_ptr<ShardCrossing> crossing) {
+    holding_.push_back(std::move(crossing));
+    any_holding_.store(true, std::memory_order_release);
+}
+
+void Shard::release_held() {
+    if (holding_.empty())
+        return;
+    std::erase_if(holding_, [](const auto& crossing) { return !crossing->release_held(); });
+    any_holding_.store(!holding_.empty(), std::memory_order_release);
+}
+
 void Shard::schedule_locked() {
     if (scheduled_)
         return;
@@ -91,15 +103,27 @@ Task<bool> Shard::wait_for_space(std::chrono::steady_clock::duration timeout) {
 }
 
 void Shard::space_appeared() {
+    release_held();  // first: what waited longest goes in before writers woken now
     space_.notify();
     answer_room_requests();
 }
 
 void Shard::poke() {
+    // The room published before this call, against expect_space(): see there.
+    std::atomic_thread_fence(std::memory_order_seq_cst);
     // Read first: a drain on every thread would otherwise write this line on every call.
-    if (writers_waiting_.load(std::memory_order_acquire) &&
-        writers_waiting_.exchange(false, std::memory_order_acq_rel))
-        post([self = shared_from_this()] { self->space_.notify(); });
+    const bool writers = writers_waiting_.load(std::memory_order_acquire) &&
+                         writers_waiting_.exchange(false, std::memory_order_acq_rel);
+    // Crossings that hold messages or wait for room here are looked at again too: the port closed
+    // may be their sink's (ShardCrossing::release_held, refresh_room).
+    if (writers || any_holding_.load(std::memory_order_acquire) ||
+        any_room_wanted_.load(std::memory_order_acquire))
+        post([self = shared_from_this(), writers] {
+            self->release_held();
+            if (writers)
+                self->space_.notify();
+            self->answer_room_requests();
+        });
 }
 
 void Shard::start(ShardGates& gates) {
@@ -113,17 +137,28 @@ void Shard::start(ShardGates& gates) {
 }
 
 void Shard::stop() {
+    halt();
+    dispose();
+}
+
+void Shard::halt() {
     {
         std::lock_guard lock(mutex_);
         stopped_ = true;
         mail_.clear();
         room_wanted_.clear();
     }
-    if (!thread_.joinable())
+    if (thread_.joinable()) {
+        work_.reset();
+        io_->stop();
+        thread_.join();
+    }
+    holding_.clear();  // a crossing holds its shards: a cycle otherwise
+}
+
+void Shard::dispose() {
+    if (!own_io_)
         return;
-    work_.reset();
-    io_->stop();
-    thread_.join();
     // Coroutines parked on a Signal of this thread (sessions' loops) hold what they wait for:
     // destroyed now, as the control thread's are (Daemon::run), and then whatever else its
     // io_context holds, while the daemon they refer to still exists.
@@ -164,8 +199,12 @@ void Shards::stop() {
     started_ = false;
     // The control thread holds no gate between two handlers; the data threads finish theirs. The
     // control shard drops its mail too: a crossing in it holds its shard (a cycle otherwise).
+    // Every data thread stops before any io_context goes: one thread may hand work to another's
+    // (a slot freed on a reader's thread goes to its writer's, shm_region.hpp) until it stops.
     for (std::size_t n = shards_.size(); n-- > 0;)
-        shards_[n]->stop();
+        shards_[n]->halt();
+    for (std::size_t n = shards_.size(); n-- > 0;)
+        shards_[n]->dispose();
     if (this_thread_role == &control_role)
         this_thread_role = nullptr;
 }

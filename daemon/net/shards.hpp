@@ -44,23 +44,38 @@ public:
     void send(std::shared_ptr<ShardCrossing> crossing, Message message, bool close);
     /// `crossing` found no room: it is told again once its sink here has some.
     void want_room(std::shared_ptr<ShardCrossing> crossing);
+    /// On this shard's thread: `crossing` holds messages for a full sink here; they go in as room
+    /// appears (space_appeared()).
+    void hold(std::shared_ptr<ShardCrossing> crossing);
 
     /// On this shard's thread, before a writer looks for room: room appearing on another thread
-    /// from now on wakes this shard's writers (poke()).
-    void expect_space() { writers_waiting_.store(true, std::memory_order_release); }
+    /// from now on wakes this shard's writers (poke()). The fence pairs with poke()'s: either the
+    /// writer then sees the room published, or the thread that published it sees the writer
+    /// waiting (without them both could miss the other, and the writer would sleep until its
+    /// timeout). Only writers already held back come here.
+    void expect_space() {
+        writers_waiting_.store(true, std::memory_order_relaxed);
+        std::atomic_thread_fence(std::memory_order_seq_cst);
+    }
     /// On this shard's thread: waits at most `timeout` for room downstream; true if woken.
     Task<bool> wait_for_space(std::chrono::steady_clock::duration timeout);
-    /// On this shard's thread: room appeared here. Wakes its writers, and the crossings of other
-    /// shards that wait for room here.
+    /// On this shard's thread: room appeared here. Lets in what crossings hold, then wakes its
+    /// writers and the crossings of other shards that wait for room here.
     void space_appeared();
-    /// From another thread: wakes this shard's writers if some wait.
+    /// From another thread: wakes this shard's writers if some wait, and looks again at the
+    /// crossings that hold messages or wait for room here (a port closed on the control thread
+    /// may have been their sink).
     void poke();
 
     /// Starts the data thread (not for the control shard).
     void start(ShardGates& gates);
     /// Stops the data thread, waits for it, and destroys its io_context and what that still
-    /// holds (sessions that never closed), on the caller's thread.
+    /// holds (sessions that never closed), on the caller's thread: halt(), then dispose().
     void stop();
+    /// Stops the data thread and waits for it; its io_context stays (others may still post to it).
+    void halt();
+    /// Destroys the halted thread's io_context and what it holds.
+    void dispose();
 
 private:
     struct Mail {
@@ -71,6 +86,8 @@ private:
     /// On this shard's thread: hands over what was sent here, then answers room requests.
     void read_mail();
     void answer_room_requests();
+    /// On this shard's thread: what crossings hold goes in while it fits.
+    void release_held();
     /// Under mutex_: posts read_mail() unless it is posted already.
     void schedule_locked();
 
@@ -80,6 +97,8 @@ private:
     std::unique_ptr<asio::executor_work_guard<asio::io_context::executor_type>> work_;
     Signal space_;
     std::atomic<bool> writers_waiting_{false};
+    std::vector<std::shared_ptr<ShardCrossing>> holding_;  ///< this thread's: crossings that hold messages
+    std::atomic<bool> any_holding_{false};
     DaemonCounters counters_;
     ThreadRole role_;
     std::thread thread_;

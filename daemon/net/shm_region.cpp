@@ -47,10 +47,14 @@ proto::Result<std::shared_ptr<ShmRegion>> ShmRegion::create(std::uint64_t id, st
 }
 
 ShmRegion::~ShmRegion() {
+    // The last slot may go on any reader's thread: each reader hears of it on its own. Ids are
+    // never reused, so a reader that hears late cannot take a newer region for this one.
     for (auto& weak : readers_) {
         if (auto reader = weak.lock()) {
-            reader->outbox().forget_region(id_);
-            reader->send(proto::make_shm_number_frame(proto::FrameType::shm_region_gone, id_));
+            asio::dispatch(reader->executor(), [reader, id = id_] {
+                reader->outbox().forget_region(id);
+                reader->send(proto::make_shm_number_frame(proto::FrameType::shm_region_gone, id));
+            });
         }
     }
     if (data_) {
@@ -65,6 +69,7 @@ ShmRegion::~ShmRegion() {
 }
 
 void ShmRegion::add_reader(std::weak_ptr<FramedConnection> reader) {
+    std::lock_guard lock(readers_mutex_);
     std::erase_if(readers_, [](const std::weak_ptr<FramedConnection>& r) { return r.expired(); });
     readers_.push_back(std::move(reader));
 }
@@ -84,8 +89,12 @@ bool ShmRegion::seal_for_readers() {
 
 void ShmRegion::free(std::uint64_t offset) {
     --usage_->slots;
+    // Here on the writer's thread (at once), or on a reader's: then handed to the writer's.
     if (auto writer = writer_.lock())
-        writer->send(proto::make_shm_free_frame(id_, offset));
+        asio::dispatch(writer->executor(),
+                       [writer, frame = proto::make_shm_free_frame(id_, offset)]() mutable {
+                           writer->send(std::move(frame));
+                       });
 }
 
 Message copy_out_of_shm(const Message& message) {

@@ -1,5 +1,7 @@
 #pragma once
-// Threading: one io_context thread.
+// Threading: a region is made on its writer's thread; its slots are held and freed, and readers
+// added, on the threads of its readers too (`--threads`): what reaches a connection (the writer's
+// shm_free, a reader's shm_region_gone) is handed to that connection's own thread.
 //
 // Shared memory between a client and its local daemon, for large payloads (PROTOCOL.md, "Shared
 // memory"). The daemon creates a region per written port on the writer's request and sends it the
@@ -14,6 +16,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <vector>
 
 #include "../core/message.hpp"
@@ -57,16 +60,17 @@ public:
     }
 
     /// Remembers a connection the region was sent to, to tell it when the region is gone (and
-    /// forgets those already gone, so that a long-lived region does not collect them).
+    /// forgets those already gone, so that a long-lived region does not collect them). Any thread.
     void add_reader(std::weak_ptr<FramedConnection> reader);
     /// Makes sure no one can write into the region but through the writer's mapping, which it made
     /// when it got the region: seals future writes (F_SEAL_FUTURE_WRITE) the first time. Without
     /// it a reader could reopen its descriptor read-write through /proc. False if that cannot be
     /// done (the writer sealed the seals first): then payloads are copied out, never shared.
+    /// On the writer's thread.
     bool seal_for_readers();
     /// Counts a slot held by a message (see ShmSlot).
     void hold() { ++usage_->slots; }
-    /// The slot at `offset` is no longer held: tells the writer it is free again.
+    /// The slot at `offset` is no longer held: tells the writer it is free again. Any thread.
     void free(std::uint64_t offset);
 
 private:
@@ -81,6 +85,7 @@ private:
     const std::uint8_t* data_ = nullptr;
     std::weak_ptr<FramedConnection> writer_;
     std::shared_ptr<ShmUsage> usage_;
+    std::mutex readers_mutex_;  ///< readers on several data threads add themselves
     std::vector<std::weak_ptr<FramedConnection>> readers_;
     enum class ReaderSeal { unknown, sealed, impossible } reader_seal_ = ReaderSeal::unknown;
 };
