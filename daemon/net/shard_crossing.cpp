@@ -1,6 +1,7 @@
 #include "shard_crossing.hpp"
 
 #include <cstring>
+#include <limits>
 
 #include "../core/batch.hpp"
 #include "shards.hpp"
@@ -46,7 +47,9 @@ ShardCrossing::ShardCrossing(std::shared_ptr<Shard> source, std::shared_ptr<Shar
 std::size_t ShardCrossing::room_for(std::size_t seen, std::size_t flight, std::size_t bytes) {
     // Within the bytes, the slack counts whatever the room: a writer told less would cut its batch,
     // hold back, and wait for a wake-up that nobody owes it (deliver() asks only at 0).
-    const std::size_t allowed = bytes < slack_bytes ? seen + slack_messages : seen;
+    // A sink that is never full (a latest queue) has room without end: no sum past the largest.
+    const std::size_t slack = bytes < slack_bytes ? slack_messages : 0;
+    const std::size_t allowed = seen > std::numeric_limits<std::size_t>::max() - slack ? seen : seen + slack;
     return flight < allowed ? allowed - flight : 0;
 }
 

@@ -144,6 +144,10 @@ TEST(Reconnect_test, AStreamResumesByItselfAfterItsDaemonIsKilledAndStartedAgain
     EXPECT_EQ(source.dropped_while_disconnected(), 0u);
 
     const std::vector<ConnectionState> expected{ConnectionState::disconnected, ConnectionState::reconnected};
+    // The held messages go out before the reconnection is announced (DaemonLink::restore, then
+    // announce): a reader can have them all while the writer's thread has yet to say so.
+    EXPECT_TRUE(eventually([&] { return writer_states.states().size() >= expected.size(); }));
+    EXPECT_TRUE(eventually([&] { return reader_states.states().size() >= expected.size(); }));
     EXPECT_EQ(writer_states.states(), expected);
     EXPECT_EQ(reader_states.states(), expected);
     EXPECT_EQ(writing.state(), ConnectionState::reconnected);
