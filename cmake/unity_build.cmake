@@ -7,7 +7,8 @@
 #
 # A batch puts files side by side in one unit: two files of a target cannot both define the same
 # name in an anonymous namespace or as a static function. Keep such helpers named after their file
-# or in a named namespace; a build with -DPLEXUS_UNITY_BUILD=ON finds a clash at once.
+# or in a named namespace (each integration test file's code is in a namespace named after the
+# file); a build with -DPLEXUS_UNITY_BUILD=ON finds a clash at once.
 
 option(PLEXUS_UNITY_BUILD "Compile each target's sources in batches (faster full builds, slower edits)" OFF)
 if(PLEXUS_UNITY_BUILD)

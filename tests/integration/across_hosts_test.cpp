@@ -6,7 +6,7 @@
 #include "netns.hpp"
 
 namespace plexus::test {
-namespace {
+namespace across_hosts_test {
 
 using nlohmann::json;
 
@@ -88,5 +88,5 @@ TEST(AcrossHosts_test, WithNoNameServerToFindTheDefaultIsUsedAndSaidSo) {
     EXPECT_EQ(asked.out(), "127.0.0.1:10100 (the default; no name server answered on 239.255.80.88:10101)\n");
 }
 
-}  // namespace
+}  // namespace across_hosts_test
 }  // namespace plexus::test

@@ -11,7 +11,7 @@
 #include "harness.hpp"
 
 namespace plexus::test {
-namespace {
+namespace apps_test {
 
 /// The state directory `up` uses for a daemon: beside its socket.
 std::string apps_dir(const Daemon& daemon) {
@@ -287,5 +287,5 @@ TEST(Apps_test, ComponentsOfAnotherNodeStartUnderItsDaemonWithNodeSocket) {
     EXPECT_EQ(carrier_of(dir, alpha, "/demo/sensor/out", "/demo/sink/in"), "");
 }
 
-}  // namespace
+}  // namespace apps_test
 }  // namespace plexus::test

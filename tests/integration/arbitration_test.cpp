@@ -13,7 +13,7 @@
 #include "harness.hpp"
 
 namespace plexus::test {
-namespace {
+namespace arbitration_test {
 
 using nlohmann::json;
 
@@ -395,5 +395,5 @@ TEST(Arbitration_test, ConnectRefusesBadConstraintsAndInconsistentWeightsLeaving
     EXPECT_EQ(frames[1]["connections"].size(), 2u);
 }
 
-}  // namespace
+}  // namespace arbitration_test
 }  // namespace plexus::test

@@ -9,7 +9,7 @@
 #include "netns.hpp"
 
 namespace plexus::test {
-namespace {
+namespace bench_bridges_test {
 
 TEST(BenchBridges_test, EveryLinkAndSizeHasADirectAndABridgedFigure) {
     PLEXUS_NEEDS_NETNS();
@@ -31,5 +31,5 @@ TEST(BenchBridges_test, EveryLinkAndSizeHasADirectAndABridgedFigure) {
                         {"dds", 64}, {"dds", 65536}, {"mqtt", 64}, {"mqtt", 65536}}));
 }
 
-}  // namespace
+}  // namespace bench_bridges_test
 }  // namespace plexus::test

@@ -9,7 +9,7 @@
 #include "netns.hpp"
 
 namespace plexus::test {
-namespace {
+namespace bench_calls_test {
 
 struct BenchRun {
     int status = -1;
@@ -73,5 +73,5 @@ TEST(BenchCalls_test, AcrossHostsEverySizeHasPlexusAndBothFloors) {
     }
 }
 
-}  // namespace
+}  // namespace bench_calls_test
 }  // namespace plexus::test

@@ -9,7 +9,7 @@
 #include "netns.hpp"
 
 namespace plexus::test {
-namespace {
+namespace bench_hosts_test {
 
 TEST(BenchHosts_test, EveryPartRunsAndMcastSendsOneCopy) {
     PLEXUS_NEEDS_NETNS();
@@ -54,5 +54,5 @@ TEST(BenchHosts_test, EveryPartRunsAndMcastSendsOneCopy) {
     EXPECT_TRUE(seen.count("hosts_connect tcp plexus_insecure"));
 }
 
-}  // namespace
+}  // namespace bench_hosts_test
 }  // namespace plexus::test

@@ -8,7 +8,7 @@
 #include "harness.hpp"
 
 namespace plexus::test {
-namespace {
+namespace bench_monitor_test {
 
 /// Runs plexus-bench with `arguments` (--json among them) to its end; its rows, none if it failed.
 std::vector<nlohmann::json> bench_rows(const std::vector<std::string>& arguments) {
@@ -65,5 +65,5 @@ TEST(BenchStreams_test, EveryRowDeliversItsStreamsAndSaysWhatTheDaemonSpent) {
     EXPECT_EQ(rows, (std::set<std::pair<int, int>>{{1, 1}, {1, 3}, {1, 40}, {2, 1}, {2, 3}, {2, 40}}));
 }
 
-}  // namespace
+}  // namespace bench_monitor_test
 }  // namespace plexus::test

@@ -15,7 +15,7 @@
 #include "harness.hpp"
 
 namespace plexus::test {
-namespace {
+namespace bench_peers_test {
 
 TEST(BenchPeers_test, EveryScenarioAndSizeRunsOnPlexusWithoutLoss) {
     TempDir dir;
@@ -129,5 +129,5 @@ TEST(BenchPeers_test, AnUnknownSystemIsRefusedNamingWhatIsBuilt) {
     EXPECT_NE(bench.err().find("plexus"), std::string::npos) << bench.err();
 }
 
-}  // namespace
+}  // namespace bench_peers_test
 }  // namespace plexus::test

@@ -18,7 +18,7 @@
 #include "plexus/client.hpp"
 
 namespace plexus::test {
-namespace {
+namespace bridge_mqtt_test {
 
 using nlohmann::json;
 
@@ -467,5 +467,5 @@ TEST(BridgeMqtt_test, UsageMistakesExitTwoNamingTheFlag) {
     }
 }
 
-}  // namespace
+}  // namespace bridge_mqtt_test
 }  // namespace plexus::test

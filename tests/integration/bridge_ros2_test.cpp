@@ -11,7 +11,7 @@
 #include "netns.hpp"
 
 namespace plexus::test {
-namespace {
+namespace bridge_ros2_test {
 
 std::string bridge_path() {
     return PLEXUS_BRIDGE_PATH;
@@ -303,5 +303,5 @@ TEST(BridgeRos2_test, ASixMegabyteImageGoesThroughPlexusAndBackByteIdentical) {
         EXPECT_EQ(line, expected) << "every copy is the image, byte for byte";
 }
 
-}  // namespace
+}  // namespace bridge_ros2_test
 }  // namespace plexus::test

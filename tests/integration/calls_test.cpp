@@ -16,7 +16,7 @@
 #include "plexus/client.hpp"
 
 namespace plexus::test {
-namespace {
+namespace calls_test {
 
 using nlohmann::json;
 
@@ -338,5 +338,5 @@ TEST(Calls_test, TenThousandConcurrentCallsFromTenCallersEachEndOnceAndMemoryCom
 #endif
 }
 
-}  // namespace
+}  // namespace calls_test
 }  // namespace plexus::test

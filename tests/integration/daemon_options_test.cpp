@@ -10,7 +10,7 @@
 #include "harness.hpp"
 
 namespace plexus::test {
-namespace {
+namespace daemon_options_test {
 
 const std::vector<std::string> bad_values{"-5",
                                           "-1",
@@ -99,5 +99,5 @@ TEST(DaemonOptions_test, AnUnknownLogLevelIsRefused) {
     }
 }
 
-}  // namespace
+}  // namespace daemon_options_test
 }  // namespace plexus::test

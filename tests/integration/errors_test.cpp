@@ -4,7 +4,7 @@
 #include "harness.hpp"
 
 namespace plexus::test {
-namespace {
+namespace errors_test {
 
 class Errors_test : public ::testing::Test {
 protected:
@@ -100,5 +100,5 @@ TEST_F(Errors_test, DisconnectingWhatIsNotConnectedIsANoAnswer) {
     EXPECT_EQ(cli({"disconnect", "/a", "/b"}).status, 1);
 }
 
-}  // namespace
+}  // namespace errors_test
 }  // namespace plexus::test

@@ -17,7 +17,7 @@
 #include "plexus/client.hpp"
 
 namespace plexus::test {
-namespace {
+namespace fetch_test {
 
 using Clock = std::chrono::steady_clock;
 using nlohmann::json;
@@ -296,5 +296,5 @@ TEST(FetchTwoDaemons_test, SensorsOnOneNodeAndActuatorsOnAnotherBehaveTheSame) {
     std::printf("[ two daemons ] two full cycles: %s\n", phases.history().c_str());
 }
 
-}  // namespace
+}  // namespace fetch_test
 }  // namespace plexus::test

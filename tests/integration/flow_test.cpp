@@ -15,7 +15,7 @@
 #include "plexus/client.hpp"
 
 namespace plexus::test {
-namespace {
+namespace flow_test {
 
 nlohmann::json port_stats(Client& client, const std::string& port) {
     auto stats = client.stats(port);
@@ -260,5 +260,5 @@ TEST(Flow_test, ASubscriptionCallsBackForEveryMessage) {
     EXPECT_EQ(seen, (std::vector<std::uint64_t>{1, 2, 3}));
 }
 
-}  // namespace
+}  // namespace flow_test
 }  // namespace plexus::test

@@ -26,7 +26,7 @@
 #include "plexus/client.hpp"
 
 namespace plexus::test {
-namespace {
+namespace host_failures_test {
 
 using Clock = std::chrono::steady_clock;
 using nlohmann::json;
@@ -336,5 +336,5 @@ TEST(HostFailures_test, ACableCutForAMinuteHealsAndPersistentConnectionsComeBack
     EXPECT_LT(ms_since(healed_at, *udp_back), 30000);
 }
 
-}  // namespace
+}  // namespace host_failures_test
 }  // namespace plexus::test

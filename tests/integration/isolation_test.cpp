@@ -21,7 +21,7 @@
 #include "plexus/client.hpp"
 
 namespace plexus::test {
-namespace {
+namespace isolation_test {
 
 using namespace std::chrono_literals;
 using Clock = std::chrono::steady_clock;
@@ -352,5 +352,5 @@ TEST(Isolation_test, AHundredThousandMessagesThroughAMonitorArriveInOrderBesideO
     EXPECT_EQ(inbound["dropped_by_accept"], 0);
 }
 
-}  // namespace
+}  // namespace isolation_test
 }  // namespace plexus::test

@@ -18,7 +18,7 @@
 
 #include "harness.hpp"
 
-namespace {
+namespace leaving_test {
 
 using namespace plexus::test;
 
@@ -240,4 +240,4 @@ TEST(Leaving_test, UpKilledPartWayLeavesNothingTheNextUpAndDownCannotMend) {
     EXPECT_FALSE(std::filesystem::exists(daemon.socket())) << "the socket file stays after SIGTERM";
 }
 
-}  // namespace
+}  // namespace leaving_test

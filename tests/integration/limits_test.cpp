@@ -11,7 +11,7 @@
 #include "plexus/client.hpp"
 
 namespace plexus::test {
-namespace {
+namespace limits_test {
 
 constexpr std::size_t small_frame = 1024 * 1024;
 
@@ -111,5 +111,5 @@ TEST(Limits_test, ValuesNestedDeeperThanEveryReaderDecodesAreRefusedWhereTheyEnt
     EXPECT_EQ(run_cli(dir, daemon, {"list"}).status, 0);
 }
 
-}  // namespace
+}  // namespace limits_test
 }  // namespace plexus::test

@@ -14,7 +14,7 @@
 #include "plexus/client.hpp"
 
 namespace plexus::test {
-namespace {
+namespace loans_test {
 
 constexpr std::size_t mib = 1024 * 1024;
 
@@ -233,5 +233,5 @@ TEST(Loans_test, ClientsKilledWithLoansAndViewsOutstandingGiveEverySlotAndRegion
     EXPECT_EQ(daemon_counter(observer, "shm_bytes"), 0u);
 }
 
-}  // namespace
+}  // namespace loans_test
 }  // namespace plexus::test

@@ -6,7 +6,7 @@
 #include "netns.hpp"
 
 namespace plexus::test {
-namespace {
+namespace mcast_test {
 
 using nlohmann::json;
 
@@ -108,5 +108,5 @@ TEST(Mcast_test, MonitorsOfOnePortsMcastConnectionsMustAgree) {
     EXPECT_EQ(writer.finish(), 0) << writer.process().err();
 }
 
-}  // namespace
+}  // namespace mcast_test
 }  // namespace plexus::test

@@ -9,7 +9,7 @@
 #include "harness.hpp"
 
 namespace plexus::test {
-namespace {
+namespace memory_test {
 
 // 20 streams whose readers stall fill their strict queues with 4 KiB messages (1,024 each, ~80 MiB
 // in all); then every reader and writer goes. plexusd kept ~all of it for good (226 MiB after 50
@@ -60,5 +60,5 @@ TEST(Memory_test, MemoryFilledByStalledReadersReturnsOnceTheirPortsClose) {
         << peak_kib << " KiB)";
 }
 
-}  // namespace
+}  // namespace memory_test
 }  // namespace plexus::test

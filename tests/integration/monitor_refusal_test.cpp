@@ -9,7 +9,7 @@
 #include "harness.hpp"
 
 namespace plexus::test {
-namespace {
+namespace monitor_refusal_test {
 
 void write_script(const TempDir& dir, const std::string& name, const std::string& code) {
     std::ofstream(dir.file("scripts/" + name + ".lua")) << code;
@@ -82,5 +82,5 @@ TEST(MonitorRefusal_test, ShippedExampleExplainsAMissingCondition) {
     EXPECT_NE(refused.err.find("give equals.VALUE, below.X or above.X"), std::string::npos) << refused.err;
 }
 
-}  // namespace
+}  // namespace monitor_refusal_test
 }  // namespace plexus::test

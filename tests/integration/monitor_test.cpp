@@ -12,7 +12,7 @@
 #include "harness.hpp"
 
 namespace plexus::test {
-namespace {
+namespace monitor_test {
 
 using nlohmann::json;
 
@@ -402,5 +402,5 @@ TEST(Monitor_test, HostileMonitorsAreQuarantinedWhileOtherConnectionsKeepFlowing
     }
 }
 
-}  // namespace
+}  // namespace monitor_test
 }  // namespace plexus::test

@@ -11,7 +11,7 @@
 #include "netns.hpp"
 
 namespace plexus::test {
-namespace {
+namespace names_registrations_test {
 
 using nlohmann::json;
 
@@ -120,5 +120,5 @@ TEST(NamesRegistrations_test, ADaemonListeningOnEveryInterfaceIsReachedFromAnoth
     EXPECT_EQ(reader.out(), "\"across\"\n");
 }
 
-}  // namespace
+}  // namespace names_registrations_test
 }  // namespace plexus::test

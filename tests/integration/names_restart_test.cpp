@@ -11,7 +11,7 @@
 #include "netns.hpp"
 
 namespace plexus::test {
-namespace {
+namespace names_restart_test {
 
 using nlohmann::json;
 
@@ -76,5 +76,5 @@ TEST(NamesRestart_test, KillingTheNameServerLosesNoDataAndRegistrationsReturn) {
     EXPECT_EQ(writer.finish(), 0) << writer.process().err();
 }
 
-}  // namespace
+}  // namespace names_restart_test
 }  // namespace plexus::test

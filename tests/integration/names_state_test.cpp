@@ -8,7 +8,7 @@
 #include "harness.hpp"
 
 namespace plexus::test {
-namespace {
+namespace names_state_test {
 
 struct Damage {
     std::string name;
@@ -53,5 +53,5 @@ INSTANTIATE_TEST_SUITE_P(Damages, NamesState_test,
                                            Damage{"Garbage", "\x01\x02 not json", "is not valid JSON"}),
                          [](const ::testing::TestParamInfo<Damage>& info) { return info.param.name; });
 
-}  // namespace
+}  // namespace names_state_test
 }  // namespace plexus::test

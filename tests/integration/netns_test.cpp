@@ -18,7 +18,7 @@
 #include "netns.hpp"
 
 namespace plexus::test {
-namespace {
+namespace netns_test {
 
 using nlohmann::json;
 
@@ -238,5 +238,5 @@ TEST(Netns_test, ARecvMonitorRunsOnAConnectionBetweenHosts) {
     EXPECT_EQ(writer.finish(), 0) << writer.process().err();
 }
 
-}  // namespace
+}  // namespace netns_test
 }  // namespace plexus::test

@@ -10,7 +10,7 @@
 #include "harness.hpp"
 
 namespace plexus::test {
-namespace {
+namespace param_carrier_test {
 
 using nlohmann::json;
 
@@ -101,5 +101,5 @@ INSTANTIATE_TEST_SUITE_P(LocalThroughALinkAndAcrossDaemons, ParamCarrier_test,
                                     (info.param.two_daemons ? "_two_daemons" : "_one_daemon");
                          });
 
-}  // namespace
+}  // namespace param_carrier_test
 }  // namespace plexus::test

@@ -7,7 +7,7 @@
 #include "harness.hpp"
 
 namespace plexus::test {
-namespace {
+namespace persist_test {
 
 bool connection_listed(const TempDir& dir, const Daemon& daemon, const std::string& state) {
     auto list = run_cli(dir, daemon, {"list", "--json"});
@@ -74,5 +74,5 @@ TEST(Persist_test, TheNameServerKeepsPersistentConnectionsAcrossARestart) {
     EXPECT_EQ(disconnected.status, 4) << "disconnect needs the source port to exist: " << disconnected.err;
 }
 
-}  // namespace
+}  // namespace persist_test
 }  // namespace plexus::test

@@ -8,7 +8,7 @@
 #include "harness.hpp"
 
 namespace plexus::test {
-namespace {
+namespace plugin_monitor_test {
 
 using nlohmann::json;
 
@@ -199,5 +199,5 @@ TEST(PluginMonitor_test, ThrowingPluginIsContainedCountedAndTheDaemonGoesOn) {
     EXPECT_EQ(writer.finish(), 0);
 }
 
-}  // namespace
+}  // namespace plugin_monitor_test
 }  // namespace plexus::test

@@ -27,7 +27,7 @@
 #include "plexus/client.hpp"
 
 namespace plexus::test {
-namespace {
+namespace priority_test {
 
 using Clock = std::chrono::steady_clock;
 
@@ -289,5 +289,5 @@ TEST_P(Priority_test, AMarkedControlStreamKeepsItsLatencyOnASaturatedLinkAndAnUn
 
 INSTANTIATE_TEST_SUITE_P(Carriers, Priority_test, ::testing::Values("tcp", "udp"));
 
-}  // namespace
+}  // namespace priority_test
 }  // namespace plexus::test

@@ -16,7 +16,7 @@
 #include "harness.hpp"
 #include "plexus/client.hpp"
 
-namespace {
+namespace reconnect_test {
 
 using namespace plexus;
 using namespace plexus::test;
@@ -195,4 +195,4 @@ TEST(Reconnect_test, AClientWhoseDaemonNeverReturnsKeepsWritesBoundedAndSaysWhyR
                 std::chrono::duration<double, std::milli>(took).count());
 }
 
-}  // namespace
+}  // namespace reconnect_test

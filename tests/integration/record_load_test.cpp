@@ -15,7 +15,7 @@
 #include "plexus/recording.hpp"
 
 namespace plexus::test {
-namespace {
+namespace record_load_test {
 
 /// Bytes zstd cannot shrink at all.
 std::vector<std::uint8_t> random_bytes(std::size_t size) {
@@ -209,5 +209,5 @@ TEST(Record_load_test, AFullDiskEndsTheRecordingWithAClearErrorAValidFileAndTheD
     EXPECT_FALSE(recording.end_note().empty());
 }
 
-}  // namespace
+}  // namespace record_load_test
 }  // namespace plexus::test

@@ -14,7 +14,7 @@
 #include "recordings.hpp"
 
 namespace plexus::test {
-namespace {
+namespace record_test {
 
 std::string detector_path() {
     return PLEXUS_DETECTOR_PATH;
@@ -432,5 +432,5 @@ TEST(Record_test, ARecordingOnAnotherNodeEndsWhenItsClientStopsAsking) {
     EXPECT_EQ(Recording::open(file_b).end_note()["reason"], "its client went away");
 }
 
-}  // namespace
+}  // namespace record_test
 }  // namespace plexus::test

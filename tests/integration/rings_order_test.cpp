@@ -15,7 +15,7 @@
 #include "plexus/client.hpp"
 
 namespace plexus::test {
-namespace {
+namespace rings_order_test {
 
 constexpr int streams = 4;
 constexpr std::uint32_t per_stream = 6000;
@@ -138,5 +138,5 @@ TEST(RingsOrder_test, SmallRingsCarryLargeFramesInPieces) {
     run_streams(daemon);
 }
 
-}  // namespace
+}  // namespace rings_order_test
 }  // namespace plexus::test

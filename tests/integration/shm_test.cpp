@@ -12,7 +12,7 @@
 #include "plexus/client.hpp"
 
 namespace plexus::test {
-namespace {
+namespace shm_test {
 
 constexpr std::size_t mib = 1024 * 1024;
 
@@ -312,5 +312,5 @@ TEST(Shm_test, ADaemonWithSharedMemoryOffStillCarriesLargeBlobs) {
     EXPECT_EQ(daemon_counter(writer, "shm_passed"), 0u);
 }
 
-}  // namespace
+}  // namespace shm_test
 }  // namespace plexus::test

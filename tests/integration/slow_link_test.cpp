@@ -10,7 +10,7 @@
 #include "netns.hpp"
 
 namespace plexus::test {
-namespace {
+namespace slow_link_test {
 
 using nlohmann::json;
 using SteadyClock = std::chrono::steady_clock;
@@ -119,5 +119,5 @@ TEST_F(SlowLink_test, LatestKeepsTheReadersLatencyBounded) {
     EXPECT_EQ(writer.finish(), 0) << writer.process().err();
 }
 
-}  // namespace
+}  // namespace slow_link_test
 }  // namespace plexus::test

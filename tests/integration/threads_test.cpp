@@ -16,7 +16,7 @@
 #include "plexus/client.hpp"
 
 namespace plexus::test {
-namespace {
+namespace threads_test {
 
 constexpr int writers = 3;
 constexpr int readers = 3;
@@ -173,5 +173,5 @@ TEST(Threads_test, ConnectionsComeAndGoWhileDataCrossesThreads) {
     EXPECT_EQ(control.stats()["daemon"]["protocol_errors"].get<std::uint64_t>(), 0u);
 }
 
-}  // namespace
+}  // namespace threads_test
 }  // namespace plexus::test

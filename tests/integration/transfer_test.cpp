@@ -8,7 +8,7 @@
 #include "plexus/client.hpp"
 
 namespace plexus::test {
-namespace {
+namespace transfer_test {
 
 TEST(Transfer_test, TenThousandMessagesThroughOneDaemonArriveInOrder) {
     TempDir dir;
@@ -210,5 +210,5 @@ TEST(Transfer_test, AStreamMixingLargeAndSmallMessagesArrivesWholeAndInOrder) {
     }
 }
 
-}  // namespace
+}  // namespace transfer_test
 }  // namespace plexus::test

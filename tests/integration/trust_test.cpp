@@ -20,7 +20,7 @@
 #include "plexus/proto/hello.hpp"
 
 namespace plexus::test {
-namespace {
+namespace trust_test {
 
 using nlohmann::json;
 
@@ -155,5 +155,5 @@ TEST_F(Trust_test, AHostWithoutTheSecretCannotAskRegisterConnectOrForgeAnAttach)
     EXPECT_TRUE(parsed["ports"][0]["inbound"].empty()) << stats.out;
 }
 
-}  // namespace
+}  // namespace trust_test
 }  // namespace plexus::test

@@ -20,7 +20,7 @@
 #include "plexus/client.hpp"
 
 namespace plexus::test {
-namespace {
+namespace udp_faults_test {
 
 using nlohmann::json;
 
@@ -441,5 +441,5 @@ TEST(UdpFaults_test, ACutCableHealsWithoutReconnectingAndUdpCountsWhatItLost) {
     }));
 }
 
-}  // namespace
+}  // namespace udp_faults_test
 }  // namespace plexus::test

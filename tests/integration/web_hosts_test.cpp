@@ -8,7 +8,7 @@
 #include "web_paths.hpp"
 
 namespace plexus::test {
-namespace {
+namespace web_hosts_test {
 
 using nlohmann::json;
 
@@ -93,5 +93,5 @@ TEST(WebHosts_test, ThePageOfOneDaemonShowsTheOtherDaemonsPortsAndCountersOnlyWi
     EXPECT_GE(stats["http"]["refused"]["token"].get<int>(), 2) << stats["http"];
 }
 
-}  // namespace
+}  // namespace web_hosts_test
 }  // namespace plexus::test

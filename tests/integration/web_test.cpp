@@ -15,7 +15,7 @@
 #include "web_paths.hpp"
 
 namespace plexus::test {
-namespace {
+namespace web_test {
 
 using nlohmann::json;
 
@@ -334,5 +334,5 @@ TEST(Web_test, TheBrowserShowsTheGazeDemoAndTheWinnerChangingWhenTheObjectDetect
     std::cout << "screenshot: " << artefacts << "/web-page.png\n";
 }
 
-}  // namespace
+}  // namespace web_test
 }  // namespace plexus::test

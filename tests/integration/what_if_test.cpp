@@ -12,7 +12,7 @@
 #include "plexus/proto/operations.hpp"
 
 namespace plexus::test {
-namespace {
+namespace what_if_test {
 
 std::string detector_path() {
     return PLEXUS_DETECTOR_PATH;
@@ -119,5 +119,5 @@ TEST(WhatIf_test, TheCertaintyMonitorsEventsComeOutAsRecorded) {
     EXPECT_EQ(summary.value("changed", -1), 0) << same.out;
 }
 
-}  // namespace
+}  // namespace what_if_test
 }  // namespace plexus::test

@@ -10,7 +10,7 @@
 #include "harness.hpp"
 
 namespace plexus::test {
-namespace {
+namespace yarp_style_test {
 
 using nlohmann::json;
 
@@ -135,5 +135,5 @@ TEST(YarpStyle_test, RequireOfAnythingButYarpRefusesTheConnect) {
     EXPECT_NE(refused.err.find("only require(\"yarp\")"), std::string::npos) << refused.err;
 }
 
-}  // namespace
+}  // namespace yarp_style_test
 }  // namespace plexus::test

@@ -10,7 +10,7 @@
 #include "plexus/proto/message.hpp"
 
 namespace plexus::test::hostile {
-namespace {
+namespace calls_test {
 
 using proto::CallOutcome;
 
@@ -533,5 +533,5 @@ TEST(Calls_test, AMalformedCallOrAnswerIsAProtocolError) {
     expect_unharmed(daemon, rss_before);
 }
 
-}  // namespace
+}  // namespace calls_test
 }  // namespace plexus::test::hostile

@@ -3,7 +3,7 @@
 #include "hostile_peer.hpp"
 
 namespace plexus::test::hostile {
-namespace {
+namespace everything_test {
 
 // ---------------------------------------------------------------------------------------------
 // Everyone else
@@ -82,5 +82,5 @@ TEST(Hostile_test, AfterTheAttackTheDaemonStillServesOldAndNewClients) {
     EXPECT_TRUE(daemon.process().running());
 }
 
-}  // namespace
+}  // namespace everything_test
 }  // namespace plexus::test::hostile

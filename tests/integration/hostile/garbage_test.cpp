@@ -3,7 +3,7 @@
 #include "hostile_peer.hpp"
 
 namespace plexus::test::hostile {
-namespace {
+namespace garbage_test {
 
 // ---------------------------------------------------------------------------------------------
 // Random bytes and truncated frames
@@ -144,5 +144,5 @@ TEST(Hostile_test, AHelloOfAnotherVersionIsRefusedNamingBothVersions) {
     expect_everyone_still_served(daemon);
 }
 
-}  // namespace
+}  // namespace garbage_test
 }  // namespace plexus::test::hostile

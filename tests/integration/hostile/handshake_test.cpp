@@ -6,7 +6,7 @@
 #include "hostile_peer.hpp"
 
 namespace plexus::test::hostile {
-namespace {
+namespace handshake_test {
 
 /// A daemon with an embedded name server whose handshake timeout (the name server's too) is 300 ms.
 std::vector<std::string> with_handshake_timeout(const TempDir& dir) {
@@ -62,5 +62,5 @@ TEST(Hostile_test, AStandaloneNameServerCutsOffAPeerThatSaysNothing) {
     EXPECT_NE(log.find("no hello within 300 ms of connecting: cut off"), std::string::npos) << log;
 }
 
-}  // namespace
+}  // namespace handshake_test
 }  // namespace plexus::test::hostile

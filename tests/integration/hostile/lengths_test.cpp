@@ -3,7 +3,7 @@
 #include "hostile_peer.hpp"
 
 namespace plexus::test::hostile {
-namespace {
+namespace lengths_test {
 
 // ---------------------------------------------------------------------------------------------
 // Lengths that lie
@@ -120,5 +120,5 @@ TEST(Hostile_test, LengthsJustUnderTheLimitDoNotCostTheirSizeInMemoryWhileNoBody
     expect_everyone_still_served(daemon);
 }
 
-}  // namespace
+}  // namespace lengths_test
 }  // namespace plexus::test::hostile

@@ -3,7 +3,7 @@
 #include "hostile_peer.hpp"
 
 namespace plexus::test::hostile {
-namespace {
+namespace links_test {
 
 // ---------------------------------------------------------------------------------------------
 // A peer that passes the hello and then lies inside a data frame
@@ -128,5 +128,5 @@ TEST(Hostile_test, ABrokenBatchIsRefusedWholeAndTheReaderSeesNoneOfIt) {
     EXPECT_TRUE(daemon.process().running());
 }
 
-}  // namespace
+}  // namespace links_test
 }  // namespace plexus::test::hostile

@@ -3,7 +3,7 @@
 #include "hostile_peer.hpp"
 
 namespace plexus::test::hostile {
-namespace {
+namespace requests_test {
 
 // ---------------------------------------------------------------------------------------------
 // Requests that are malformed, or well-formed and wrong
@@ -140,5 +140,5 @@ TEST(Hostile_test, NameServerRequestsWithWrongTypedFlagsAreRefused) {
     expect_everyone_still_served(daemon);
 }
 
-}  // namespace
+}  // namespace requests_test
 }  // namespace plexus::test::hostile

@@ -8,7 +8,7 @@
 #include "ring_checks.hpp"
 
 namespace plexus::test::hostile {
-namespace {
+namespace rings_test {
 
 // ---------------------------------------------------------------------------------------------
 // The protocol as documented
@@ -298,5 +298,5 @@ TEST(HostileRings_test, EachClientGetsARegionOfItsOwnSealedAgainstResizing) {
     expect_others_served(dir, daemon, good, 0, 3);
 }
 
-}  // namespace
+}  // namespace rings_test
 }  // namespace plexus::test::hostile

@@ -9,7 +9,7 @@
 #include "ring_checks.hpp"
 
 namespace plexus::test::hostile {
-namespace {
+namespace rings_wake_test {
 
 // ---------------------------------------------------------------------------------------------
 // Peers that stall, and peers that wake the daemon for nothing
@@ -226,5 +226,5 @@ TEST(HostileRings_test, WakeUpsTheClientClosedCannotKillTheDaemon) {
     expect_others_served(dir, daemon, good, 0, 2);
 }
 
-}  // namespace
+}  // namespace rings_wake_test
 }  // namespace plexus::test::hostile

@@ -3,7 +3,7 @@
 #include "hostile_peer.hpp"
 
 namespace plexus::test::hostile {
-namespace {
+namespace shm_test {
 
 // ---------------------------------------------------------------------------------------------
 // Shared memory
@@ -214,5 +214,5 @@ TEST(Hostile_test, SharedMemoryIsOnlyForClientsOnTheUnixSocket) {
         << reply->body.dump();
 }
 
-}  // namespace
+}  // namespace shm_test
 }  // namespace plexus::test::hostile
