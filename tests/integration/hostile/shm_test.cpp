@@ -119,12 +119,17 @@ TEST(Hostile_test, AReaderThatNeverReleasesSharedMemoryIsCutOffAndTheSlotsComeBa
     Bytes many;
     for (int i = 0; i < 4096; ++i)
         many.insert(many.end(), one.begin(), one.end());
-    const std::size_t rounds = (std::size_t{1} << 18) / 4096 + 2;
-    for (std::size_t i = 0; i < rounds; ++i) {
-        if (!writer.send(many, Clock::now() + 60s))
-            break;
-    }
+    // One message more than the daemon lets a reader hold (Outbox::max_lent, 2^18), and no more:
+    // cutting the reader off frees every slot reference at once, and each free is a frame for
+    // the writer, which never reads them, so the daemon stops reading this writer (as it must:
+    // Session::frees_pile_up). Messages sent after the cut would wait for its 60 s deadline.
+    const std::size_t rounds = (std::size_t{1} << 18) / 4096;
+    bool sent = true;
+    for (std::size_t i = 0; sent && i < rounds; ++i)
+        sent = writer.send(many, Clock::now() + 60s);
+    sent = sent && writer.send(one, Clock::now() + 60s);
     reading.join();
+    EXPECT_TRUE(sent) << "the daemon stopped reading the writer before the reader was cut off";
 
     EXPECT_NE(reader.end(), End::timeout) << "the reader holding every slot reference was not cut off";
     writer.close();
