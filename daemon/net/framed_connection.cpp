@@ -1,5 +1,6 @@
 #include "framed_connection.hpp"
 
+#include <array>
 #include <netinet/in.h>
 #include <poll.h>
 #include <sys/socket.h>
@@ -229,6 +230,21 @@ Task<void> FramedConnection::read_loop() {
             break;
         if (!co_await on_frame(std::move(frame)))
             break;
+    }
+    if (draining_ && !closed_)
+        co_await discard_until_peer_closes();
+}
+
+Task<void> FramedConnection::discard_until_peer_closes() {
+    std::array<std::uint8_t, 4096> scratch{};
+    while (!closed_) {
+        auto [error, n] = co_await socket_.async_read_some(asio::buffer(scratch), use_nothrow);
+        if (closed_)
+            co_return;
+        if (error) {
+            close(error == asio::error::eof ? "peer closed after the error" : error.message());
+            co_return;
+        }
     }
 }
 

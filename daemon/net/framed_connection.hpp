@@ -122,6 +122,9 @@ private:
     /// Drops the first `sent` bytes from `buffers`.
     static void consume(std::vector<asio::const_buffer>& buffers, std::size_t sent);
     Task<void> close_after(std::chrono::steady_clock::duration grace);
+    /// After a failure, while the error frame drains: reads and drops what the peer still sends,
+    /// so that its close ends the session (and frees its ports) at once rather than after the grace.
+    Task<void> discard_until_peer_closes();
     /// Cuts the peer off if its handshake is not over within handshake_timeout_.
     Task<void> watch_handshake();
     /// The peer's hello arrived: checks it, sends our proof when a secret is needed. False when the

@@ -81,6 +81,7 @@ TEST(Hostile_test, SharedMemoryFramesThatLieAreRefusedAndOthersAreUnharmed) {
         ASSERT_TRUE(hostile.send(lie.make(handle, region, size)));
         const auto frames = hostile.frames_until_closed();
         EXPECT_EQ(hostile.end(), End::eof) << end_name(hostile.end());
+        hostile.close();  // else the daemon keeps the session (and its port) for its 2 s of grace
         const auto reason = error_reason(frames);
         ASSERT_TRUE(reason.has_value()) << "no error frame";
         EXPECT_NE(reason->find(lie.reason), std::string::npos) << *reason;
