@@ -15,7 +15,7 @@
 #include "plexus/proto/carrier.hpp"
 #include "plexus/proto/port_name.hpp"
 #include "request_fields.hpp"
-#include "script_host.hpp"
+#include "monitor_wiring.hpp"
 #include "wire_inlet.hpp"
 
 namespace plexus::daemon {

@@ -8,8 +8,10 @@
 #include <nlohmann/json.hpp>
 
 #include "arbitration/clock.hpp"
-#include "daemon_config.hpp"
+#include "control_config.hpp"
+#include "monitor_wiring.hpp"
 #include "net/carriers/carrier.hpp"
+#include "net/daemon_counters.hpp"
 
 namespace plexus::daemon {
 
@@ -18,7 +20,6 @@ class CallTable;
 class Peer;
 class Port;
 class Router;
-class ScriptHost;
 namespace names {
 class NameClient;
 }
@@ -32,6 +33,8 @@ class ControlHost : public carriers::CarrierHost {
 public:
     virtual ~ControlHost() = default;
 
+    /// The settings the control plane reads (the carriers read their part, NetConfig).
+    const ControlConfig& config() const override = 0;
     /// HOST:PORT of the daemon's TCP listener: where other daemons and the CLI reach it.
     virtual std::string address() const = 0;
     /// HOST:PORT of the web endpoint (--http); "" when it serves none.
@@ -40,7 +43,8 @@ public:
     virtual nlohmann::json http_counters() const = 0;
     virtual Router& router() = 0;
     virtual names::NameClient& names() = 0;
-    virtual ScriptHost& scripts() = 0;
+    /// Builds connections' monitor chains and puts them on stages (the daemon's script host).
+    virtual MonitorWiring& scripts() = 0;
     /// Where arbitration reads the time (event lifetimes, stimulation decay).
     virtual const arbitration::Clock& clock() const = 0;
     /// The calling thread's counters, to count on.

@@ -7,7 +7,7 @@
 
 #include "arbitration/carrier_rules.hpp"
 #include "inspect/overlap_text.hpp"
-#include "script_host.hpp"
+#include "monitor_wiring.hpp"
 
 namespace plexus::daemon {
 
@@ -50,7 +50,7 @@ proto::Result<nlohmann::json> check_member(const Port& port, const arbitration::
 
 }  // namespace
 
-proto::Result<WiredInlet> wire_inlet(ScriptHost& scripts, const arbitration::Clock& clock,
+proto::Result<WiredInlet> wire_inlet(MonitorWiring& scripts, const arbitration::Clock& clock,
                                      const InletSpec& spec, const InletHandOver& hand_over) {
     const auto& port = spec.port;
     auto member = new_member(clock, port, spec.source, spec.carrier);

@@ -14,7 +14,7 @@
 
 namespace plexus::daemon {
 
-class ScriptHost;
+class MonitorWiring;
 
 /// A connection into a port of this daemon, as `connect` (both ends here) or `attach` (the
 /// source on another daemon) asks for it.
@@ -43,7 +43,7 @@ using InletHandOver = std::function<proto::Status(const std::shared_ptr<Inlet>& 
 /// any) gives the inlet to what feeds it and, if that succeeds, the inlet joins the port: it is
 /// listed in `port->inbound` and its member joins the arbiter. The first step that fails ends
 /// it with its Error, and the inlet has not joined.
-proto::Result<WiredInlet> wire_inlet(ScriptHost& scripts, const arbitration::Clock& clock,
+proto::Result<WiredInlet> wire_inlet(MonitorWiring& scripts, const arbitration::Clock& clock,
                                      const InletSpec& spec, const InletHandOver& hand_over = {});
 
 }  // namespace plexus::daemon

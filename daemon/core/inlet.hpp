@@ -1,6 +1,8 @@
 #pragma once
-// Threading: its port's thread (see port.hpp); no locking. Its monitors may run elsewhere (a
-// MessageFilter): their verdicts come back here, on the control thread, in order.
+// Threading: its port's thread (see port.hpp). Its one lock is its arbiter's (shared by the inlets
+// of one port, whose monitors decide from several threads), held only while it admits a message.
+// Its monitors may run elsewhere (a MessageFilter): their verdicts come back here, on the control
+// thread, in order.
 
 #include <cstdint>
 #include <memory>

@@ -5,7 +5,7 @@
 #include "monitor/stage.hpp"
 #include "net/call_table.hpp"
 #include "net/udp_socket.hpp"
-#include "script_host.hpp"
+#include "control/monitor_wiring.hpp"
 
 namespace plexus::daemon::inspect {
 

@@ -1,6 +1,6 @@
 #pragma once
 // The limits every port monitor of a daemon runs under, apart from the monitors themselves: the
-// daemon's configuration (daemon_config.hpp) holds them without seeing Lua.
+// daemon's configuration (app/daemon_config.hpp) holds them without seeing Lua.
 
 #include <chrono>
 #include <cstddef>

@@ -408,7 +408,7 @@ Task<bool> Session::on_data(InFrame frame) {
 
 namespace {
 /// The configured spin, or PLEXUS_RING_SPIN_US's when the configuration has none (for experiments).
-std::chrono::microseconds ring_spin(const DaemonConfig& config) {
+std::chrono::microseconds ring_spin(const NetConfig& config) {
     if (config.ring_spin.count() > 0)
         return config.ring_spin;
     static const std::chrono::microseconds from_environment = [] {

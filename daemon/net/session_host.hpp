@@ -8,7 +8,8 @@
 #include <cstdint>
 #include <memory>
 
-#include "../daemon_config.hpp"
+#include "daemon_counters.hpp"
+#include "net_config.hpp"
 #include "asio.hpp"
 #include "plexus/proto/control.hpp"
 #include "signal.hpp"
@@ -20,7 +21,7 @@ class Session;
 
 class SessionHost {
 public:
-    virtual const DaemonConfig& config() const = 0;
+    virtual const NetConfig& config() const = 0;
     virtual DaemonCounters& counters() = 0;
     /// Answers a control request of `session` (the control plane).
     virtual Task<proto::Reply> handle_request(std::shared_ptr<Session> session, proto::Request request) = 0;

@@ -14,7 +14,7 @@
 
 #include "../core/connection.hpp"
 #include "../core/message.hpp"
-#include "../daemon_config.hpp"
+#include "daemon_counters.hpp"
 #include "asio.hpp"
 #include "handler_gate.hpp"
 #include "signal.hpp"

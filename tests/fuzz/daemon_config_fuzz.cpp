@@ -1,4 +1,4 @@
-// plexusd's config file (daemon/config_file.hpp) on arbitrary text. It either applies or throws a
+// plexusd's config file (daemon/app/config_file.hpp) on arbitrary text. It either applies or throws a
 // std::exception with a reason, which plexusd turns into a message and an exit code; nothing else
 // (no other exception, no undefined behaviour on out-of-range numbers). Property: a config it
 // accepts keeps the bounds it checks, so a daemon never starts outside them.
@@ -10,7 +10,7 @@
 
 #include <spdlog/spdlog.h>
 
-#include "config_file.hpp"
+#include "app/config_file.hpp"
 #include "fuzz_check.hpp"
 #include "plexus/proto/datagram.hpp"
 

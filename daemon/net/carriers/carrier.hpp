@@ -18,7 +18,7 @@
 #include "../../core/connection.hpp"
 #include "../../core/inlet.hpp"
 #include "../../core/reader_queue.hpp"
-#include "../../daemon_config.hpp"
+#include "../net_config.hpp"
 #include "../asio.hpp"
 #include "../peer.hpp"
 #include "../session.hpp"
@@ -33,7 +33,7 @@ namespace plexus::daemon::carriers {
 /// (the daemon implements it, through ControlHost).
 class CarrierHost {
 public:
-    virtual const DaemonConfig& config() const = 0;
+    virtual const NetConfig& config() const = 0;
     /// The daemon's UDP socket, which udp and mcast send and receive on.
     virtual UdpSocket& udp() = 0;
     /// The multicast group ("A.B.C.D:PORT") the name server gives `source`: the one both ends of

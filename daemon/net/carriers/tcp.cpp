@@ -10,7 +10,7 @@ proto::Result<SendingEnd> TcpCarrier::make_sending_end(const SendingContext& con
     // only the newest few and a small socket buffer, so a slow network adds little delay (the
     // kernel's buffer would otherwise hold seconds of data at 10 Mbit/s); into a strict port it
     // holds the writer back.
-    const DaemonConfig& config = context.host.config();
+    const NetConfig& config = context.host.config();
     const bool latest = context.attached.policy == "latest";
     const std::size_t capacity =
         latest ? std::min<std::size_t>(config.link_capacity,

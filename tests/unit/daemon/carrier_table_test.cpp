@@ -23,7 +23,7 @@ namespace {
 /// What a carrier may ask of the daemon, with a UDP socket of its own on loopback.
 class TestHost : public CarrierHost {
 public:
-    const DaemonConfig& config() const override { return config_; }
+    const NetConfig& config() const override { return config_; }
     UdpSocket& udp() override { return udp_; }
     Task<proto::Result<std::string>> mcast_group(std::string source) override {
         co_return proto::Error{"no group for " + source};
@@ -32,7 +32,7 @@ public:
     asio::io_context io;
 
 private:
-    DaemonConfig config_;
+    NetConfig config_;
     UdpSocket udp_{io, UdpConfig{}};
 };
 

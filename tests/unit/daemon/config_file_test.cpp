@@ -1,5 +1,5 @@
-// plexusd's config file (config_file.hpp): the keys it takes and what it refuses.
-#include "config_file.hpp"
+// plexusd's config file (app/config_file.hpp): the keys it takes and what it refuses.
+#include "app/config_file.hpp"
 
 #include <stdexcept>
 

@@ -292,6 +292,10 @@ Task<void> Daemon::accept_unix() {
     }
 }
 
+MonitorWiring& Daemon::scripts() {
+    return *scripts_;
+}
+
 Task<void> Daemon::back_off_after_accept_error() {
     // Out of file descriptors (or memory) the failure repeats at once: retrying without a pause
     // would spin the daemon's only thread and flood the log while sessions wait to close.

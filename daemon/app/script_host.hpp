@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "control/monitor_wiring.hpp"
 #include "core/router.hpp"
 #include "monitor/chain.hpp"
 #include "monitor/monitor.hpp"
@@ -21,24 +22,23 @@ class Daemon;
 
 /// What the daemon gives monitor scripts: trig timers on the event loop, ports they publish on,
 /// the clock. Also builds the monitor chains of a carrier string.
-class ScriptHost : public monitor::MonitorHost {
+class ScriptHost : public monitor::MonitorHost, public MonitorWiring {
 public:
     ScriptHost(asio::io_context& io, Daemon& daemon, std::shared_ptr<monitor::Workers> workers);
     ~ScriptHost() override;
 
-    /// The monitors of one side of a connection, created in carrier order. Fails (and creates
-    /// nothing) when a script is missing, does not load, or refuses; null when the side has none.
-    /// Recv-side monitors take part in the arbitration through `member`.
+    // --- MonitorWiring, for the control plane ---
     proto::Result<std::shared_ptr<monitor::MonitorChain>> build_chain(
         const proto::Carrier& carrier, proto::Side side, const std::string& source,
-        const std::string& destination, const std::shared_ptr<arbitration::Member>& member = nullptr);
-    /// Puts a chain on a worker strand of its own: from here on its monitors run there. `member`
-    /// (recv side) admits what they pass; `client` gets the verdicts.
+        const std::string& destination, const std::shared_ptr<arbitration::Member>& member = nullptr) override;
     std::shared_ptr<monitor::MonitorStage> make_stage(std::shared_ptr<monitor::MonitorChain> chain,
                                                       std::shared_ptr<arbitration::Member> member,
                                                       monitor::MonitorStage::Options options,
-                                                      std::weak_ptr<FilterClient> client);
+                                                      std::weak_ptr<FilterClient> client) override;
+    std::uint64_t published() const override { return published_; }
+    std::uint64_t publish_dropped() const override { return publish_dropped_; }
 
+    // --- monitor::MonitorHost, for the monitors ---
     proto::Status publish(monitor::Monitor& monitor, const std::string& port,
                           const nlohmann::json& value) override;
     void set_trig_interval(monitor::Monitor& monitor, double seconds) override;
@@ -51,8 +51,6 @@ public:
     /// slow, holds the daemon past its grace.
     void close_stages();
 
-    std::uint64_t published() const { return published_; }
-    std::uint64_t publish_dropped() const { return publish_dropped_; }
 
 private:
     struct Trig {

@@ -73,7 +73,7 @@ public:
     nlohmann::json http_counters() const override;
     Router& router() override { return router_; }
     names::NameClient& names() override { return *names_; }
-    ScriptHost& scripts() override { return *scripts_; }
+    MonitorWiring& scripts() override;
     UdpSocket& udp() override { return udp_; }
     Task<proto::Result<std::string>> mcast_group(std::string source) override {
         return names_->mcast_group(std::move(source));
