@@ -118,6 +118,9 @@ void apply_config_text(const std::string& path, std::string_view text, DaemonCon
                                              "shm_ring_spin_us",
                                              "names_grace_ms",
                                              "handshake_timeout_ms",
+                                             "peer_connections",
+                                             "peer_handshakes",
+                                             "peer_failed_proofs",
                                              "names_state",
                                              "scripts",
                                              "monitor_libs",
@@ -162,6 +165,21 @@ void apply_config_text(const std::string& path, std::string_view text, DaemonCon
         whole_number(json, "handshake_timeout_ms", config.handshake_timeout.count(), path));
     if (config.handshake_timeout.count() < 100 || config.handshake_timeout.count() > 3'600'000)
         throw std::runtime_error("config " + path + ": handshake_timeout_ms must be between 100 and 3600000");
+    auto& peers = config.peer_limits;
+    peers.connections = whole_number(json, "peer_connections", peers.connections, path);
+    // Unless given, the handshakes' bound follows fewer connections down.
+    peers.handshakes =
+        whole_number(json, "peer_handshakes", std::min(peers.handshakes, peers.connections), path);
+    peers.failed_proofs = whole_number(json, "peer_failed_proofs", peers.failed_proofs, path);
+    if (peers.connections < 1 || peers.connections > 1'000'000)
+        throw std::runtime_error("config " + path + ": peer_connections must be between 1 and 1000000");
+    if (peers.handshakes < 1 || peers.handshakes > peers.connections)
+        throw std::runtime_error("config " + path +
+                                 ": peer_handshakes must be between 1 and peer_connections (" +
+                                 std::to_string(peers.connections) + ")");
+    if (peers.failed_proofs > 1000)
+        throw std::runtime_error("config " + path +
+                                 ": peer_failed_proofs must be between 0 (no limit) and 1000");
     config.names_state = json.value("names_state", config.names_state);
     config.advertise = json.value("advertise", config.advertise);
     if (json.contains("http")) {

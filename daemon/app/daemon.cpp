@@ -1,5 +1,6 @@
 #include "daemon.hpp"
 
+#include <sys/socket.h>
 #include <unistd.h>
 
 #include <cstdlib>
@@ -14,6 +15,7 @@
 #include "net/session.hpp"
 #include "plexus/proto/discovery.hpp"
 #include "script_host.hpp"
+#include "socket_directory.hpp"
 
 namespace plexus::daemon {
 
@@ -34,6 +36,11 @@ Daemon::Daemon(asio::io_context& io, DaemonConfig config)
       tcp_acceptor_(io),
       unix_acceptor_(io),
       udp_(io, config_.udp, config_.secret),
+      tcp_peers_(std::make_shared<PeerLimits>(config_.peer_limits)),
+      // A local client proves nothing, and a robot's launch may start dozens of components of one
+      // user at once: only their number is bounded.
+      local_peers_(std::make_shared<PeerLimits>(
+          PeerLimitConfig{config_.peer_limits.connections, config_.peer_limits.connections, 0})),
       signals_(io, SIGINT, SIGTERM),
       control_(io.get_executor(), *this),
       heap_trimmer_(io, HeapTrimmer::Settings{}) {
@@ -132,10 +139,10 @@ proto::Status Daemon::bind() {
     if (auto bound = udp_.bind(address, tcp_acceptor_.local_endpoint().port()); !bound)
         return bound;
 
-    const std::filesystem::path socket_path(config_.socket_path);
     std::error_code fs_error;
-    if (socket_path.has_parent_path())
-        std::filesystem::create_directories(socket_path.parent_path(), fs_error);
+    const std::filesystem::path socket_path = std::filesystem::absolute(config_.socket_path, fs_error);
+    if (auto directory = prepare_socket_directory(socket_path.parent_path()); !directory)
+        return directory;
     if (std::filesystem::exists(socket_path)) {
         // Refuse to steal the socket of a daemon that is still running; clear one left by a crash.
         asio::local::stream_protocol::socket probe(io_);
@@ -267,16 +274,30 @@ Task<void> Daemon::accept_tcp() {
             co_await back_off_after_accept_error();
             continue;
         }
-        socket.set_option(asio::ip::tcp::no_delay(true), ec);
-        keep_alive(socket.native_handle());
         boost::system::error_code remote_error;
         auto remote = socket.remote_endpoint(remote_error);
+        const std::string host = remote_error ? std::string("?") : remote.address().to_string();
+        auto ticket = admit_peer(*tcp_peers_, "address " + host);
+        if (!ticket)
+            continue;  // the socket closes here
+        socket.set_option(asio::ip::tcp::no_delay(true), ec);
+        keep_alive(socket.native_handle());
         start_session(Socket(std::move(socket)),
-                      "tcp session from " + (remote_error ? std::string("?")
-                                                          : remote.address().to_string() + ":" +
-                                                                std::to_string(remote.port())));
+                      "tcp session from " + host + (remote_error ? "" : ":" + std::to_string(remote.port())),
+                      0, "", std::move(ticket));
     }
 }
+
+namespace {
+/// The process at the other end of a Unix socket, as the kernel saw it connect.
+std::optional<ucred> peer_credentials(int fd) {
+    ucred peer{};
+    socklen_t size = sizeof peer;
+    if (::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &peer, &size) != 0)
+        return std::nullopt;
+    return peer;
+}
+}  // namespace
 
 Task<void> Daemon::accept_unix() {
     while (!stopping_) {
@@ -288,12 +309,41 @@ Task<void> Daemon::accept_unix() {
             co_await back_off_after_accept_error();
             continue;
         }
-        start_session(Socket(std::move(socket)), "local session", shards_.place());
+        // Every line the log writes about the session says which user's program it is.
+        const auto peer = peer_credentials(socket.native_handle());
+        const std::string about = peer ? " (uid " + std::to_string(peer->uid) + ", gid " +
+                                             std::to_string(peer->gid) + ", pid " +
+                                             std::to_string(peer->pid) + ")"
+                                       : " (peer unknown)";
+        auto ticket =
+            admit_peer(*local_peers_, peer ? "uid " + std::to_string(peer->uid) : std::string("uid ?"));
+        if (!ticket)
+            continue;
+        start_session(Socket(std::move(socket)), "local session", shards_.place(), about, std::move(ticket));
     }
 }
 
 MonitorWiring& Daemon::scripts() {
     return *scripts_;
+}
+
+std::unique_ptr<PeerLimits::Ticket> Daemon::admit_peer(PeerLimits& limits, const std::string& peer) {
+    auto admission = limits.admit(peer);
+    if (admission.ticket)
+        return std::move(admission.ticket);
+    ++counters().peers_refused;
+    // A peer at its limit may keep trying as fast as it likes: one line a second at most, with
+    // how many were refused since the last one.
+    const auto now = std::chrono::steady_clock::now();
+    if (now - last_refusal_logged_ < std::chrono::seconds(1)) {
+        ++refusals_not_logged_;
+    } else {
+        spdlog::warn("refused a connection from {}: it has {} ({} more refused since the last such line)",
+                     peer, limits.explain(admission.refusal), refusals_not_logged_);
+        last_refusal_logged_ = now;
+        refusals_not_logged_ = 0;
+    }
+    return nullptr;
 }
 
 Task<void> Daemon::back_off_after_accept_error() {
@@ -305,7 +355,8 @@ Task<void> Daemon::back_off_after_accept_error() {
     co_await pause.async_wait(use_nothrow);
 }
 
-void Daemon::start_session(Socket socket, const std::string& description, std::size_t shard) {
+void Daemon::start_session(Socket socket, const std::string& description, std::size_t shard,
+                           const std::string& peer, std::unique_ptr<PeerLimits::Ticket> ticket) {
     ++counters().sessions_accepted;
     const auto id = next_session_++;
     if (shard != 0) {
@@ -325,7 +376,9 @@ void Daemon::start_session(Socket socket, const std::string& description, std::s
         socket = std::move(moved);
     }
     auto session = std::make_shared<Session>(std::move(socket), *this, id, shard);
-    session->set_description(description + " #" + std::to_string(id));
+    session->set_description(description + " #" + std::to_string(id) + peer);
+    session->count_against_peer(std::move(ticket));
+    spdlog::debug("{} accepted", session->description());
     sessions_[id] = session;
     session->require_secret(config_.secret);  // only TCP peers are asked for it
     session->set_handshake_timeout(config_.handshake_timeout);

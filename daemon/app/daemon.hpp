@@ -23,6 +23,7 @@
 #include "names/name_server.hpp"
 #include "net/asio.hpp"
 #include "net/call_table.hpp"
+#include "net/peer_limits.hpp"
 #include "net/session_host.hpp"
 #include "net/shards.hpp"
 #include "net/signal.hpp"
@@ -103,7 +104,12 @@ private:
     void wait_for_signal();
     Task<void> announce_ready();
     /// Starts a session on `shard` (0: this thread; else a data thread, the socket moved there).
-    void start_session(Socket socket, const std::string& description, std::size_t shard = 0);
+    /// `description` names the session in the log ("local session"), followed by its number and
+    /// `peer` (a local client's uid, gid and pid).
+    void start_session(Socket socket, const std::string& description, std::size_t shard = 0,
+                       const std::string& peer = "", std::unique_ptr<PeerLimits::Ticket> ticket = nullptr);
+    /// Counts a new connection against its peer's limits; null (counted, logged) when it is refused.
+    std::unique_ptr<PeerLimits::Ticket> admit_peer(PeerLimits& limits, const std::string& peer);
     /// What session_closed() does, on this thread.
     void forget_session(Session& session);
 
@@ -122,6 +128,10 @@ private:
     asio::ip::tcp::acceptor tcp_acceptor_;
     asio::local::stream_protocol::acceptor unix_acceptor_;
     UdpSocket udp_;
+    std::shared_ptr<PeerLimits> tcp_peers_;    ///< by IP address: connections, handshakes, failed proofs
+    std::shared_ptr<PeerLimits> local_peers_;  ///< by uid: connections only (no secret to fail)
+    std::chrono::steady_clock::time_point last_refusal_logged_{};
+    std::uint64_t refusals_not_logged_ = 0;
     asio::signal_set signals_;
     std::map<std::uint64_t, std::weak_ptr<Session>> sessions_;
     std::vector<std::weak_ptr<Peer>> links_;  ///< sending ends of tcp connections, flushed at shutdown

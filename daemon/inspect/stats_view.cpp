@@ -1,11 +1,11 @@
 #include "stats_view.hpp"
 
+#include "control/monitor_wiring.hpp"
 #include "core/router.hpp"
 #include "inlet_counters.hpp"
 #include "monitor/stage.hpp"
 #include "net/call_table.hpp"
 #include "net/udp_socket.hpp"
-#include "control/monitor_wiring.hpp"
 
 namespace plexus::daemon::inspect {
 
@@ -88,6 +88,7 @@ nlohmann::json stats_view(ControlHost& host, const ShmUsage& shm, const std::str
                           {"protocol_errors", counters.protocol_errors},
                           {"auth_failures", counters.auth_failures},
                           {"handshake_timeouts", counters.handshake_timeouts},
+                          {"peers_refused", counters.peers_refused},
                           {"dropped_unknown_port", counters.dropped_unknown_port},
                           {"dropped_link_down", counters.dropped_link_down},
                           {"shm_passed", counters.shm_passed},

@@ -19,6 +19,8 @@ struct DaemonCounters {
     std::uint64_t handshake_timeouts = 0;  ///< peers cut off for not completing their handshake in time
     std::uint64_t ring_sessions = 0;       ///< sessions that moved to shared-memory rings
     std::uint64_t rings_refused = 0;       ///< rings asked for and refused (off, not local, no memory)
+    std::uint64_t peers_refused =
+        0;  ///< connections refused at once: their peer was at a limit (peer_limits.hpp)
 
     /// Adds another thread's counters (`--threads`: each thread of the daemon keeps its own).
     DaemonCounters& operator+=(const DaemonCounters& other) {
@@ -33,6 +35,7 @@ struct DaemonCounters {
         handshake_timeouts += other.handshake_timeouts;
         ring_sessions += other.ring_sessions;
         rings_refused += other.rings_refused;
+        peers_refused += other.peers_refused;
         return *this;
     }
 };

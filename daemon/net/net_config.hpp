@@ -9,6 +9,7 @@
 #include <optional>
 
 #include "core/reader_queue.hpp"
+#include "net/peer_limits.hpp"
 #include "net/udp_config.hpp"
 #include "plexus/proto/auth.hpp"
 #include "plexus/proto/frame.hpp"
@@ -46,6 +47,9 @@ struct NetConfig {
     /// made with it. Without one the daemon only listens on loopback, unless `insecure`.
     std::optional<proto::Secret> secret;
     bool insecure = false;  ///< --insecure: listen beyond loopback without a secret (warned loudly)
+    /// What one peer (a TCP peer's address, a local client's uid) may hold at once (config
+    /// `peer_connections`, `peer_handshakes`, `peer_failed_proofs`).
+    PeerLimitConfig peer_limits;
 };
 
 }  // namespace plexus::daemon

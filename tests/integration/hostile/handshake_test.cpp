@@ -4,6 +4,7 @@
 // daemon's descriptors.
 // (tests/integration/hostile/hostile_peer.hpp has the raw peers and shared expectations.)
 #include "hostile_peer.hpp"
+#include "plexus/proto/auth.hpp"
 
 namespace plexus::test::hostile {
 namespace handshake_test {
@@ -60,6 +61,100 @@ TEST(Hostile_test, AStandaloneNameServerCutsOffAPeerThatSaysNothing) {
     EXPECT_EQ(run_cli(dir, daemon, {"list"}).status, 0);
     const auto log = names.process().err() + names.process().out();
     EXPECT_NE(log.find("no hello within 300 ms of connecting: cut off"), std::string::npos) << log;
+}
+
+/// A daemon whose limits per peer are small enough to reach in a test.
+std::vector<std::string> with_peer_limits(const TempDir& dir, const std::string& limits,
+                                          std::vector<std::string> more = {}) {
+    const std::string config = dir.file("peers.json");
+    std::ofstream(config) << limits;
+    more.insert(more.begin(), {"--config", config});
+    return more;
+}
+
+/// True when the daemon closed `stream` without a word: not even its hello (a refused peer).
+bool closed_at_once(Stream& stream) {
+    const auto frames = stream.frames_until_closed(Clock::now() + slower(5s));
+    return stream.end() == End::eof && frames.empty();
+}
+
+std::uint64_t peers_refused(const TempDir& dir, const Daemon& daemon) {
+    const auto stats = nlohmann::json::parse(run_cli(dir, daemon, {"stats", "--json"}).out);
+    return stats["daemon"]["peers_refused"].get<std::uint64_t>();
+}
+
+/// True when the daemon greeted `stream` with its hello: the connection was admitted.
+bool greeted(Stream& stream) {
+    const auto frame = stream.next_frame(Clock::now() + slower(5s));
+    return frame && frame->type == FrameType::hello;
+}
+
+TEST(Hostile_test, APeerBeyondItsHandshakesInFlightIsRefusedAtOnceAndOthersAreServed) {
+    TempDir dir;
+    Daemon daemon(dir, "solo", "", with_peer_limits(dir, R"({"peer_handshakes": 2})"));
+    // Two silent TCP connections from 127.0.0.1 hold its two handshakes; the third is closed unheard.
+    auto first = Stream::open(daemon, Listener::daemon_tcp);
+    auto second = Stream::open(daemon, Listener::daemon_tcp);
+    ASSERT_TRUE(greeted(first) && greeted(second));
+    auto third = Stream::open(daemon, Listener::daemon_tcp);
+    EXPECT_TRUE(closed_at_once(third)) << end_name(third.end());
+    EXPECT_EQ(peers_refused(dir, daemon), 1u);
+    // A local client is another peer (by its uid): served meanwhile.
+    EXPECT_TRUE(still_answers(daemon, Listener::daemon_unix));
+    // Once the silent ones go, the address is admitted again.
+    first.close();
+    second.close();
+    EXPECT_TRUE(eventually([&] {
+        auto again = Stream::open(daemon, Listener::daemon_tcp);
+        return greeted(again);
+    })) << "the address stayed refused after its connections closed";
+    expect_everyone_still_served(daemon);
+    const auto log = daemon.process().out() + daemon.process().err();
+    EXPECT_NE(log.find("refused a connection from address 127.0.0.1: it has 2 connections not through their "
+                       "handshake (peer_handshakes)"),
+              std::string::npos)
+        << log;
+}
+
+TEST(Hostile_test, ALocalUserBeyondItsConnectionsIsRefusedUntilOneCloses) {
+    TempDir dir;
+    Daemon daemon(dir, "solo", "", with_peer_limits(dir, R"({"peer_connections": 3, "peer_handshakes": 3})"));
+    std::vector<Stream> held;
+    for (int i = 0; i < 3; ++i) {
+        held.push_back(Stream::open(daemon, Listener::daemon_unix));
+        ASSERT_TRUE(held.back().send(hello_frame("client")));
+    }
+    auto fourth = Stream::open(daemon, Listener::daemon_unix);
+    EXPECT_TRUE(closed_at_once(fourth)) << end_name(fourth.end());
+    held.pop_back();  // closes one: a place is free again
+    EXPECT_TRUE(eventually([&] { return run_cli(dir, daemon, {"stats", "--json"}).status == 0; }));
+    EXPECT_GE(peers_refused(dir, daemon), 1u);
+}
+
+TEST(Hostile_test, APeerThatFailsTheSecretTooOftenIsShutOutAndCounted) {
+    TempDir dir;
+    Daemon daemon(
+        dir, "solo", "",
+        with_peer_limits(dir, R"({"peer_failed_proofs": 2})", {"--secret-file", test_secret_file()}));
+    proto::Hello hello{proto::protocol_version, "client", "guesser"};
+    hello.has_secret = true;
+    hello.nonce.fill(7);
+    for (int attempt = 0; attempt < 2; ++attempt) {
+        auto guesser = Stream::open(daemon, Listener::daemon_tcp);
+        ASSERT_TRUE(guesser.send(proto::encode_hello(hello)));
+        proto::Proof wrong{};
+        ASSERT_TRUE(guesser.send(proto::encode_auth(wrong)));
+        const auto reason = error_reason(guesser.frames_until_closed());
+        ASSERT_TRUE(reason.has_value()) << attempt;
+        EXPECT_NE(reason->find("does not hold this deployment's secret"), std::string::npos) << *reason;
+    }
+    auto third = Stream::open(daemon, Listener::daemon_tcp);
+    EXPECT_TRUE(closed_at_once(third)) << "a third guess within the minute was heard";
+    EXPECT_EQ(peers_refused(dir, daemon), 1u);
+    const auto log = daemon.process().out() + daemon.process().err();
+    EXPECT_NE(log.find("2 failed proofs of the secret in the last minute (peer_failed_proofs)"),
+              std::string::npos)
+        << log;
 }
 
 }  // namespace handshake_test

@@ -1,6 +1,10 @@
 // plexusd's config file (app/config_file.hpp): the keys it takes and what it refuses.
 #include "app/config_file.hpp"
 
+#include <string>
+#include <utility>
+#include <vector>
+
 #include <stdexcept>
 
 #include <gtest/gtest.h>
@@ -28,6 +32,31 @@ TEST(ConfigFile_test, HandshakeTimeoutIsTakenWithinItsBoundsAndRefusedOutside) {
             EXPECT_NE(std::string(e.what()).find("handshake_timeout_ms must be between 100 and 3600000"),
                       std::string::npos)
                 << e.what();
+        }
+    }
+}
+
+TEST(ConfigFile_test, PeerLimitsAreTakenWithinTheirBoundsAndTheHandshakesFollowFewerConnections) {
+    DaemonConfig config;
+    EXPECT_EQ(config.peer_limits.connections, 1024u);  // the defaults
+    EXPECT_EQ(config.peer_limits.handshakes, 128u);
+    EXPECT_EQ(config.peer_limits.failed_proofs, 10u);
+    apply_config_text("test.json", R"({"peer_connections": 50, "peer_failed_proofs": 0})", config);
+    EXPECT_EQ(config.peer_limits.connections, 50u);
+    EXPECT_EQ(config.peer_limits.handshakes, 50u) << "at most as many handshakes as connections";
+    EXPECT_EQ(config.peer_limits.failed_proofs, 0u);
+    for (const auto& [text, why] : std::vector<std::pair<std::string, std::string>>{
+             {R"({"peer_connections": 0})", "peer_connections must be between 1 and 1000000"},
+             {R"({"peer_connections": 10, "peer_handshakes": 11})", "peer_handshakes must be between 1 and"},
+             {R"({"peer_handshakes": 0})", "peer_handshakes must be between 1 and"},
+             {R"({"peer_failed_proofs": 1001})", "peer_failed_proofs must be between 0 (no limit) and 1000"},
+             {R"({"peer_connections": -1})", "peer_connections must be a whole number"}}) {
+        DaemonConfig fresh;
+        try {
+            apply_config_text("test.json", text, fresh);
+            ADD_FAILURE() << "accepted " << text;
+        } catch (const std::runtime_error& e) {
+            EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
         }
     }
 }
