@@ -30,7 +30,8 @@ public:
     // --- MonitorWiring, for the control plane ---
     proto::Result<std::shared_ptr<monitor::MonitorChain>> build_chain(
         const proto::Carrier& carrier, proto::Side side, const std::string& source,
-        const std::string& destination, const std::shared_ptr<arbitration::Member>& member = nullptr) override;
+        const std::string& destination,
+        const std::shared_ptr<arbitration::Member>& member = nullptr) override;
     std::shared_ptr<monitor::MonitorStage> make_stage(std::shared_ptr<monitor::MonitorChain> chain,
                                                       std::shared_ptr<arbitration::Member> member,
                                                       monitor::MonitorStage::Options options,
@@ -50,7 +51,6 @@ public:
     /// Shutdown: every stage lets its monitors go and drops what waits, so that no script, however
     /// slow, holds the daemon past its grace.
     void close_stages();
-
 
 private:
     struct Trig {

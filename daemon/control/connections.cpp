@@ -9,13 +9,13 @@
 #include "arbitration/carrier_rules.hpp"
 #include "control_plane.hpp"
 #include "core/router.hpp"
+#include "monitor_wiring.hpp"
 #include "names/name_client.hpp"
 #include "net/carriers/carrier_table.hpp"
 #include "net/session.hpp"
 #include "plexus/proto/carrier.hpp"
 #include "plexus/proto/port_name.hpp"
 #include "request_fields.hpp"
-#include "monitor_wiring.hpp"
 #include "wire_inlet.hpp"
 
 namespace plexus::daemon {

@@ -7,8 +7,8 @@
 
 #include "monitor/chain.hpp"
 #include "monitor/stage.hpp"
-#include "plexus/proto/carrier.hpp"
 #include "plexus/proto/bytes.hpp"
+#include "plexus/proto/carrier.hpp"
 
 namespace plexus::daemon {
 

@@ -1,10 +1,10 @@
 #include "framed_connection.hpp"
 
-#include <array>
 #include <netinet/in.h>
 #include <poll.h>
 #include <sys/socket.h>
 #include <sys/uio.h>
+#include <array>
 
 #include <cerrno>
 #include <cstring>

@@ -8,9 +8,9 @@
 #include <cstdint>
 #include <memory>
 
+#include "asio.hpp"
 #include "daemon_counters.hpp"
 #include "net_config.hpp"
-#include "asio.hpp"
 #include "plexus/proto/control.hpp"
 #include "signal.hpp"
 

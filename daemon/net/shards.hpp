@@ -14,8 +14,8 @@
 
 #include "../core/connection.hpp"
 #include "../core/message.hpp"
-#include "daemon_counters.hpp"
 #include "asio.hpp"
+#include "daemon_counters.hpp"
 #include "handler_gate.hpp"
 #include "signal.hpp"
 

@@ -224,9 +224,9 @@ TEST(Record_test, TheGazeDemoRecordedReadsBackByteIdenticalAndWhatIfReproducesAn
     // model (here) and the daemon's library re-run (what-if) may differ on a message or two of the
     // first tc (a boundary instant, two decisions in the same microsecond), never after it.
     const std::size_t what_if_compared = same_totals["messages"].get<std::size_t>();
-    const std::size_t warm_difference =
-        what_if_compared > recorded.size() - warm ? what_if_compared - (recorded.size() - warm)
-                                                  : recorded.size() - warm - what_if_compared;
+    const std::size_t warm_difference = what_if_compared > recorded.size() - warm
+                                            ? what_if_compared - (recorded.size() - warm)
+                                            : recorded.size() - warm - what_if_compared;
     EXPECT_LE(warm_difference, 3u) << "what-if compared " << what_if_compared << " of " << recorded.size()
                                    << " messages; this test's model left out " << warm;
     EXPECT_EQ(same_totals["changed"], 0) << same.out;

@@ -306,7 +306,10 @@ public:
     }
 
     Stream(Stream&& other) noexcept
-        : fd_(std::exchange(other.fd_, -1)), buffer_(std::move(other.buffer_)), consumed_(other.consumed_), end_(other.end_) {}
+        : fd_(std::exchange(other.fd_, -1)),
+          buffer_(std::move(other.buffer_)),
+          consumed_(other.consumed_),
+          end_(other.end_) {}
     Stream(const Stream&) = delete;
     Stream& operator=(const Stream&) = delete;
     Stream& operator=(Stream&&) = delete;
