@@ -24,6 +24,7 @@ constexpr std::string_view connecting_label = "plexus-auth-v1 connecting";
 constexpr std::string_view accepting_label = "plexus-auth-v1 accepting";
 constexpr std::string_view datagram_label = "plexus-datagram-v1";
 constexpr std::string_view web_token_label = "plexus web token v1";
+constexpr std::string_view tls_key_label = "plexus tls psk v1";
 
 Proof hmac(ByteView key, std::initializer_list<ByteView> parts) {
     // One HMAC over the concatenation; the parts are short, so joining them costs nothing.
@@ -156,6 +157,10 @@ bool same_proof(const Proof& a, ByteView b) {
 bool same_text(std::string_view a, std::string_view b) {
     // The length is not secret (every token has 64 characters); the bytes are.
     return a.size() == b.size() && ::CRYPTO_memcmp(a.data(), b.data(), a.size()) == 0;
+}
+
+Proof Secret::tls_key() const {
+    return hmac(keys_->proof_key, {as_bytes(tls_key_label)});
 }
 
 std::string Secret::web_token() const {

@@ -51,6 +51,8 @@ public:
     }
     /// Checks a datagram's MAC in constant time.
     bool datagram_mac_ok(ByteView signed_part, ByteView mac) const;
+    /// The key of the deployment's TLS links (tls_psk.hpp): HMAC(secret, "plexus tls psk v1").
+    Proof tls_key() const;
     /// The web endpoint's token (docs/WEB.md): hex of HMAC(secret, "plexus web token v1"). A person
     /// enters it once in a browser; it opens the read-only views and nothing else, so it is not the
     /// secret, and the secret cannot be found from it.
