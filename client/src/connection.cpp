@@ -23,9 +23,10 @@ constexpr std::size_t shm_threshold = 64 * 1024;
 constexpr auto shm_room_wait = std::chrono::milliseconds(100);
 }  // namespace
 
-Connection::Connection(int fd, std::string description, bool greeted, std::uint64_t peer_max_frame)
+Connection::Connection(int fd, std::string description, bool greeted, std::uint64_t peer_max_frame,
+                       std::unique_ptr<TlsChannel> tls)
     : path_(std::move(description)),
-      socket_(fd),  // first of the parts: it closes the descriptor if this constructor throws
+      socket_(fd, std::move(tls)),  // first of the parts: it closes the descriptor if this constructor throws
       demux_(path_, demand_),
       calls_(demand_),
       shm_(demand_),
@@ -121,14 +122,14 @@ bool Connection::enable_rings() {
 
 std::shared_ptr<Connection> Connection::to_tcp(const std::string& address) {
     const int fd = FrameSocket::connect_tcp(address);
-    std::uint64_t max_frame = 0;
+    TcpGreeting greeting;
     try {
-        max_frame = tcp_handshake(fd, address, std::chrono::milliseconds(10000));
+        greeting = tcp_handshake(fd, address, std::chrono::milliseconds(10000));
     } catch (...) {
         ::close(fd);
         throw;
     }
-    return std::make_shared<Connection>(fd, address, true, max_frame);
+    return std::make_shared<Connection>(fd, address, true, greeting.peer_max_frame, std::move(greeting.tls));
 }
 
 bool Connection::enable_shm() {

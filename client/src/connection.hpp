@@ -34,6 +34,8 @@
 
 namespace plexus::detail {
 
+class TlsChannel;
+
 struct LoanSlot;
 
 class Connection : public std::enable_shared_from_this<Connection> {
@@ -45,7 +47,9 @@ public:
     /// Takes a connected socket and starts the receiving thread.
     /// `greeted`: the hellos were already exchanged (tcp_handshake), and the peer takes frame
     /// bodies up to `peer_max_frame` (0: it did not say); else our hello is sent now.
-    Connection(int fd, std::string description, bool greeted = false, std::uint64_t peer_max_frame = 0);
+    /// `tls`: the TCP link's TLS (tcp_handshake.hpp), its bytes go through it.
+    Connection(int fd, std::string description, bool greeted = false, std::uint64_t peer_max_frame = 0,
+               std::unique_ptr<TlsChannel> tls = nullptr);
     /// Sends what is buffered, then ends the receiving thread (joined before any part goes).
     ~Connection();
     Connection(const Connection&) = delete;

@@ -12,6 +12,7 @@
 #include <cstring>
 
 #include "client_rings.hpp"
+#include "tls_channel.hpp"
 #include "plexus/client.hpp"
 #include "plexus/proto/endpoint.hpp"
 
@@ -106,7 +107,10 @@ int FrameSocket::connect_tcp(const std::string& address) {
     return fd;
 }
 
+FrameSocket::FrameSocket(int fd, std::unique_ptr<TlsChannel> tls) : fd_(fd), tls_(std::move(tls)) {}
+
 FrameSocket::~FrameSocket() {
+    tls_.reset();  // before its socket closes
     if (fd_ >= 0)
         ::close(fd_);
 }
@@ -114,6 +118,8 @@ FrameSocket::~FrameSocket() {
 SocketReceived FrameSocket::receive(std::uint8_t* at, std::size_t room, std::deque<int>& fds, int flags) {
     if (in_rings_)
         return in_rings_->receive(at, room, fd_, fds, receive_timeout_, (flags & MSG_DONTWAIT) == 0);
+    if (tls_)
+        return receive_tls(at, room, flags);
     bool cut_off = false;
     const ssize_t n = receive_with_descriptors(fd_, at, room, flags, fds, cut_off);
     SocketReceived result;
@@ -133,9 +139,46 @@ SocketReceived FrameSocket::receive(std::uint8_t* at, std::size_t room, std::deq
     return result;
 }
 
+SocketReceived FrameSocket::receive_tls(std::uint8_t* at, std::size_t room, int flags) {
+    SocketReceived result;
+    for (;;) {
+        const ssize_t n = tls_->receive(at, room);
+        if (n > 0) {
+            result.bytes = static_cast<std::size_t>(n);
+            return result;
+        }
+        if (n == 0) {
+            result.failure = "the peer closed the connection";
+            return result;
+        }
+        if (errno != EAGAIN) {
+            result.failure = "the encrypted link broke: " + tls_->failure();
+            return result;
+        }
+        // Nothing decrypted yet: wait as a blocking receive would (up to the receive timeout).
+        if ((flags & MSG_DONTWAIT) != 0)
+            return result;
+        int timeout_ms = -1;
+        if (receive_timeout_.count() > 0)
+            timeout_ms = static_cast<int>((receive_timeout_.count() + 999) / 1000);
+        pollfd readable{fd_, POLLIN, 0};
+        const int ready = ::poll(&readable, 1, timeout_ms);
+        if (ready == 0 || (ready < 0 && errno == EINTR))
+            return result;  // as a timed-out receive: nothing
+    }
+}
+
 SocketSent FrameSocket::send_some(const iovec* pieces, std::size_t count) {
     if (out_rings_)
         return out_rings_->send_some(pieces, count);
+    if (tls_) {
+        const ssize_t n = tls_->send(pieces, count);
+        if (n >= 0)
+            return {static_cast<std::size_t>(n), false, std::nullopt};
+        if (errno == EAGAIN)
+            return {0, true, std::nullopt};
+        return {0, false, "the encrypted link broke: " + tls_->failure()};
+    }
     msghdr message{};
     message.msg_iov = const_cast<iovec*>(pieces);
     message.msg_iovlen = count;

@@ -17,6 +17,8 @@
 #include <optional>
 #include <string>
 
+#include "tls_channel.hpp"
+
 namespace plexus::detail {
 
 class ClientRings;
@@ -49,8 +51,8 @@ public:
     /// A TCP socket connected to HOST:PORT with TCP_NODELAY, hellos not yet exchanged.
     static int connect_tcp(const std::string& address);
 
-    /// Takes ownership of the connected socket `fd`.
-    explicit FrameSocket(int fd) : fd_(fd) {}
+    /// Takes ownership of the connected socket `fd`, and of `tls` when its bytes go through TLS.
+    explicit FrameSocket(int fd, std::unique_ptr<TlsChannel> tls = nullptr);
     ~FrameSocket();
     FrameSocket(const FrameSocket&) = delete;
     FrameSocket& operator=(const FrameSocket&) = delete;
@@ -83,7 +85,12 @@ public:
     bool await_descriptor(std::deque<int>& fds, int timeout_ms);
 
 private:
+    /// receive() through TLS: waits (with poll, the socket being non-blocking) as a blocking
+    /// receive would.
+    SocketReceived receive_tls(std::uint8_t* at, std::size_t room, int flags);
+
     int fd_ = -1;
+    std::unique_ptr<TlsChannel> tls_;  ///< set for an encrypted TCP link
     std::shared_ptr<ClientRings> in_rings_;         ///< the receiving thread's
     std::shared_ptr<ClientRings> out_rings_;        ///< the senders', under SendBuffer's mutex
     std::chrono::microseconds receive_timeout_{0};  ///< as SO_RCVTIMEO, for the ring

@@ -22,8 +22,8 @@ namespace {
 /// lost here (anything extra is a protocol error).
 class FrameFeed {
 public:
-    FrameFeed(int fd, std::string address, std::chrono::steady_clock::time_point deadline)
-        : fd_(fd), address_(std::move(address)), deadline_(deadline) {}
+    FrameFeed(int fd, TlsChannel* tls, std::string address, std::chrono::steady_clock::time_point deadline)
+        : fd_(fd), tls_(tls), address_(std::move(address)), deadline_(deadline) {}
 
     /// The next frame's type and fields (copied).
     std::pair<proto::FrameType, proto::Bytes> next() {
@@ -45,12 +45,23 @@ public:
 
 private:
     void receive() {
+        std::uint8_t chunk[4096];
+        if (tls_) {
+            const ssize_t n = tls_->receive_by(chunk, sizeof chunk, deadline_);
+            if (n == 0)
+                throw Error(ErrorCode::refused, address_ + " closed the connection during the hello");
+            if (n < 0 && errno == EAGAIN)
+                throw Error(ErrorCode::timeout, "no hello from " + address_ + " in time");
+            if (n < 0)
+                throw Error(ErrorCode::refused, "reading from " + address_ + ": " + tls_->failure());
+            buffer_.insert(buffer_.end(), chunk, chunk + n);
+            return;
+        }
         const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
             deadline_ - std::chrono::steady_clock::now());
         pollfd ready{fd_, POLLIN, 0};
         if (left.count() <= 0 || ::poll(&ready, 1, static_cast<int>(left.count())) <= 0)
             throw Error(ErrorCode::timeout, "no hello from " + address_ + " in time");
-        std::uint8_t chunk[4096];
         const ssize_t n = ::recv(fd_, chunk, sizeof chunk, 0);
         if (n == 0)
             throw Error(ErrorCode::refused, address_ + " closed the connection during the hello");
@@ -61,6 +72,7 @@ private:
     }
 
     int fd_;
+    TlsChannel* tls_;
     std::string address_;
     std::chrono::steady_clock::time_point deadline_;
     proto::Bytes buffer_;
@@ -103,48 +115,30 @@ std::optional<proto::Secret> secret_from_environment() {
 
 }  // namespace
 
-std::uint64_t tcp_handshake(int fd, const std::string& address, std::chrono::milliseconds timeout) {
+TcpGreeting tcp_handshake(int fd, const std::string& address, std::chrono::milliseconds timeout) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
     const auto secret = secret_from_environment();
+    TcpGreeting greeting;
+    if (secret)
+        greeting.tls = std::make_unique<TlsChannel>(fd, *secret, address, deadline);
     proto::Hello mine{proto::protocol_version, "client", ""};
-    if (secret) {
-        mine.nonce = proto::random_nonce();
-        mine.has_secret = true;
-    }
-    send_all(fd, proto::encode_hello(mine), address);
-    FrameFeed feed(fd, address, std::chrono::steady_clock::now() + timeout);
+    mine.has_secret = secret.has_value();
+    const auto hello_frame = proto::encode_hello(mine);
+    if (greeting.tls)
+        greeting.tls->send_all(hello_frame.data(), hello_frame.size(), deadline);
+    else
+        send_all(fd, hello_frame, address);
+    FrameFeed feed(fd, greeting.tls.get(), address, deadline);
     auto [type, fields] = feed.next();
     if (type != proto::FrameType::hello)
         refused_by(address, type, fields, "a hello");
     auto hello = proto::decode_hello(fields);
     if (!hello)
         throw Error(ErrorCode::refused, address + " sent a bad hello: " + hello.error().message);
-    if (!secret) {
-        if (hello->has_secret) {
-            // It will refuse us; its error frame says so in its own words.
-            auto [refusal, reason] = feed.next();
-            refused_by(address, refusal, reason, "nothing");
-        }
-        return hello->max_frame;
-    }
-    if (!hello->has_secret) {
-        throw Error(ErrorCode::refused, address +
-                                            " did not offer to prove it holds the deployment secret "
-                                            "(it runs without --secret-file): not trusted");
-    }
-    send_all(fd,
-             proto::encode_auth(
-                 secret->prove(proto::Party::connecting, hello->nonce, mine.nonce, mine.role, mine.node)),
-             address);
-    auto [proof_type, proof] = feed.next();
-    if (proof_type != proto::FrameType::auth)
-        refused_by(address, proof_type, proof, "its proof");
-    if (!proto::same_proof(
-            secret->prove(proto::Party::accepting, mine.nonce, hello->nonce, hello->role, hello->node),
-            proof))
-        throw Error(ErrorCode::refused, address + " does not hold the deployment secret: not trusted");
     if (!feed.empty())
         throw Error(ErrorCode::refused, address + " sent frames before it was asked anything");
-    return hello->max_frame;
+    greeting.peer_max_frame = hello->max_frame;
+    return greeting;
 }
 
 }  // namespace plexus::detail

@@ -1,18 +1,26 @@
 #pragma once
-// The hello exchange on a TCP connection from a client (the CLI asking a name server or a remote
-// daemon), done before the connection is handed to Connection: with the deployment secret, both
-// sides prove they hold it (PROTOCOL.md, "Authentication").
+// The start of a TCP connection from a client (the CLI asking a name server or a remote daemon),
+// done before the connection is handed to Connection: with the deployment secret
+// ($PLEXUS_SECRET_FILE), the TLS handshake that proves both ends hold it (proto/tls_psk.hpp), then
+// the hello exchange inside it.
 
 #include <chrono>
 #include <cstdint>
+#include <memory>
 #include <string>
+
+#include "tls_channel.hpp"
 
 namespace plexus::detail {
 
-/// Exchanges hellos on the connected socket `fd` (and proofs when either side has a secret:
-/// $PLEXUS_SECRET_FILE). Throws Error (refused) with the peer's reason when it refuses us, or when
-/// it does not prove it holds our secret. Blocking, within `timeout`. Answers the largest frame
-/// body the peer takes (0: it did not say).
-std::uint64_t tcp_handshake(int fd, const std::string& address, std::chrono::milliseconds timeout);
+struct TcpGreeting {
+    std::uint64_t peer_max_frame = 0;  ///< the largest frame body the peer takes (0: it did not say)
+    std::unique_ptr<TlsChannel> tls;   ///< the link's TLS, when there is a secret
+};
+
+/// Starts TLS on the connected socket `fd` when there is a secret, and exchanges hellos. Throws
+/// Error (refused) with the peer's reason when it refuses us, or when the TLS handshake fails.
+/// Blocking, within `timeout`.
+TcpGreeting tcp_handshake(int fd, const std::string& address, std::chrono::milliseconds timeout);
 
 }  // namespace plexus::detail

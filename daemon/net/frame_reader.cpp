@@ -115,12 +115,12 @@ ReadOutcome FrameReader::ended(bool eof, const std::string& error) const {
     return ReadOutcome{std::nullopt, false, false, error};
 }
 
-Task<ReadOutcome> FrameReader::next(Socket& socket) {
+Task<ReadOutcome> FrameReader::next(ByteStream& stream) {
     for (;;) {
         auto step = next_step();
         if (step.outcome)
             co_return std::move(*step.outcome);
-        auto [ec, n] = co_await socket.async_read_some(step.room, use_nothrow);
+        auto [ec, n] = co_await stream.read_some(step.room);
         if (ec)
             co_return ended(ec == asio::error::eof, ec.message());
         end_ += n;

@@ -8,6 +8,7 @@
 
 #include "../core/message.hpp"
 #include "asio.hpp"
+#include "byte_stream.hpp"
 #include "plexus/proto/frame.hpp"
 
 namespace plexus::daemon {
@@ -38,7 +39,7 @@ struct ReadOutcome {
 class FrameReader {
 public:
     explicit FrameReader(std::size_t max_body) : decoder_(max_body) {}
-    Task<ReadOutcome> next(Socket& socket);
+    Task<ReadOutcome> next(ByteStream& stream);
     /// The same, from the ring a client writes into (session_rings.hpp).
     Task<ReadOutcome> next(SessionRings& rings);
     /// The next frame if it is already buffered, or a protocol error; an empty outcome when more

@@ -13,6 +13,8 @@
 
 #include "call_table.hpp"
 #include "packet_marks.hpp"
+#include "plexus/proto/tls_psk.hpp"
+#include "tls_context.hpp"
 #include "plexus/proto/frame.hpp"
 
 namespace plexus::daemon {
@@ -28,30 +30,75 @@ constexpr auto close_grace = std::chrono::seconds(2);
 }  // namespace
 
 FramedConnection::FramedConnection(Socket socket, std::size_t max_frame, std::function<void()> on_space)
-    : socket_(std::move(socket)),
+    : stream_(std::move(socket)),
+      socket_(stream_.socket()),
       reader_(max_frame),
       outbox_(std::move(on_space)),
       wake_(socket_.get_executor()),
       hello_signal_(socket_.get_executor()) {}
 
+void FramedConnection::require_secret(std::optional<proto::Secret> secret, proto::Party party) {
+    secret_ = std::move(secret);
+    party_ = party;
+    tls_ = secret_ ? TlsContext::of(*secret_) : nullptr;
+}
+
 void FramedConnection::start(const proto::Hello& mine) {
     outbox_.set_owner(weak_from_this());
     mine_ = mine;
-    needs_proof_ = secret_.has_value() && !is_local();
-    if (needs_proof_) {
-        mine_.nonce = proto::random_nonce();
-        mine_.has_secret = true;
-    }
-    send(proto::encode_hello(mine_));
+    mine_.has_secret = secret_.has_value();
+    needs_tls_ = secret_.has_value() && !is_local();
     auto self = shared_from_this();
     asio::co_spawn(
-        executor(), [self] { return self->read_loop(); }, asio::detached);
-    asio::co_spawn(
-        executor(), [self] { return self->write_loop(); }, asio::detached);
+        executor(), [self] { return self->begin(); }, asio::detached);
     if (handshake_timeout_.count() > 0) {
         asio::co_spawn(
             executor(), [self] { return self->watch_handshake(); }, asio::detached);
     }
+}
+
+Task<void> FramedConnection::begin() {
+    auto self = shared_from_this();
+    if (needs_tls_ && !co_await secure_link())
+        co_return;
+    if (closed_)
+        co_return;
+    // A plain peer where TLS is needed hears only why it is refused: not even our node's name.
+    if (!needs_tls_ || stream_.encrypted())
+        send(proto::encode_hello(mine_));
+    asio::co_spawn(
+        executor(), [self] { return self->read_loop(); }, asio::detached);
+    asio::co_spawn(
+        executor(), [self] { return self->write_loop(); }, asio::detached);
+}
+
+Task<bool> FramedConnection::secure_link() {
+    const bool accepting = party_ == proto::Party::accepting;
+    std::array<std::uint8_t, 2> first{};
+    if (accepting) {
+        auto [error, n] = co_await asio::async_read(socket_, asio::buffer(first), use_nothrow);
+        if (closed_)
+            co_return false;
+        if (error) {
+            close(error == asio::error::eof ? "peer closed before its handshake" : error.message());
+            co_return false;
+        }
+        if (!proto::starts_tls(first[0], first[1])) {
+            stream_.give_back(first);  // read as frames, and refused in words (take_hello)
+            co_return true;
+        }
+    }
+    const auto secured = co_await stream_.start_tls(*tls_, accepting, accepting ? proto::ByteView(first) : proto::ByteView());
+    if (closed_)
+        co_return false;
+    if (!secured) {
+        co_await refuse_unauthenticated(
+            secured.error().message +
+                " (the peer does not hold this deployment's secret, or runs without one)",
+            false);
+        co_return false;
+    }
+    co_return true;
 }
 
 Task<void> FramedConnection::watch_handshake() {
@@ -60,7 +107,7 @@ Task<void> FramedConnection::watch_handshake() {
         co_return;
     on_handshake_timeout();
     spdlog::warn("{}: no {} within {} ms of connecting: cut off", description_,
-                 needs_proof_ ? "hello and proof of the secret" : "hello", handshake_timeout_.count());
+                 needs_tls_ ? "TLS handshake and hello" : "hello", handshake_timeout_.count());
     close("no handshake within " + std::to_string(handshake_timeout_.count()) + " ms");
 }
 
@@ -192,7 +239,7 @@ Task<void> FramedConnection::read_loop() {
         if (!outcome.frame && !outcome.protocol_error && rings_)
             outcome = co_await reader_.next(*rings_);
         else if (!outcome.frame && !outcome.protocol_error)
-            outcome = co_await reader_.next(socket_);
+            outcome = co_await reader_.next(stream_);
         if (closed_)
             break;
         if (!outcome.frame) {
@@ -214,12 +261,7 @@ Task<void> FramedConnection::read_loop() {
             break;
         }
         if (!peer_hello_) {
-            bool go_on = false;
-            if (unproven_hello_)
-                go_on = co_await take_proof(frame);
-            else
-                go_on = co_await take_hello(frame);
-            if (!go_on)
+            if (!co_await take_hello(frame))
                 break;
             continue;
         }
@@ -238,7 +280,7 @@ Task<void> FramedConnection::read_loop() {
 Task<void> FramedConnection::discard_until_peer_closes() {
     std::array<std::uint8_t, 4096> scratch{};
     while (!closed_) {
-        auto [error, n] = co_await socket_.async_read_some(asio::buffer(scratch), use_nothrow);
+        auto [error, n] = co_await stream_.read_some(asio::buffer(scratch));
         if (closed_)
             co_return;
         if (error) {
@@ -264,42 +306,16 @@ Task<bool> FramedConnection::take_hello(InFrame& frame) {
              std::to_string(proto::protocol_version) + ")");
         co_return false;
     }
-    if (!needs_proof_)
-        co_return accept_peer(std::move(*hello));
-    if (!hello->has_secret) {
+    if (needs_tls_ && !stream_.encrypted()) {
         co_await refuse_unauthenticated(
-            "authentication required: this deployment has a shared secret and the peer offered none "
-            "(start it with --secret-file FILE or PLEXUS_SECRET_FILE)");
+            hello->has_secret
+                ? "authentication required: this deployment encrypts its TCP links and the peer did not "
+                  "start TLS (a Plexus older than this one?)"
+                : "authentication required: this deployment has a shared secret and the peer offered none "
+                  "(start it with --secret-file FILE or PLEXUS_SECRET_FILE)");
         co_return false;
     }
-    if (hello->nonce == mine_.nonce) {
-        co_await refuse_unauthenticated("authentication failed: the peer sent back our own challenge");
-        co_return false;
-    }
-    send(proto::encode_auth(secret_->prove(party_, hello->nonce, mine_.nonce, mine_.role, mine_.node)));
-    unproven_hello_ = std::move(*hello);
-    co_return true;
-}
-
-Task<bool> FramedConnection::take_proof(InFrame& frame) {
-    if (frame.type != proto::FrameType::auth) {
-        co_await refuse_unauthenticated(
-            "authentication required: expected an auth frame after the hello, got " +
-            proto::frame_type_name(static_cast<std::uint8_t>(frame.type)));
-        co_return false;
-    }
-    const auto proof = proto::decode_auth(frame.fields);
-    const auto& hello = *unproven_hello_;
-    if (!proof ||
-        !proto::same_proof(secret_->prove(other_party(), mine_.nonce, hello.nonce, hello.role, hello.node),
-                           *proof)) {
-        co_await refuse_unauthenticated(
-            "authentication failed: the peer does not hold this deployment's secret");
-        co_return false;
-    }
-    auto accepted = std::move(*unproven_hello_);
-    unproven_hello_.reset();
-    co_return accept_peer(std::move(accepted));
+    co_return accept_peer(std::move(*hello));
 }
 
 bool FramedConnection::accept_peer(proto::Hello hello) {
@@ -312,17 +328,18 @@ bool FramedConnection::accept_peer(proto::Hello hello) {
     return true;
 }
 
-Task<void> FramedConnection::refuse_unauthenticated(std::string reason) {
+Task<void> FramedConnection::refuse_unauthenticated(std::string reason, bool can_tell) {
     auto self = shared_from_this();
-    spdlog::warn("{} (peer '{}' of node '{}'): {}", description_,
-                 unproven_hello_ ? unproven_hello_->role : "?", unproven_hello_ ? unproven_hello_->node : "?",
-                 reason);
+    spdlog::warn("{}: {}", description_, reason);
     on_auth_failure(reason);
     // Every failed attempt costs the peer this long: no fast guessing, whatever it tries.
     constexpr auto failure_pause = std::chrono::seconds(1);
     asio::steady_timer pause(executor(), failure_pause);
     co_await pause.async_wait(use_nothrow);
-    fail(reason);
+    if (can_tell)
+        fail(reason);
+    else
+        close(reason);  // a failed TLS handshake has told the peer (its alert); no frame could follow
 }
 
 bool FramedConnection::use_rings(std::unique_ptr<SessionRings> rings, proto::Bytes answer) {
@@ -482,7 +499,7 @@ Task<void> FramedConnection::write_loop() {
             consume(batch.buffers, *sent);
         }
         if (!batch.buffers.empty()) {
-            auto [ec, n] = co_await asio::async_write(socket_, batch.buffers, use_nothrow);
+            auto [ec, n] = co_await stream_.write(batch.buffers);
             if (ec) {
                 close(ec.message());
                 co_return;

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "asio.hpp"
+#include "byte_stream.hpp"
 #include "frame_reader.hpp"
 #include "outbox.hpp"
 #include "plexus/proto/auth.hpp"
@@ -22,6 +23,7 @@ namespace plexus::daemon {
 /// A socket speaking Plexus frames: hello exchange, a reader coroutine handing frames to the
 /// subclass, a writer coroutine gathering the outbox into few system calls, and one orderly close.
 class CallTable;
+class TlsContext;
 
 class FramedConnection : public std::enable_shared_from_this<FramedConnection> {
 public:
@@ -30,18 +32,16 @@ public:
     FramedConnection(const FramedConnection&) = delete;
     FramedConnection& operator=(const FramedConnection&) = delete;
 
-    /// With the deployment secret, a TCP peer must prove it holds it too, right after the hellos
-    /// and before anything else is read (PROTOCOL.md, "Authentication"); a Unix-socket peer is
+    /// With the deployment secret, every TCP link is TLS 1.3 keyed by it (proto/tls_psk.hpp): the
+    /// handshake proves both ends hold the secret, and nothing is sent before it is over, not even
+    /// the hellos. A plain TCP peer is told why it is refused and nothing else; a Unix-socket peer is
     /// trusted by the socket's permissions. Call before start().
-    void require_secret(std::optional<proto::Secret> secret, proto::Party party = proto::Party::accepting) {
-        secret_ = std::move(secret);
-        party_ = party;
-    }
+    void require_secret(std::optional<proto::Secret> secret, proto::Party party = proto::Party::accepting);
     /// An accepted peer that has not completed its hello (and its proof, when one is needed) this
     /// long after start() is cut off: a peer that connects and says nothing would otherwise hold a
     /// socket and a session for good. Zero: no limit. Call before start().
     void set_handshake_timeout(std::chrono::milliseconds timeout) { handshake_timeout_ = timeout; }
-    /// Sends our hello and starts reading and writing.
+    /// Sends our hello and starts reading and writing (after the TLS handshake when there is one).
     void start(const proto::Hello& mine);
     /// Queues a whole control frame.
     void send(proto::Bytes frame);
@@ -60,7 +60,7 @@ public:
     const std::string& description() const { return description_; }
     void set_description(std::string text) { description_ = std::move(text); }
     Outbox& outbox() { return outbox_; }
-    asio::any_io_executor executor() { return socket_.get_executor(); }
+    asio::any_io_executor executor() { return stream_.socket().get_executor(); }
     /// Keeps the socket's send buffer at `bytes` from now on (never raised for large messages):
     /// for links that must not hold much in the kernel, where it would only add delay.
     void limit_send_buffer(int bytes);
@@ -102,7 +102,8 @@ protected:
     virtual Task<bool> on_frame(InFrame frame) = 0;
     /// Called once, after the connection closed for any reason.
     virtual void on_closed(const std::string& reason) = 0;
-    /// Called when a peer failed to prove it holds the deployment secret (before it is cut off).
+    /// Called when a peer failed to prove it holds the deployment secret (its TLS handshake failed,
+    /// or it did not start one), before it is cut off.
     virtual void on_auth_failure(const std::string& /*reason*/) {}
     /// Called when a peer did not complete its handshake in time (before it is cut off).
     virtual void on_handshake_timeout() {}
@@ -127,35 +128,37 @@ private:
     Task<void> discard_until_peer_closes();
     /// Cuts the peer off if its handshake is not over within handshake_timeout_.
     Task<void> watch_handshake();
-    /// The peer's hello arrived: checks it, sends our proof when a secret is needed. False when the
-    /// peer was refused.
+    /// Runs the TLS handshake when the link needs one, then sends our hello and starts the reader
+    /// and the writer.
+    Task<void> begin();
+    /// The TLS handshake; an accepting end first reads two bytes to tell a TLS peer from a plain
+    /// one (which is let through to be refused in words). False when the peer was refused.
+    Task<bool> secure_link();
+    /// The peer's hello arrived: checks it. False when the peer was refused.
     Task<bool> take_hello(InFrame& frame);
-    /// The peer's auth frame arrived: checks its proof. False when the peer was refused.
-    Task<bool> take_proof(InFrame& frame);
-    /// Accepts the peer (its hello, and its proof if one was needed).
+    /// Accepts the peer.
     bool accept_peer(proto::Hello hello);
-    proto::Party other_party() const {
-        return party_ == proto::Party::connecting ? proto::Party::accepting : proto::Party::connecting;
-    }
-    /// Counts, logs, waits a while (a peer guessing cannot go fast), then refuses the peer.
-    Task<void> refuse_unauthenticated(std::string reason);
+    /// Counts, logs, waits a while (a peer guessing cannot go fast), then refuses the peer: with an
+    /// error frame when the link can carry one (`can_tell`), else by closing.
+    Task<void> refuse_unauthenticated(std::string reason, bool can_tell = true);
     /// With rings, the socket only tells that the peer closed: watches it for that.
     Task<void> watch_socket();
     /// With rings, sends the batch's descriptors on the socket (with one byte), ahead of the frames
     /// that name them, which go into the rings.
     Task<proto::Status> send_descriptors(const std::vector<int>& fds);
 
-    Socket socket_;
+    ByteStream stream_;
+    Socket& socket_;  ///< stream_'s socket: for what only a socket does
     FrameReader reader_;
     Outbox outbox_;
     Signal wake_;
     Signal hello_signal_;
     std::optional<proto::Hello> peer_hello_;
     std::optional<proto::Secret> secret_;
-    proto::Party party_ = proto::Party::accepting;  ///< which end we are: our proofs' label
-    bool needs_proof_ = false;                      ///< decided at start(): a secret and a TCP peer
-    proto::Hello mine_;                             ///< our hello, whose role and node our proof names
-    std::optional<proto::Hello> unproven_hello_;    ///< the peer's hello, waiting for its proof
+    std::shared_ptr<TlsContext> tls_;               ///< set with a secret: TCP links need TLS
+    proto::Party party_ = proto::Party::accepting;  ///< which end we are: the TLS client or server
+    bool needs_tls_ = false;                        ///< decided at start(): a secret and a TCP peer
+    proto::Hello mine_;
     std::string description_;
     bool closed_ = false;
     bool draining_ = false;

@@ -5,6 +5,7 @@
 // (tests/integration/hostile/hostile_peer.hpp has the raw peers and shared expectations.)
 #include "hostile_peer.hpp"
 #include "plexus/proto/auth.hpp"
+#include "tls_peer.hpp"
 
 namespace plexus::test::hostile {
 namespace handshake_test {
@@ -136,18 +137,17 @@ TEST(Hostile_test, APeerThatFailsTheSecretTooOftenIsShutOutAndCounted) {
     Daemon daemon(
         dir, "solo", "",
         with_peer_limits(dir, R"({"peer_failed_proofs": 2})", {"--secret-file", test_secret_file()}));
-    proto::Hello hello{proto::protocol_version, "client", "guesser"};
-    hello.has_secret = true;
-    hello.nonce.fill(7);
+    const auto wrong = proto::Secret::from_bytes("a guess at the deployment's secret");
+    ASSERT_TRUE(static_cast<bool>(wrong));
     for (int attempt = 0; attempt < 2; ++attempt) {
         auto guesser = Stream::open(daemon, Listener::daemon_tcp);
-        ASSERT_TRUE(guesser.send(proto::encode_hello(hello)));
-        proto::Proof wrong{};
-        ASSERT_TRUE(guesser.send(proto::encode_auth(wrong)));
-        const auto reason = error_reason(guesser.frames_until_closed());
-        ASSERT_TRUE(reason.has_value()) << attempt;
-        EXPECT_NE(reason->find("does not hold this deployment's secret"), std::string::npos) << *reason;
+        const std::string failed = tls_handshake_with(guesser.descriptor(), *wrong, slower(5s));
+        EXPECT_FALSE(failed.empty()) << "a wrong key completed the TLS handshake, attempt " << attempt;
+        // Nothing in clear follows a failed handshake: the daemon closes.
+        EXPECT_TRUE(closes_within(guesser.descriptor(), slower(5s))) << attempt;
     }
+    const auto log_so_far = daemon.process().out() + daemon.process().err();
+    EXPECT_NE(log_so_far.find("the peer does not hold this deployment's secret"), std::string::npos) << log_so_far;
     auto third = Stream::open(daemon, Listener::daemon_tcp);
     EXPECT_TRUE(closed_at_once(third)) << "a third guess within the minute was heard";
     EXPECT_EQ(peers_refused(dir, daemon), 1u);

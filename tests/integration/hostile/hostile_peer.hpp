@@ -320,6 +320,7 @@ public:
     bool send(ByteView bytes) { return send(bytes, Clock::now() + exchange_timeout); }
 
     void shutdown_write() { ::shutdown(fd_, SHUT_WR); }
+    int descriptor() const { return fd_; }
     void close() {
         if (fd_ >= 0)
             ::close(fd_);

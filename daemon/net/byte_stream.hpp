@@ -1,0 +1,55 @@
+#pragma once
+// Threading: one io_context thread; at most one read and one write in flight at a time (a
+// connection's reader and writer coroutines).
+
+#include <memory>
+#include <tuple>
+#include <vector>
+
+#include "asio.hpp"
+#include "plexus/proto/bytes.hpp"
+
+namespace plexus::daemon {
+
+class TlsContext;
+
+/// The bytes of a connection: a socket's, or, once start_tls() succeeded, the plain bytes of a TLS
+/// session over it. FramedConnection and FrameReader read and write through it and need not know
+/// which; what only a socket does (options, descriptors on a Unix socket, waits) goes to socket().
+class ByteStream {
+public:
+    explicit ByteStream(Socket socket);
+    ~ByteStream();
+    ByteStream(const ByteStream&) = delete;
+    ByteStream& operator=(const ByteStream&) = delete;
+
+    Socket& socket() { return socket_; }
+    bool encrypted() const { return tls_ != nullptr; }
+
+    /// Runs the TLS handshake as the `accepting` or the connecting end; `first` are bytes of the
+    /// peer's already read from the socket (the listener looked at them). An Error says why it
+    /// failed (the peer holds another secret, or speaks no TLS).
+    Task<proto::Status> start_tls(TlsContext& context, bool accepting, proto::ByteView first = {});
+    /// Bytes read from the socket that the next reads give first (a listener looked at them and
+    /// found a plain peer).
+    void give_back(proto::ByteView first) { given_back_.assign(first.begin(), first.end()); }
+
+    /// Reads what is there, at least one byte. A TLS session the peer ended without its
+    /// close_notify reads as an end of stream: frames delimit themselves, so a cut can only end a
+    /// connection early, and the reader tells a cut inside a frame from a close between frames.
+    Task<std::tuple<boost::system::error_code, std::size_t>> read_some(asio::mutable_buffer buffer);
+    /// Writes all of `buffers`.
+    Task<std::tuple<boost::system::error_code, std::size_t>> write(const std::vector<asio::const_buffer>& buffers);
+
+private:
+    Task<std::tuple<boost::system::error_code, std::size_t>> read_tls(asio::mutable_buffer buffer);
+    Task<std::tuple<boost::system::error_code, std::size_t>> write_tls(const std::vector<asio::const_buffer>& buffers);
+    Task<std::tuple<boost::system::error_code, std::size_t>> read_given_back(asio::mutable_buffer buffer);
+
+    struct Tls;
+    Socket socket_;
+    std::unique_ptr<Tls> tls_;
+    proto::Bytes given_back_;
+};
+
+}  // namespace plexus::daemon

@@ -1,0 +1,28 @@
+#include "tls_context.hpp"
+
+#include <boost/asio/ssl/context.hpp>
+#include <map>
+#include <mutex>
+
+#include "plexus/proto/tls_psk.hpp"
+
+namespace plexus::daemon {
+
+TlsContext::TlsContext(const proto::Secret& secret)
+    : context_(std::make_unique<boost::asio::ssl::context>(proto::new_psk_tls_context(secret))) {}
+
+TlsContext::~TlsContext() = default;
+
+std::shared_ptr<TlsContext> TlsContext::of(const proto::Secret& secret) {
+    static std::mutex lock;
+    static std::map<proto::Proof, std::weak_ptr<TlsContext>> made;  // by key: a secret's own bytes stay in Secret
+    const std::lock_guard guard(lock);
+    auto& entry = made[secret.tls_key()];
+    if (auto context = entry.lock())
+        return context;
+    auto context = std::make_shared<TlsContext>(secret);
+    entry = context;
+    return context;
+}
+
+}  // namespace plexus::daemon
