@@ -279,7 +279,7 @@ void ControlPlane::watch_link(std::shared_ptr<Peer> link, std::shared_ptr<const 
     std::weak_ptr<Connection> weak = connection;
     // The queue is held here, not reached through the connection: after a disconnect the
     // connection is gone while the link still drains, and what it could not send must be counted.
-    link->closed_handler = [&host = host_, weak, queue = std::move(queue), source = connection->source,
+    link->closed_handler = [this, &host = host_, weak, queue = std::move(queue), source = connection->source,
                             destination = connection->destination](const std::string& reason) {
         if (queue && queue->depth() > 0) {
             host.counters().dropped_link_down += queue->depth();
@@ -294,6 +294,11 @@ void ControlPlane::watch_link(std::shared_ptr<Peer> link, std::shared_ptr<const 
             host.notify_space();
             if (!host.stopping())
                 host.names().notify_connection_down(c->source, c->destination);
+            if (!host.stopping() && c->persistent) {
+                asio::co_spawn(executor_,
+                               remake_persistent({c->source, c->destination, c->carrier, c->persistent}),
+                               asio::detached);
+            }
         }
     };
 }
@@ -370,6 +375,12 @@ Task<proto::Reply> ControlPlane::disconnect(std::shared_ptr<Session>, const prot
     if (!host_.router().find(source))
         co_return co_await forward(request, asked->forwarded, source);
     auto removed = host_.router().remove(source, destination);
+    if (!removed && remaking_.erase(source + " -> " + destination) > 0) {
+        // Down, and being made again: disconnecting ends that, and the name server forgets it.
+        co_await host_.names().remove_connection(source, destination, true);
+        spdlog::info("disconnected {} -> {} (it was down)", source, destination);
+        co_return ok(proto::DisconnectReply{});
+    }
     if (!removed)
         co_return refuse("ports " + source + " and " + destination + " are not connected", ReplyCode::no);
     host_.notify_space();
@@ -378,12 +389,57 @@ Task<proto::Reply> ControlPlane::disconnect(std::shared_ptr<Session>, const prot
     co_return ok(proto::DisconnectReply{});
 }
 
+Task<void> ControlPlane::remake_persistent(names::ConnectionEntry entry) {
+    const std::string key = entry.source + " -> " + entry.destination;
+    if (!remaking_.insert(key).second)
+        co_return;  // already at it
+    const std::weak_ptr<void> alive = alive_;
+    proto::ConnectRequest asked;
+    asked.source = entry.source;
+    asked.destination = entry.destination;
+    asked.carrier = entry.carrier;
+    asked.persist = true;
+    proto::Request request;
+    request.body = asked.encode();
+    auto delay = std::chrono::milliseconds(100);
+    constexpr auto longest = std::chrono::milliseconds(5000);
+    for (int attempt = 1;; ++attempt) {
+        asio::steady_timer pause(executor_, delay);
+        co_await pause.async_wait(use_nothrow);
+        delay = std::min(delay * 2, longest);
+        if (alive.expired())
+            co_return;  // the control plane is gone
+        if (host_.stopping() || !remaking_.contains(key) || !host_.router().find(entry.source))
+            break;
+        if (const auto where = co_await host_.names().lookup(entry.destination); !where) {
+            spdlog::info("persistent connection {}: not made again for now: {}", key, where.error().message);
+            break;  // gone, or the name server is: its registration restores the connection
+        }
+        if (alive.expired())
+            co_return;
+        if (!remaking_.contains(key))
+            break;
+        const std::shared_ptr<Session> no_session;
+        const auto reply = co_await connect(no_session, request);
+        if (alive.expired())
+            co_return;
+        const std::string error = reply.body.value("error", std::string{});
+        if (reply.code == ReplyCode::ok || error.find("already connected") != std::string::npos) {
+            spdlog::info("persistent connection {} made again (attempt {})", key, attempt);
+            break;
+        }
+        spdlog::debug("persistent connection {}: attempt {} failed: {}", key, attempt, error);
+    }
+    remaking_.erase(key);
+}
+
 Task<void> ControlPlane::restore_persistent(std::vector<names::ConnectionEntry> persistent) {
     for (const auto& entry : persistent) {
         proto::ConnectRequest asked;
         asked.source = entry.source;
         asked.destination = entry.destination;
         asked.carrier = entry.carrier;
+        asked.persist = entry.persistent;  // still persistent: made again if its link breaks
         proto::Request request;
         request.body = asked.encode();
         // Either end may come up first; the one that comes second makes the connection, so a

@@ -6,6 +6,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -101,12 +102,18 @@ private:
     /// What makes the stage of a connection's send-side monitors, for its carrier to call (null
     /// without monitors). The control plane owns the scripts; the carrier chooses where they report.
     carriers::SendStageMaker send_stage_maker(std::shared_ptr<monitor::MonitorChain> chain);
-    /// When `link` closes: counts what its `queue` could not send, removes the connection.
+    /// When `link` closes: counts what its `queue` could not send, removes the connection, and
+    /// makes a persistent one again (remake_persistent).
     void watch_link(std::shared_ptr<Peer> link, std::shared_ptr<const ReaderQueue> queue,
                     const std::shared_ptr<Connection>& connection);
     /// The receiving end of a connection from another daemon: the link session feeds an inlet.
     Task<proto::Reply> attach(std::shared_ptr<Session> session, const proto::Request& request);
     Task<proto::Reply> disconnect(std::shared_ptr<Session> session, const proto::Request& request);
+    /// A persistent connection whose link broke while both ends live (a reset, a cable, bytes
+    /// altered on the path): tries to make it again, backing off from 100 ms to 5 s, until it is
+    /// made, its source closes, its destination is no longer registered (its return restores it,
+    /// restore_persistent), it is disconnected, or the daemon stops.
+    Task<void> remake_persistent(names::ConnectionEntry entry);
 
     // param.cpp
     Task<proto::Reply> param(std::shared_ptr<Session> session, const proto::Request& request);
@@ -162,6 +169,8 @@ private:
     std::uint64_t next_region_ = 1;
     std::map<std::uint64_t, Recording> recordings_;
     std::uint64_t next_recording_ = 1;
+    /// "SOURCE -> DESTINATION" of the persistent connections remake_persistent is making again.
+    std::set<std::string> remaking_;
     /// Expires with the control plane: a sweep that wakes after it knows not to touch it.
     std::shared_ptr<void> alive_ = std::make_shared<int>(0);
 };
