@@ -12,9 +12,9 @@
 #include <cstring>
 
 #include "client_rings.hpp"
-#include "tls_channel.hpp"
 #include "plexus/client.hpp"
 #include "plexus/proto/endpoint.hpp"
+#include "tls_channel.hpp"
 
 namespace plexus::detail {
 

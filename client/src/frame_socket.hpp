@@ -90,7 +90,7 @@ private:
     SocketReceived receive_tls(std::uint8_t* at, std::size_t room, int flags);
 
     int fd_ = -1;
-    std::unique_ptr<TlsChannel> tls_;  ///< set for an encrypted TCP link
+    std::unique_ptr<TlsChannel> tls_;               ///< set for an encrypted TCP link
     std::shared_ptr<ClientRings> in_rings_;         ///< the receiving thread's
     std::shared_ptr<ClientRings> out_rings_;        ///< the senders', under SendBuffer's mutex
     std::chrono::microseconds receive_timeout_{0};  ///< as SO_RCVTIMEO, for the ring

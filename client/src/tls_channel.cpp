@@ -147,11 +147,13 @@ void TlsChannel::send_all(const std::uint8_t* bytes, std::size_t size,
         }
         if (n < 0 && errno == EAGAIN && wait_for(fd_, POLLOUT, deadline))
             continue;
-        throw Error(ErrorCode::refused, "sending over TLS: " + (n < 0 && errno == EAGAIN ? "no room in time" : failure()));
+        throw Error(ErrorCode::refused,
+                    "sending over TLS: " + (n < 0 && errno == EAGAIN ? "no room in time" : failure()));
     }
 }
 
-ssize_t TlsChannel::receive_by(std::uint8_t* at, std::size_t room, std::chrono::steady_clock::time_point deadline) {
+ssize_t TlsChannel::receive_by(std::uint8_t* at, std::size_t room,
+                               std::chrono::steady_clock::time_point deadline) {
     for (;;) {
         const ssize_t n = receive(at, room);
         if (n >= 0 || errno != EAGAIN)

@@ -35,10 +35,11 @@ public:
     /// (EAGAIN: nothing now; EPROTO: the stream broke, failure() says how).
     ssize_t receive(std::uint8_t* at, std::size_t room);
     /// Like sendmsg with MSG_DONTWAIT: bytes taken from `pieces` (at most a record's worth), or -1
-    /// with errno set (EAGAIN: no room now; offer the same bytes again later). 
+    /// with errno set (EAGAIN: no room now; offer the same bytes again later).
     ssize_t send(const iovec* pieces, std::size_t count);
     /// Sends all of `bytes` and receives into `at`, waiting up to `deadline` (the hello exchange).
-    void send_all(const std::uint8_t* bytes, std::size_t size, std::chrono::steady_clock::time_point deadline);
+    void send_all(const std::uint8_t* bytes, std::size_t size,
+                  std::chrono::steady_clock::time_point deadline);
     ssize_t receive_by(std::uint8_t* at, std::size_t room, std::chrono::steady_clock::time_point deadline);
     /// Why the last call that set EPROTO failed.
     std::string failure() const;

@@ -32,9 +32,9 @@ int main(int argc, char** argv) {
     app.add_option("--grace-ms", grace_ms, "how long a vanished daemon's ports stay registered")
         ->transform(plexus::daemon::whole_number(0, 86'400'000))
         ->capture_default_str();
-    app.add_option(
-           "--handshake-timeout-ms", handshake_timeout_ms,
-           "cut off a TCP peer that has not said hello (and proved the secret) this long after connecting")
+    app.add_option("--handshake-timeout-ms", handshake_timeout_ms,
+                   "cut off a TCP peer that has not finished its handshake (TLS with a secret, then hello) "
+                   "this long after connecting")
         ->transform(plexus::daemon::whole_number(100, 3'600'000))
         ->capture_default_str();
     app.add_option("--ready-file", ready_file, "write {\"names\": HOST:PORT, \"pid\"} here once serving");
@@ -55,7 +55,7 @@ int main(int argc, char** argv) {
     std::string secret_file;
     bool insecure = false;
     app.add_option("--secret-file", secret_file,
-                   "the deployment secret (env PLEXUS_SECRET_FILE): every TCP peer must prove it holds it");
+                   "the deployment secret (env PLEXUS_SECRET_FILE): every TCP link is TLS 1.3 keyed by it");
     app.add_flag("--insecure", insecure, "listen beyond loopback without a secret (anyone may register)");
     // spdlog reads a name it does not know as "off": a typo would silence the daemon.
     app.add_option("--log-level", log_level, "trace, debug, info, warn, error")

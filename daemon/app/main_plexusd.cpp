@@ -102,7 +102,7 @@ int main(int argc, char** argv) {
     app.add_option(
         "--secret-file", secret_file,
         "the deployment secret (env PLEXUS_SECRET_FILE): a file only its owner may read, 16+ bytes, "
-        "the same on every machine; TCP peers must prove they hold it and datagrams carry a MAC");
+        "the same on every machine; every TCP link is TLS 1.3 keyed by it and datagrams carry a MAC");
     std::optional<std::string> http;
     app.add_option("--http", http,
                    "serve the web page of the whole system, its JSON views, live stream and Prometheus "

@@ -77,7 +77,8 @@ proto::Reply NameServer::ping(const Asked& asked) {
     proto::Reply refusal;
     if (!decode<proto::PingRequest>(asked.request, refusal))
         return refusal;
-    return ok(asked.request, proto::NamesPingReply{endpoint().text(), auth_failures_, handshake_timeouts_});
+    return ok(asked.request, proto::NamesPingReply{endpoint().text(), auth_failures_, handshake_timeouts_,
+                                                   tls_records_refused_});
 }
 
 proto::Reply NameServer::lookup(const Asked& asked) {

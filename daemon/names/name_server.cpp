@@ -40,6 +40,7 @@ protected:
     }
     void on_auth_failure(const std::string&) override { server_.count_auth_failure(); }
     void on_handshake_timeout() override { server_.count_handshake_timeout(); }
+    void on_tls_refused(const std::string&) override { server_.count_tls_refused(); }
     void on_closed(const std::string& reason) override {
         spdlog::debug("names: session {} closed: {}", id_, reason);
         server_.session_closed(id_);

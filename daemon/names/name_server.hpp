@@ -59,6 +59,7 @@ public:
     void count_auth_failure() { ++auth_failures_; }
     std::uint64_t auth_failures() const { return auth_failures_; }
     void count_handshake_timeout() { ++handshake_timeouts_; }
+    void count_tls_refused() { ++tls_records_refused_; }
 
 private:
     Task<void> accept_loop();
@@ -105,6 +106,7 @@ private:
     std::uint64_t next_session_ = 1;
     std::uint64_t auth_failures_ = 0;
     std::uint64_t handshake_timeouts_ = 0;
+    std::uint64_t tls_records_refused_ = 0;
     bool stopped_ = false;
 };
 

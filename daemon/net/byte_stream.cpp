@@ -2,7 +2,6 @@
 
 #include <boost/asio/ssl.hpp>
 
-#include "plexus/proto/tls_psk.hpp"
 #include "tls_context.hpp"
 
 namespace plexus::daemon {
@@ -23,17 +22,19 @@ ByteStream::ByteStream(Socket socket) : socket_(std::move(socket)) {}
 
 ByteStream::~ByteStream() = default;
 
+bool ByteStream::is_tls_error(const boost::system::error_code& error) {
+    return error.category() == asio::error::get_ssl_category();
+}
+
 Task<proto::Status> ByteStream::start_tls(TlsContext& context, bool accepting, proto::ByteView first) {
     tls_ = std::make_unique<Tls>(socket_, context);
     auto [error, used] = co_await tls_->stream.async_handshake(
         accepting ? asio::ssl::stream_base::server : asio::ssl::stream_base::client, asio::buffer(first),
         use_nothrow);
     if (error) {
-        std::string reason = error.category() == asio::error::get_ssl_category()
-                                 ? proto::last_tls_error() + " (" + error.message() + ")"
-                                 : error.message();
         tls_.reset();
-        co_return proto::Error{"TLS handshake failed: " + reason};
+        // Asio took OpenSSL's reason off its queue into the error: its message is the reason.
+        co_return proto::Error{"TLS handshake failed: " + error.message()};
     }
     co_return proto::Ok{};
 }
@@ -47,7 +48,8 @@ Task<std::tuple<boost::system::error_code, std::size_t>> ByteStream::read_some(a
     return socket_.async_read_some(buffer, use_nothrow);
 }
 
-Task<std::tuple<boost::system::error_code, std::size_t>> ByteStream::read_given_back(asio::mutable_buffer buffer) {
+Task<std::tuple<boost::system::error_code, std::size_t>> ByteStream::read_given_back(
+    asio::mutable_buffer buffer) {
     const std::size_t n = asio::buffer_copy(buffer, asio::buffer(given_back_));
     given_back_.erase(given_back_.begin(), given_back_.begin() + static_cast<std::ptrdiff_t>(n));
     co_return std::tuple{boost::system::error_code{}, n};

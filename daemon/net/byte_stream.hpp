@@ -23,6 +23,9 @@ public:
     ByteStream(const ByteStream&) = delete;
     ByteStream& operator=(const ByteStream&) = delete;
 
+    /// True for an error of the TLS layer (a record that failed its check), not of the socket.
+    static bool is_tls_error(const boost::system::error_code& error);
+
     Socket& socket() { return socket_; }
     bool encrypted() const { return tls_ != nullptr; }
 
@@ -39,11 +42,13 @@ public:
     /// connection early, and the reader tells a cut inside a frame from a close between frames.
     Task<std::tuple<boost::system::error_code, std::size_t>> read_some(asio::mutable_buffer buffer);
     /// Writes all of `buffers`.
-    Task<std::tuple<boost::system::error_code, std::size_t>> write(const std::vector<asio::const_buffer>& buffers);
+    Task<std::tuple<boost::system::error_code, std::size_t>> write(
+        const std::vector<asio::const_buffer>& buffers);
 
 private:
     Task<std::tuple<boost::system::error_code, std::size_t>> read_tls(asio::mutable_buffer buffer);
-    Task<std::tuple<boost::system::error_code, std::size_t>> write_tls(const std::vector<asio::const_buffer>& buffers);
+    Task<std::tuple<boost::system::error_code, std::size_t>> write_tls(
+        const std::vector<asio::const_buffer>& buffers);
     Task<std::tuple<boost::system::error_code, std::size_t>> read_given_back(asio::mutable_buffer buffer);
 
     struct Tls;

@@ -21,6 +21,9 @@ struct DaemonCounters {
     std::uint64_t rings_refused = 0;       ///< rings asked for and refused (off, not local, no memory)
     std::uint64_t peers_refused =
         0;  ///< connections refused at once: their peer was at a limit (peer_limits.hpp)
+    /// Encrypted links cut off because a record failed its check: bytes altered, injected or
+    /// replayed on the way.
+    std::uint64_t tls_records_refused = 0;
 
     /// Adds another thread's counters (`--threads`: each thread of the daemon keeps its own).
     DaemonCounters& operator+=(const DaemonCounters& other) {
@@ -36,6 +39,7 @@ struct DaemonCounters {
         ring_sessions += other.ring_sessions;
         rings_refused += other.rings_refused;
         peers_refused += other.peers_refused;
+        tls_records_refused += other.tls_records_refused;
         return *this;
     }
 };

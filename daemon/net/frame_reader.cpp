@@ -121,6 +121,11 @@ Task<ReadOutcome> FrameReader::next(ByteStream& stream) {
         if (step.outcome)
             co_return std::move(*step.outcome);
         auto [ec, n] = co_await stream.read_some(step.room);
+        if (ec && ByteStream::is_tls_error(ec)) {
+            auto outcome = ended(false, "the encrypted link broke: " + ec.message());
+            outcome.tls_refused = true;
+            co_return outcome;
+        }
         if (ec)
             co_return ended(ec == asio::error::eof, ec.message());
         end_ += n;

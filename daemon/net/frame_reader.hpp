@@ -32,6 +32,7 @@ struct ReadOutcome {
     bool clean_close = false;     ///< the peer closed between frames
     bool protocol_error = false;  ///< the peer broke the protocol: `error` says how
     std::string error;
+    bool tls_refused = false;  ///< an encrypted link's record failed its check: `error` says how
 };
 
 /// Reads frames into chunks that queued messages can share, so a record is never copied after the

@@ -13,9 +13,9 @@
 
 #include "call_table.hpp"
 #include "packet_marks.hpp"
+#include "plexus/proto/frame.hpp"
 #include "plexus/proto/tls_psk.hpp"
 #include "tls_context.hpp"
-#include "plexus/proto/frame.hpp"
 
 namespace plexus::daemon {
 
@@ -88,7 +88,8 @@ Task<bool> FramedConnection::secure_link() {
             co_return true;
         }
     }
-    const auto secured = co_await stream_.start_tls(*tls_, accepting, accepting ? proto::ByteView(first) : proto::ByteView());
+    const auto secured =
+        co_await stream_.start_tls(*tls_, accepting, accepting ? proto::ByteView(first) : proto::ByteView());
     if (closed_)
         co_return false;
     if (!secured) {
@@ -243,7 +244,13 @@ Task<void> FramedConnection::read_loop() {
         if (closed_)
             break;
         if (!outcome.frame) {
-            if (outcome.protocol_error) {
+            if (outcome.tls_refused) {
+                // Nothing can be told to a peer whose stream is broken: close, say why, count.
+                spdlog::warn("{}: {} (someone on the path altered, injected or replayed bytes?)",
+                             description_, outcome.error);
+                on_tls_refused(outcome.error);
+                close(outcome.error);
+            } else if (outcome.protocol_error) {
                 on_protocol_error();
                 fail(outcome.error);
             } else {

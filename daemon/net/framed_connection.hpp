@@ -111,6 +111,9 @@ protected:
     /// frame, bytes on the socket after the switch to rings, an impossible ring position), before
     /// it is cut off.
     virtual void on_protocol_error() {}
+    /// Called when a record of the encrypted link failed its check (bytes altered, injected or
+    /// replayed on the way), before the link is closed.
+    virtual void on_tls_refused(const std::string& /*reason*/) {}
 
 private:
     Task<void> read_loop();

@@ -571,6 +571,10 @@ void Session::on_handshake_timeout() {
     ++daemon_.counters().handshake_timeouts;
 }
 
+void Session::on_tls_refused(const std::string&) {
+    ++daemon_.counters().tls_records_refused;
+}
+
 void Session::on_protocol_error() {
     ++daemon_.counters().protocol_errors;
 }

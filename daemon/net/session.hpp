@@ -69,6 +69,7 @@ protected:
     void on_auth_failure(const std::string& reason) override;
     void on_handshake_timeout() override;
     void on_protocol_error() override;
+    void on_tls_refused(const std::string& reason) override;
 
 private:
     enum class DataOutcome { delivered, blocked, stop };

@@ -11,7 +11,10 @@ using body::request_of;
 using nlohmann::json;
 
 json NamesPingReply::encode() const {
-    return {{"names", names}, {"auth_failures", auth_failures}, {"handshake_timeouts", handshake_timeouts}};
+    json body{{"names", names}, {"auth_failures", auth_failures}, {"handshake_timeouts", handshake_timeouts}};
+    if (tls_records_refused)
+        body["tls_records_refused"] = *tls_records_refused;
+    return body;
 }
 Result<NamesPingReply> NamesPingReply::decode(const json& body) {
     NamesPingReply out;
@@ -19,6 +22,7 @@ Result<NamesPingReply> NamesPingReply::decode(const json& body) {
     in.text("names", out.names);
     in.whole("auth_failures", out.auth_failures);
     in.whole("handshake_timeouts", out.handshake_timeouts);
+    in.whole("tls_records_refused", out.tls_records_refused);
     return in.result(std::move(out));
 }
 

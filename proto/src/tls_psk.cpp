@@ -21,8 +21,7 @@ constexpr unsigned char aes_128_gcm_sha256[] = {0x13, 0x01};
 /// context's ex_data and freed with it.
 int session_index() {
     static const int index = ::SSL_CTX_get_ex_new_index(
-        0, nullptr, nullptr, nullptr,
-        [](void*, void* session, CRYPTO_EX_DATA*, int, long, void*) {
+        0, nullptr, nullptr, nullptr, [](void*, void* session, CRYPTO_EX_DATA*, int, long, void*) {
             ::SSL_SESSION_free(static_cast<SSL_SESSION*>(session));
         });
     return index;
@@ -77,7 +76,8 @@ std::string last_tls_error() {
 }
 
 ssl_ctx_st* new_psk_tls_context(const Secret& secret) {
-    std::unique_ptr<SSL_CTX, decltype(&::SSL_CTX_free)> context(::SSL_CTX_new(::TLS_method()), ::SSL_CTX_free);
+    std::unique_ptr<SSL_CTX, decltype(&::SSL_CTX_free)> context(::SSL_CTX_new(::TLS_method()),
+                                                                ::SSL_CTX_free);
     if (!context)
         fail("SSL_CTX_new");
     SSL_CTX* ctx = context.get();
@@ -99,7 +99,8 @@ ssl_ctx_st* new_psk_tls_context(const Secret& secret) {
     const SSL_CIPHER* cipher = probe ? ::SSL_CIPHER_find(probe.get(), aes_128_gcm_sha256) : nullptr;
     if (!cipher)
         fail("no TLS_AES_128_GCM_SHA256");
-    std::unique_ptr<SSL_SESSION, decltype(&::SSL_SESSION_free)> session(::SSL_SESSION_new(), ::SSL_SESSION_free);
+    std::unique_ptr<SSL_SESSION, decltype(&::SSL_SESSION_free)> session(::SSL_SESSION_new(),
+                                                                        ::SSL_SESSION_free);
     const Proof key = secret.tls_key();
     if (!session || ::SSL_SESSION_set1_master_key(session.get(), key.data(), key.size()) != 1 ||
         ::SSL_SESSION_set_cipher(session.get(), cipher) != 1 ||

@@ -174,9 +174,19 @@ const std::string& test_secret_file() {
     return path;
 }
 
+namespace {
+/// What a server needs before it may listen on a host's address, so every multi-host test follows:
+/// the deployment secret, unless the test asks for `--insecure` in `extra` (and then it has none).
+std::vector<std::string> beyond_loopback(const std::vector<std::string>& extra) {
+    std::vector<std::string> all;
+    if (std::find(extra.begin(), extra.end(), "--insecure") == extra.end())
+        all = beyond_loopback_flags();
+    all.insert(all.end(), extra.begin(), extra.end());
+    return all;
+}
+}  // namespace
+
 const std::vector<std::string>& beyond_loopback_flags() {
-    // One place for what a server needs before it may listen on a host's address, so every
-    // multi-host test follows: the deployment secret.
     static const std::vector<std::string> flags{"--secret-file", test_secret_file()};
     return flags;
 }
@@ -190,9 +200,7 @@ Daemon::Daemon(const TempDir& dir, const std::string& node, const std::string& n
 Daemon::Daemon(const TempDir& dir, const Host& host, const std::string& node, const std::string& names,
                const std::vector<std::string>& extra)
     : host_(&host), socket_(dir.file(node + ".sock")) {
-    std::vector<std::string> all = beyond_loopback_flags();
-    all.insert(all.end(), extra.begin(), extra.end());
-    start(dir, node, names, all);
+    start(dir, node, names, beyond_loopback(extra));
 }
 
 void Daemon::start(const TempDir& dir, const std::string& node, const std::string& names,
@@ -274,9 +282,7 @@ NameServerProcess::NameServerProcess(const TempDir& dir, const std::vector<std::
 NameServerProcess::NameServerProcess(const TempDir& dir, const Host& host,
                                      const std::vector<std::string>& extra)
     : host_(&host) {
-    std::vector<std::string> all = beyond_loopback_flags();
-    all.insert(all.end(), extra.begin(), extra.end());
-    start(dir, all);
+    start(dir, beyond_loopback(extra));
 }
 
 void NameServerProcess::start(const TempDir& dir, const std::vector<std::string>& extra) {

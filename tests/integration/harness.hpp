@@ -75,7 +75,7 @@ private:
 };
 
 /// Flags a plexusd or plexus-names needs to listen beyond loopback: --secret-file with the test
-/// secret.
+/// secret. A Daemon or NameServerProcess on a host gets them unless its `extra` has --insecure.
 const std::vector<std::string>& beyond_loopback_flags();
 /// The deployment secret of this test program's hosts (a 0600 file, removed at exit).
 const std::string& test_secret_file();

@@ -121,7 +121,8 @@ TEST_F(Trust_test, AHostWithoutTheSecretCannotAskRegisterConnectOrForgeAnAttach)
     EXPECT_EQ(guessed.wait(30s), 4);
     EXPECT_NE(guessed.err().find("TLS handshake with " + names.address() + " failed"), std::string::npos)
         << guessed.err();
-    EXPECT_NE(guessed.err().find("does not hold this deployment's secret"), std::string::npos) << guessed.err();
+    EXPECT_NE(guessed.err().find("does not hold this deployment's secret"), std::string::npos)
+        << guessed.err();
 
     // A daemon with no secret (run --insecure) cannot register with the name server...
     const std::string socket = dir.file("outsider.sock");
@@ -155,6 +156,41 @@ TEST_F(Trust_test, AHostWithoutTheSecretCannotAskRegisterConnectOrForgeAnAttach)
     const auto parsed = json::parse(stats.out);
     EXPECT_GE(parsed["daemon"]["auth_failures"].get<int>(), 1);
     EXPECT_TRUE(parsed["ports"][0]["inbound"].empty()) << stats.out;
+}
+
+TEST_F(Trust_test, ADiscoveryAnswerFromANameServerWithoutTheSecretIsRefused) {
+    // A rogue name server on host 0 answers discovery (any plexus-names listening beyond loopback
+    // does); it holds another secret, as a forger would hold none of ours. The daemon on host 1 finds
+    // it, and must refuse it: its TLS handshake fails, nothing is registered.
+    const std::string other = dir.file("rogue-secret");
+    std::ofstream(other) << "a-secret-that-is-not-the-deployment-one";
+    ::chmod(other.c_str(), 0600);
+    const auto& rogue_host = net->host(0);
+    const std::string rogue_ready = dir.file("rogue.ready");
+    Process rogue(rogue_host.wrap({names_path(), "--listen", rogue_host.address() + ":0", "--secret-file",
+                                   other, "--ready-file", rogue_ready}),
+                  {}, dir.file("rogue"));
+    ASSERT_TRUE(eventually([&] { return std::filesystem::exists(rogue_ready); }, 20s)) << rogue.err();
+    const auto& host = net->host(1);
+    Process daemon(
+        host.wrap({plexusd_path(), "--node", "misled", "--socket", dir.file("misled.sock"), "--listen",
+                   host.address() + ":0", "--secret-file", test_secret_file(), "--log-level", "debug"}),
+        {}, dir.file("misled"));
+    ASSERT_TRUE(eventually(
+        [&] {
+            const auto log = daemon.out() + daemon.err();
+            return log.find("TLS handshake failed") != std::string::npos || !daemon.running();
+        },
+        30s))
+        << daemon.out() << daemon.err();
+    const auto log = daemon.out() + daemon.err();
+    EXPECT_NE(log.find("found by multicast discovery"), std::string::npos) << log;
+    EXPECT_EQ(log.find("registered node 'misled'"), std::string::npos) << log;
+    // The rogue saw a handshake it could not complete, and learned no node name.
+    EXPECT_TRUE(
+        eventually([&] { return rogue.out().find("TLS handshake failed") != std::string::npos; }, 20s))
+        << rogue.out() << rogue.err();
+    EXPECT_EQ(rogue.out().find("misled"), std::string::npos) << rogue.out();
 }
 
 }  // namespace trust_test

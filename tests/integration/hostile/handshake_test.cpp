@@ -147,7 +147,8 @@ TEST(Hostile_test, APeerThatFailsTheSecretTooOftenIsShutOutAndCounted) {
         EXPECT_TRUE(closes_within(guesser.descriptor(), slower(5s))) << attempt;
     }
     const auto log_so_far = daemon.process().out() + daemon.process().err();
-    EXPECT_NE(log_so_far.find("the peer does not hold this deployment's secret"), std::string::npos) << log_so_far;
+    EXPECT_NE(log_so_far.find("the peer does not hold this deployment's secret"), std::string::npos)
+        << log_so_far;
     auto third = Stream::open(daemon, Listener::daemon_tcp);
     EXPECT_TRUE(closed_at_once(third)) << "a third guess within the minute was heard";
     EXPECT_EQ(peers_refused(dir, daemon), 1u);

@@ -18,7 +18,8 @@ namespace plexus::test::hostile {
 
 /// Runs the connecting end's TLS handshake on the non-blocking socket `fd` with `secret`'s key;
 /// "" when it succeeded, else why it failed (OpenSSL's reason, or "no answer in time").
-inline std::string tls_handshake_with(int fd, const proto::Secret& secret, std::chrono::milliseconds timeout) {
+inline std::string tls_handshake_with(int fd, const proto::Secret& secret,
+                                      std::chrono::milliseconds timeout) {
     SSL_CTX* context = proto::new_psk_tls_context(secret);
     SSL* ssl = ::SSL_new(context);
     ::SSL_set_fd(ssl, fd);

@@ -4,6 +4,7 @@
 // operations.hpp's PingRequest; the name server answers it with NamesPingReply.
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -19,7 +20,9 @@ struct NamesPingReply {
     std::string names;                     ///< its address, HOST:PORT
     std::uint64_t auth_failures = 0;       ///< TCP peers that failed authentication
     std::uint64_t handshake_timeouts = 0;  ///< TCP peers cut off for not finishing it in time
-    nlohmann::json encode() const;         ///< the reply body
+    /// Encrypted links cut off for a record that failed its check; absent from an older server.
+    std::optional<std::uint64_t> tls_records_refused;
+    nlohmann::json encode() const;                                     ///< the reply body
     static Result<NamesPingReply> decode(const nlohmann::json& body);  ///< from a reply body
 };
 

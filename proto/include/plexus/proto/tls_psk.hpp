@@ -30,6 +30,8 @@ std::string last_tls_error();
 /// major 3): a ClientHello. A Plexus stream starts with a hello frame (a varint length, then type
 /// 1), so its second byte is never 3: a listener tells an encrypting peer from a plain one by two
 /// bytes, and can still tell a plain one why it is refused.
-inline bool starts_tls(std::uint8_t first, std::uint8_t second) { return first == 0x16 && second == 0x03; }
+inline bool starts_tls(std::uint8_t first, std::uint8_t second) {
+    return first == 0x16 && second == 0x03;
+}
 
 }  // namespace plexus::proto

@@ -1,0 +1,339 @@
+// A man in the middle (issue 32): a host on the path between two daemons, and between one of them
+// and the name server, relays every byte (a relay of the test's own, on its own network namespace)
+// and keeps a capture. With the deployment secret every TCP link is TLS 1.3: the capture holds no
+// payload, no port name and no node name; every record the relay alters, injects or replays is
+// refused and counted by the daemon that reads it, and the stream comes back by itself. Without
+// a secret (--insecure), the same capture reads everything: the check can fail.
+//
+// Hosts: the name server on 0, the writing daemon on 1, the reading daemon on 2, the relay on 3.
+// The writer reaches the name server through the relay (--names RELAY:PORT), and the reader
+// advertises the relay's address (--advertise), so the writer's link to it crosses the relay too.
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "harness.hpp"
+#include "netns.hpp"
+#include "plexus/client.hpp"
+
+namespace plexus::test {
+namespace mitm_test {
+
+using Clock = std::chrono::steady_clock;
+using nlohmann::json;
+
+constexpr std::string_view writer_node = "mitm-writer-node";
+constexpr std::string_view reader_node = "mitm-reader-node";
+constexpr std::string_view payload_mark = "mitm-payload-";
+
+int port_of(const std::string& host_port) {
+    return std::stoi(host_port.substr(host_port.rfind(':') + 1));
+}
+
+int listen_on(const std::string& host, int port) {
+    const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    const int one = 1;
+    ::setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
+    sockaddr_in address{};
+    address.sin_family = AF_INET;
+    address.sin_port = htons(static_cast<std::uint16_t>(port));
+    ::inet_pton(AF_INET, host.c_str(), &address.sin_addr);
+    if (::bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0 || ::listen(fd, 16) != 0)
+        return -1;
+    return fd;
+}
+
+int connect_to(const std::string& host, int port) {
+    const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    sockaddr_in address{};
+    address.sin_family = AF_INET;
+    address.sin_port = htons(static_cast<std::uint16_t>(port));
+    ::inet_pton(AF_INET, host.c_str(), &address.sin_addr);
+    if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) {
+        ::close(fd);
+        return -1;
+    }
+    const int one = 1;
+    ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    return fd;
+}
+
+bool write_all(int fd, const std::uint8_t* bytes, std::size_t size) {
+    while (size > 0) {
+        const ssize_t n = ::send(fd, bytes, size, MSG_NOSIGNAL);
+        if (n <= 0)
+            return false;
+        bytes += n;
+        size -= static_cast<std::size_t>(n);
+    }
+    return true;
+}
+
+/// One relayed connection. The bytes from the connecting side are passed on a TLS record at a time
+/// (5-byte header: type, version, length), so that an attack lands between two records: a flipped
+/// byte inside the next application-data record, a forged record before it, or the last one again.
+struct Relayed {
+    int from = -1;  ///< the connecting side
+    int to = -1;    ///< the relay's connection to the target
+    bool attackable = false;
+    std::vector<std::uint8_t> pending;  ///< connecting side's bytes not yet a whole record
+    std::vector<std::uint8_t> last_record;
+    int application_records = 0;
+};
+
+/// The relay's body, inside its host: forwards `listen_host`:P to `targets[P]`:P for each port P,
+/// appends every byte either way to `capture`, and, on the connections to `attack_port`, applies
+/// the attack named in the file `attack` (then removes it) before the next application-data record.
+int relay(const std::string& listen_host, const std::map<int, std::string>& targets, int attack_port,
+          const std::string& capture, const std::string& attack, const std::string& ready) {
+    std::map<int, int> listeners;  // fd -> port
+    for (const auto& [port, target] : targets) {
+        const int fd = listen_on(listen_host, port);
+        if (fd < 0)
+            return 10;
+        listeners[fd] = port;
+    }
+    std::ofstream(ready) << "ready";
+    std::ofstream out(capture, std::ios::binary);
+    std::vector<Relayed> relayed;
+    for (;;) {
+        std::vector<pollfd> watched;
+        for (const auto& [fd, port] : listeners)
+            watched.push_back({fd, POLLIN, 0});
+        for (const auto& r : relayed) {
+            watched.push_back({r.from, POLLIN, 0});
+            watched.push_back({r.to, POLLIN, 0});
+        }
+        if (::poll(watched.data(), watched.size(), 1000) < 0)
+            return 11;
+        std::size_t at = 0;
+        for (const auto& [fd, port] : listeners) {
+            if (watched[at++].revents & POLLIN) {
+                Relayed r;
+                r.from = ::accept4(fd, nullptr, nullptr, SOCK_CLOEXEC);
+                r.to = connect_to(targets.at(port), port);
+                r.attackable = port == attack_port;
+                if (r.from >= 0 && r.to >= 0)
+                    relayed.push_back(std::move(r));
+            }
+        }
+        std::vector<std::size_t> ended;
+        for (std::size_t i = 0; i < relayed.size(); ++i) {
+            auto& r = relayed[i];
+            const short from_events = watched[at++].revents;
+            const short to_events = watched[at++].revents;
+            std::uint8_t chunk[65536];
+            bool gone = false;
+            if (to_events & (POLLIN | POLLHUP | POLLERR)) {
+                const ssize_t n = ::recv(r.to, chunk, sizeof chunk, 0);
+                gone = n <= 0 || !write_all(r.from, chunk, static_cast<std::size_t>(n));
+                if (n > 0)
+                    out.write(reinterpret_cast<const char*>(chunk), n);
+            }
+            if (!gone && (from_events & (POLLIN | POLLHUP | POLLERR))) {
+                const ssize_t n = ::recv(r.from, chunk, sizeof chunk, 0);
+                gone = n <= 0;
+                if (n > 0) {
+                    out.write(reinterpret_cast<const char*>(chunk), n);
+                    r.pending.insert(r.pending.end(), chunk, chunk + n);
+                }
+                // Whole records on, one by one.
+                while (!gone && r.pending.size() >= 5) {
+                    const std::size_t size = 5 + (std::size_t(r.pending[3]) << 8 | r.pending[4]);
+                    if (r.pending.size() < size)
+                        break;
+                    std::vector<std::uint8_t> record(r.pending.begin(), r.pending.begin() + size);
+                    r.pending.erase(r.pending.begin(), r.pending.begin() + size);
+                    const bool application = record[0] == 0x17;
+                    if (application && r.attackable && r.application_records > 0 &&
+                        std::filesystem::exists(attack)) {
+                        std::string what;
+                        std::ifstream(attack) >> what;
+                        std::filesystem::remove(attack);
+                        if (what == "flip") {
+                            record[5 + (size - 5) / 2] ^= 0x01;
+                        } else if (what == "inject") {
+                            std::vector<std::uint8_t> forged{0x17, 0x03, 0x03, 0x00, 0x40};
+                            for (int b = 0; b < 0x40; ++b)
+                                forged.push_back(static_cast<std::uint8_t>(b * 37 + 11));
+                            gone = !write_all(r.to, forged.data(), forged.size());
+                        } else if (what == "replay") {
+                            gone = !write_all(r.to, r.last_record.data(), r.last_record.size());
+                        }
+                        std::ofstream(attack + ".done") << what;
+                    }
+                    if (application) {
+                        ++r.application_records;
+                        r.last_record = record;
+                    }
+                    gone = gone || !write_all(r.to, record.data(), record.size());
+                }
+                if (!r.attackable && !gone && !r.pending.empty()) {
+                    // Not the attacked link: nothing to hold back (and it may not even be TLS).
+                    gone = !write_all(r.to, r.pending.data(), r.pending.size());
+                    r.pending.clear();
+                }
+            }
+            out.flush();
+            if (gone)
+                ended.push_back(i);
+        }
+        for (auto it = ended.rbegin(); it != ended.rend(); ++it) {
+            ::close(relayed[*it].from);
+            ::close(relayed[*it].to);
+            relayed.erase(relayed.begin() + static_cast<std::ptrdiff_t>(*it));
+        }
+    }
+}
+
+/// The four hosts, the relay, and the two daemons, the writer's and the reader's links through it.
+struct PathThroughARelay {
+    explicit PathThroughARelay(bool secret)
+        : net(4), names(dir, net.host(0), secret ? std::vector<std::string>{} : insecure) {
+        // The reader first, advertising the relay's address at its own port.
+        reader = std::make_unique<Daemon>(dir, net.host(2), std::string(reader_node), names.address(),
+                                          with(secret, {"--advertise", net.host(3).address()}));
+        const int reader_port = port_of(reader->address());
+        const int names_port = port_of(names.address());
+        const std::string ready = dir.file("relay.ready");
+        relay_pid = net.host(3).fork_inside([&, secret] {
+            return relay(net.host(3).address(),
+                         {{names_port, net.host(0).address()}, {reader_port, net.host(2).address()}},
+                         secret ? reader_port : -1, capture_file(), attack_file(), ready);
+        });
+        if (!eventually([&] { return std::filesystem::exists(ready); }, 20s))
+            throw std::runtime_error("the relay did not start");
+        writer = std::make_unique<Daemon>(dir, net.host(1), std::string(writer_node),
+                                          net.host(3).address() + ":" + std::to_string(names_port),
+                                          with(secret, {}));
+    }
+    ~PathThroughARelay() {
+        ::kill(relay_pid, SIGKILL);
+        wait_child(relay_pid);
+    }
+    std::vector<std::string> with(bool secret, std::vector<std::string> extra) const {
+        if (!secret)
+            extra.insert(extra.end(), insecure.begin(), insecure.end());
+        return extra;
+    }
+    std::string capture_file() const { return dir.file("capture"); }
+    std::string attack_file() const { return dir.file("attack"); }
+    std::string capture() const {
+        std::ifstream in(capture_file(), std::ios::binary);
+        std::stringstream bytes;
+        bytes << in.rdbuf();
+        return bytes.str();
+    }
+    json reader_stats() {
+        auto stats = run_cli(dir, *reader, {"stats", "--json"});
+        return stats.status == 0 ? json::parse(stats.out)["daemon"] : json{};
+    }
+
+    const std::vector<std::string> insecure{"--insecure"};
+    TempDir dir;
+    Network net;
+    NameServerProcess names;
+    std::unique_ptr<Daemon> reader;
+    std::unique_ptr<Daemon> writer;
+    pid_t relay_pid = -1;
+};
+
+std::string out_port() {
+    return "/" + std::string(writer_node) + "/out";
+}
+std::string in_port() {
+    return "/" + std::string(reader_node) + "/in";
+}
+
+/// Writes `payload_mark` + n from `next` on until the reader has one written after `from`; true
+/// when one came within `timeout`.
+bool stream_flows(Port& source, Port& sink, std::uint64_t& next, std::chrono::milliseconds timeout) {
+    const std::uint64_t from = next;
+    const auto deadline = Clock::now() + timeout;
+    while (Clock::now() < deadline) {
+        source.write(json(std::string(payload_mark) + std::to_string(next++)));
+        while (auto message = sink.read(20ms)) {
+            const auto text = message->data.get<std::string>();
+            if (std::stoull(text.substr(payload_mark.size())) >= from)
+                return true;
+        }
+    }
+    return false;
+}
+
+TEST(Mitm_test, ARelayOnThePathReadsNothingAndEveryRecordItAltersInjectsOrReplaysIsRefusedAndCounted) {
+    PLEXUS_NEEDS_NETNS();
+    PathThroughARelay path(true);
+    Client writing({path.writer->socket()});
+    Client reading({path.reader->socket()});
+    auto source = writing.open(out_port());
+    auto sink = reading.open(in_port());
+    writing.connect(out_port(), in_port(), "tcp", true);
+    std::uint64_t next = 1;
+    ASSERT_TRUE(stream_flows(source, sink, next, 30s)) << path.writer->process().err();
+
+    for (const std::string attack : {"flip", "inject", "replay"}) {
+        const auto refused_before = path.reader_stats().value("tls_records_refused", std::uint64_t{0});
+        std::filesystem::remove(path.attack_file() + ".done");
+        std::ofstream(path.attack_file()) << attack;
+        // The relay attacks the next record of the writer's link: the reader refuses it, counts it,
+        // and the link is made again by itself.
+        ASSERT_TRUE(eventually(
+            [&] {
+                source.write(json(std::string(payload_mark) + std::to_string(next++)));
+                while (sink.read(1ms)) {
+                }
+                return std::filesystem::exists(path.attack_file() + ".done");
+            },
+            30s))
+            << attack << ": the relay saw no record to attack";
+        EXPECT_TRUE(eventually(
+            [&] {
+                return path.reader_stats().value("tls_records_refused", std::uint64_t{0}) > refused_before;
+            },
+            30s))
+            << attack << " was not counted: " << path.reader_stats().dump();
+        ASSERT_TRUE(stream_flows(source, sink, next, 60s))
+            << attack << ": the stream did not come back\n--- writer:\n"
+            << path.writer->process().out() << path.writer->process().err() << "\n--- reader:\n"
+            << path.reader->process().out() << path.reader->process().err();
+    }
+    const auto log = path.reader->process().out() + path.reader->process().err();
+    EXPECT_NE(log.find("the encrypted link broke"), std::string::npos) << log;
+
+    // What the relay saw: ciphertext. Not one payload, port name or node name.
+    const std::string capture = path.capture();
+    EXPECT_GT(capture.size(), 4000u);  // every message of the test, and the handshakes
+    for (const std::string plain : {std::string(payload_mark), out_port(), in_port(),
+                                    std::string(writer_node), std::string(reader_node)})
+        EXPECT_EQ(capture.find(plain), std::string::npos) << "the relay read '" << plain << "'";
+}
+
+TEST(Mitm_test, WithoutASecretTheSameRelayReadsPayloadsPortsAndNodes) {
+    PLEXUS_NEEDS_NETNS();
+    PathThroughARelay path(false);
+    Client writing({path.writer->socket()});
+    Client reading({path.reader->socket()});
+    auto source = writing.open(out_port());
+    auto sink = reading.open(in_port());
+    writing.connect(out_port(), in_port(), "tcp", true);
+    std::uint64_t next = 1;
+    ASSERT_TRUE(stream_flows(source, sink, next, 30s));
+    const std::string capture = path.capture();
+    for (const std::string plain : {std::string(payload_mark), out_port(), in_port(),
+                                    std::string(writer_node), std::string(reader_node)})
+        EXPECT_NE(capture.find(plain), std::string::npos) << "the plain capture lacks '" << plain << "'";
+}
+
+}  // namespace mitm_test
+}  // namespace plexus::test
