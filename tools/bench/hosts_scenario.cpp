@@ -344,14 +344,15 @@ void print_tables(const HostsOptions& options, const std::vector<Row>& rows,
         const double latency_added =
             100 * (ratio(latency.find("plexus")->p50_us, latency.find("plexus_insecure")->p50_us) - 1);
         const double throughput_lost =
-            100 * (ratio(throughput.find("plexus_insecure")->mb_per_s, throughput.find("plexus")->mb_per_s) - 1);
+            100 *
+            (ratio(throughput.find("plexus_insecure")->mb_per_s, throughput.find("plexus")->mb_per_s) - 1);
         std::printf("  %-22s %12s %12s %9s  %s\n", "tcp (TLS 1.3)", "secret", "insecure", "added", "target");
         std::printf("  %-22s %12.1f %12.1f %8.1f%%  <= 10%%: %s\n", "latency p50 us, 64 B",
                     latency.find("plexus")->p50_us, latency.find("plexus_insecure")->p50_us, latency_added,
                     latency_added <= 10 ? "met" : "missed");
-        std::printf("  %-22s %12.0f %12.0f %8.1f%%  <= 15%%: %s\n", "MB/s, 1 MiB", throughput.find("plexus")->mb_per_s,
-                    throughput.find("plexus_insecure")->mb_per_s, throughput_lost,
-                    throughput_lost <= 15 ? "met" : "missed");
+        std::printf("  %-22s %12.0f %12.0f %8.1f%%  <= 15%%: %s\n", "MB/s, 1 MiB",
+                    throughput.find("plexus")->mb_per_s, throughput.find("plexus_insecure")->mb_per_s,
+                    throughput_lost, throughput_lost <= 15 ? "met" : "missed");
     }
     std::vector<double> secure = connects.secure_ms;
     std::vector<double> insecure = connects.insecure_ms;
