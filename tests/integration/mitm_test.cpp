@@ -136,15 +136,15 @@ int relay(const std::string& listen_host, const std::map<int, std::string>& targ
             bool gone = false;
             if (to_events & (POLLIN | POLLHUP | POLLERR)) {
                 const ssize_t n = ::recv(r.to, chunk, sizeof chunk, 0);
+                if (n > 0)  // in the capture before it goes on: the test reads it once a message arrived
+                    out.write(reinterpret_cast<const char*>(chunk), n).flush();
                 gone = n <= 0 || !write_all(r.from, chunk, static_cast<std::size_t>(n));
-                if (n > 0)
-                    out.write(reinterpret_cast<const char*>(chunk), n);
             }
             if (!gone && (from_events & (POLLIN | POLLHUP | POLLERR))) {
                 const ssize_t n = ::recv(r.from, chunk, sizeof chunk, 0);
                 gone = n <= 0;
                 if (n > 0) {
-                    out.write(reinterpret_cast<const char*>(chunk), n);
+                    out.write(reinterpret_cast<const char*>(chunk), n).flush();
                     r.pending.insert(r.pending.end(), chunk, chunk + n);
                 }
                 // Whole records on, one by one.
@@ -184,7 +184,6 @@ int relay(const std::string& listen_host, const std::map<int, std::string>& targ
                     r.pending.clear();
                 }
             }
-            out.flush();
             if (gone)
                 ended.push_back(i);
         }
