@@ -79,6 +79,8 @@ Task<std::tuple<boost::system::error_code, std::size_t>> ByteStream::write_tls(
         gathered.clear();
         co_return error;
     };
+    // `buffers` is the writer's batch, which nothing else touches while the writer waits here (it
+    // is the writer's own local, and the writer is suspended in this call).
     for (const auto& piece : buffers) {
         if (piece.size() < record_bytes) {
             const auto* bytes = static_cast<const std::uint8_t*>(piece.data());
