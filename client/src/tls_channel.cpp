@@ -8,6 +8,7 @@
 #include <cerrno>
 #include <cstring>
 #include <map>
+#include <memory>
 
 #include "plexus/client.hpp"
 #include "plexus/proto/tls_psk.hpp"
@@ -19,15 +20,17 @@ namespace {
 // Small pieces are gathered into one record: a record per frame would cost a system call each.
 constexpr std::size_t record_bytes = 16 * 1024;
 
-/// The context of a secret, made once per process: OpenSSL 3 takes a while to make one.
+/// The context of a secret, made once per process: OpenSSL 3 takes a while to make one. Freed
+/// at exit (its channels, each holding a reference of its own, are gone by then or keep it alive).
 SSL_CTX* context_of(const proto::Secret& secret) {
+    using Owned = std::unique_ptr<SSL_CTX, decltype(&::SSL_CTX_free)>;
     static std::mutex lock;
-    static std::map<proto::Proof, SSL_CTX*> made;  // kept for the process's life
+    static std::map<proto::Proof, Owned> made;
     const std::lock_guard guard(lock);
-    auto& context = made[secret.tls_key()];
-    if (!context)
-        context = proto::new_psk_tls_context(secret);
-    return context;
+    auto found = made.find(secret.tls_key());
+    if (found == made.end())
+        found = made.emplace(secret.tls_key(), Owned(proto::new_psk_tls_context(secret), ::SSL_CTX_free)).first;
+    return found->second.get();
 }
 
 /// Waits for `events` on `fd` until `deadline`; false when it passed.

@@ -117,6 +117,7 @@ int relay(const std::string& listen_host, const std::map<int, std::string>& targ
         if (::poll(watched.data(), watched.size(), 1000) < 0)
             return 11;
         std::size_t at = 0;
+        const std::size_t polled = relayed.size();  // those accepted below were not polled yet
         for (const auto& [fd, port] : listeners) {
             if (watched[at++].revents & POLLIN) {
                 Relayed r;
@@ -128,7 +129,7 @@ int relay(const std::string& listen_host, const std::map<int, std::string>& targ
             }
         }
         std::vector<std::size_t> ended;
-        for (std::size_t i = 0; i < relayed.size(); ++i) {
+        for (std::size_t i = 0; i < polled; ++i) {
             auto& r = relayed[i];
             const short from_events = watched[at++].revents;
             const short to_events = watched[at++].revents;
