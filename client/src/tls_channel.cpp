@@ -29,7 +29,8 @@ SSL_CTX* context_of(const proto::Secret& secret) {
     const std::lock_guard guard(lock);
     auto found = made.find(secret.tls_key());
     if (found == made.end())
-        found = made.emplace(secret.tls_key(), Owned(proto::new_psk_tls_context(secret), ::SSL_CTX_free)).first;
+        found =
+            made.emplace(secret.tls_key(), Owned(proto::new_psk_tls_context(secret), ::SSL_CTX_free)).first;
     return found->second.get();
 }
 
