@@ -271,14 +271,34 @@ bool stream_flows(Port& source, Port& sink, std::uint64_t& next, std::chrono::mi
     return false;
 }
 
+/// The path, a writer on one daemon and a reader on the other, connected (persistent) through the
+/// relay.
+struct StreamThroughARelay {
+    explicit StreamThroughARelay(bool secret)
+        : path(secret),
+          writing({path.writer->socket()}),
+          reading({path.reader->socket()}),
+          source(writing.open(out_port())),
+          sink(reading.open(in_port())) {
+        writing.connect(out_port(), in_port(), "tcp", true);
+    }
+    PathThroughARelay path;
+    Client writing;
+    Client reading;
+    Port source;
+    Port sink;
+};
+
+/// What a relay must not read with the secret, and reads without it.
+std::vector<std::string> plain_texts() {
+    return {std::string(payload_mark), out_port(), in_port(), std::string(writer_node),
+            std::string(reader_node)};
+}
+
 TEST(Mitm_test, ARelayOnThePathReadsNothingAndEveryRecordItAltersInjectsOrReplaysIsRefusedAndCounted) {
     PLEXUS_NEEDS_NETNS();
-    PathThroughARelay path(true);
-    Client writing({path.writer->socket()});
-    Client reading({path.reader->socket()});
-    auto source = writing.open(out_port());
-    auto sink = reading.open(in_port());
-    writing.connect(out_port(), in_port(), "tcp", true);
+    StreamThroughARelay stream(true);
+    auto& [path, writing, reading, source, sink] = stream;
     std::uint64_t next = 1;
     ASSERT_TRUE(stream_flows(source, sink, next, 30s)) << path.writer->process().err();
 
@@ -314,24 +334,18 @@ TEST(Mitm_test, ARelayOnThePathReadsNothingAndEveryRecordItAltersInjectsOrReplay
     // What the relay saw: ciphertext. Not one payload, port name or node name.
     const std::string capture = path.capture();
     EXPECT_GT(capture.size(), 4000u);  // every message of the test, and the handshakes
-    for (const std::string plain : {std::string(payload_mark), out_port(), in_port(),
-                                    std::string(writer_node), std::string(reader_node)})
+    for (const auto& plain : plain_texts())
         EXPECT_EQ(capture.find(plain), std::string::npos) << "the relay read '" << plain << "'";
 }
 
 TEST(Mitm_test, WithoutASecretTheSameRelayReadsPayloadsPortsAndNodes) {
     PLEXUS_NEEDS_NETNS();
-    PathThroughARelay path(false);
-    Client writing({path.writer->socket()});
-    Client reading({path.reader->socket()});
-    auto source = writing.open(out_port());
-    auto sink = reading.open(in_port());
-    writing.connect(out_port(), in_port(), "tcp", true);
+    StreamThroughARelay stream(false);
+    auto& [path, writing, reading, source, sink] = stream;
     std::uint64_t next = 1;
     ASSERT_TRUE(stream_flows(source, sink, next, 30s));
     const std::string capture = path.capture();
-    for (const std::string plain : {std::string(payload_mark), out_port(), in_port(),
-                                    std::string(writer_node), std::string(reader_node)})
+    for (const auto& plain : plain_texts())
         EXPECT_NE(capture.find(plain), std::string::npos) << "the plain capture lacks '" << plain << "'";
 }
 
