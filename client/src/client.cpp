@@ -12,6 +12,7 @@
 #include "plexus/proto/name_operations.hpp"
 #include "plexus/proto/operations.hpp"
 #include "shm_regions.hpp"
+#include "tcp_handshake.hpp"
 
 namespace plexus {
 
@@ -323,7 +324,9 @@ Subscription::Subscription(Port& port, std::function<void(const Received&)> call
 Subscription::~Subscription() = default;
 
 NamesLocation find_names(const std::optional<std::string>& flag) {
-    auto found = proto::find_names(flag);
+    // With the secret, discovery takes only a name server that proves it holds it.
+    const auto secret = detail::secret_from_environment();
+    auto found = proto::find_names(flag, {}, std::chrono::milliseconds(600), secret ? &*secret : nullptr);
     if (!found)
         throw Error(ErrorCode::usage, found.error().message);
     return {found->address, found->how()};

@@ -90,16 +90,6 @@ void send_all(int fd, const proto::Bytes& bytes, const std::string& address) {
     }
 }
 
-std::optional<proto::Secret> secret_from_environment() {
-    const char* path = std::getenv("PLEXUS_SECRET_FILE");
-    if (!path || !*path)
-        return std::nullopt;
-    auto secret = proto::Secret::load(path);
-    if (!secret)
-        throw Error(ErrorCode::usage, secret.error().message);
-    return *secret;
-}
-
 /// A frame that is not what was expected: the peer's error frame says why it refused us.
 [[noreturn]] void refused_by(const std::string& address, proto::FrameType type, const proto::Bytes& fields,
                              const char* expected) {
@@ -139,6 +129,16 @@ TcpGreeting tcp_handshake(int fd, const std::string& address, std::chrono::milli
         throw Error(ErrorCode::refused, address + " sent frames before it was asked anything");
     greeting.peer_max_frame = hello->max_frame;
     return greeting;
+}
+
+std::optional<proto::Secret> secret_from_environment() {
+    const char* path = std::getenv("PLEXUS_SECRET_FILE");
+    if (!path || !*path)
+        return std::nullopt;
+    auto secret = proto::Secret::load(path);
+    if (!secret)
+        throw Error(ErrorCode::usage, secret.error().message);
+    return *secret;
 }
 
 }  // namespace plexus::detail

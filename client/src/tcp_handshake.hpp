@@ -7,8 +7,10 @@
 #include <chrono>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 
+#include "plexus/proto/auth.hpp"
 #include "tls_channel.hpp"
 
 namespace plexus::detail {
@@ -22,5 +24,9 @@ struct TcpGreeting {
 /// Error (refused) with the peer's reason when it refuses us, or when the TLS handshake fails.
 /// Blocking, within `timeout`.
 TcpGreeting tcp_handshake(int fd, const std::string& address, std::chrono::milliseconds timeout);
+
+/// The deployment secret named by $PLEXUS_SECRET_FILE; nullopt when unset. Throws Error (usage)
+/// when the file cannot be read or is open to others.
+std::optional<proto::Secret> secret_from_environment();
 
 }  // namespace plexus::detail

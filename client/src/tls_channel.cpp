@@ -25,7 +25,7 @@ constexpr std::size_t record_bytes = 16 * 1024;
 SSL_CTX* context_of(const proto::Secret& secret) {
     using Owned = std::unique_ptr<SSL_CTX, decltype(&::SSL_CTX_free)>;
     static std::mutex lock;
-    static std::map<proto::Proof, Owned> made;
+    static std::map<proto::Digest, Owned> made;
     const std::lock_guard guard(lock);
     auto found = made.find(secret.tls_key());
     if (found == made.end())

@@ -102,7 +102,8 @@ int main(int argc, char** argv) {
     app.add_option(
         "--secret-file", secret_file,
         "the deployment secret (env PLEXUS_SECRET_FILE): a file only its owner may read, 16+ bytes, "
-        "the same on every machine; every TCP link is TLS 1.3 keyed by it and datagrams carry a MAC");
+        "the same on every machine; every TCP link is TLS 1.3 keyed by it, udp/mcast datagrams are "
+        "sealed (AES-GCM, a key per stream), and discovery takes only a name server that holds it");
     std::optional<std::string> http;
     app.add_option("--http", http,
                    "serve the web page of the whole system, its JSON views, live stream and Prometheus "
@@ -124,8 +125,15 @@ int main(int argc, char** argv) {
         spdlog::set_level(spdlog::level::from_str(log_level));
         if (!config_file.empty())
             plexus::daemon::apply_config_file(config_file, config);
+        // The secret first: discovery takes only a name server that proves it holds it.
+        auto secret = plexus::daemon::load_deployment_secret(secret_file);
+        if (!secret)
+            throw std::runtime_error(secret.error().message);
+        config.secret = *secret;
+        const auto* proving = config.secret ? &*config.secret : nullptr;
         auto found = embedded ? plexus::proto::choose_names(names, config_file, [] { return std::nullopt; })
-                              : plexus::proto::find_names(names, config_file);
+                              : plexus::proto::find_names(names, config_file, std::chrono::milliseconds(600),
+                                                          proving);
         if (!found)
             throw std::runtime_error(found.error().message);
         config.names = endpoint_or_throw(found->address, "--names");
@@ -146,10 +154,6 @@ int main(int argc, char** argv) {
             config.names_state = names_state;
         config.socket_path = socket;
         config.node = node;
-        auto secret = plexus::daemon::load_deployment_secret(secret_file);
-        if (!secret)
-            throw std::runtime_error(secret.error().message);
-        config.secret = *secret;
         std::vector<std::string> listening{config.listen.host};
         if (embedded)
             listening.push_back(config.names.host);

@@ -15,7 +15,7 @@ TlsContext::~TlsContext() = default;
 
 std::shared_ptr<TlsContext> TlsContext::of(const proto::Secret& secret) {
     static std::mutex lock;
-    static std::map<proto::Proof, std::weak_ptr<TlsContext>>
+    static std::map<proto::Digest, std::weak_ptr<TlsContext>>
         made;  // by key: a secret's own bytes stay in Secret
     const std::lock_guard guard(lock);
     auto& entry = made[secret.tls_key()];

@@ -35,7 +35,8 @@ struct UdpSocket::Stream {
     std::vector<std::weak_ptr<Inlet>> inlets;  ///< one for udp; every connection of the group for mcast
     asio::ip::address sender;
     std::shared_ptr<DatagramStream> datagrams;
-    UdpSocket* owner = nullptr;    ///< null once the socket is gone
+    std::unique_ptr<proto::DatagramSeal> seal;  ///< when sealing: the key its datagrams are sealed with
+    UdpSocket* owner = nullptr;                 ///< null once the socket is gone
     std::shared_ptr<Group> group;  ///< mcast: the joined group, left with the last handle
     ~Stream() {
         if (owner && id != 0)
@@ -119,6 +120,8 @@ std::shared_ptr<UdpSocket::Stream> UdpSocket::open_stream(std::weak_ptr<Inlet> i
     stream->id = next_stream_++;
     stream->inlets.push_back(std::move(inlet));
     stream->sender = std::move(sender);
+    if (sealing())
+        stream->seal = std::make_unique<proto::DatagramSeal>(proto::random_datagram_key());
     DatagramStream::Limits limits;
     limits.timeout = config_.reassembly_timeout;
     stream->datagrams = std::make_shared<DatagramStream>(budget_, limits);
@@ -129,14 +132,25 @@ std::shared_ptr<UdpSocket::Stream> UdpSocket::open_stream(std::weak_ptr<Inlet> i
 
 proto::Result<std::shared_ptr<UdpSocket::Stream>> UdpSocket::join_group(const asio::ip::udp::endpoint& group,
                                                                         std::weak_ptr<Inlet> inlet,
-                                                                        asio::ip::address sender) {
+                                                                        asio::ip::address sender,
+                                                                        std::optional<proto::DatagramKey> seal_key) {
     using Outcome = proto::Result<std::shared_ptr<Stream>>;
+    if (sealing() != seal_key.has_value()) {
+        return Outcome(proto::Error{sealing() ? "the sending daemon gave no key for its sealed mcast stream"
+                                              : "a key for an mcast stream, but this daemon has no secret"});
+    }
     const std::string key = group.address().to_string() + ":" + std::to_string(group.port());
     if (auto known = groups_.find(key); known != groups_.end()) {
         if (auto joined = known->second.lock()) {
             if (auto stream = joined->stream.lock()) {
                 if (stream->sender != sender)
                     return Outcome(proto::Error{"group " + key + " is already fed by another daemon"});
+                if (stream->seal && stream->seal->key() != *seal_key) {
+                    // A new run of the sending daemon (a new key) while a link of its earlier run
+                    // still holds the group: its persistent connections try again once that closes.
+                    return Outcome(proto::Error{"group " + key + " is still fed by an earlier run of the daemon at " +
+                                                sender.to_string() + " (another key): try again when its link closes"});
+                }
                 stream->inlets.push_back(std::move(inlet));
                 return Outcome(stream);
             }
@@ -169,6 +183,8 @@ proto::Result<std::shared_ptr<UdpSocket::Stream>> UdpSocket::join_group(const as
     auto stream = std::make_shared<Stream>();
     stream->inlets.push_back(std::move(inlet));
     stream->sender = std::move(sender);
+    if (seal_key)
+        stream->seal = std::make_unique<proto::DatagramSeal>(*seal_key);
     DatagramStream::Limits limits;
     limits.timeout = config_.reassembly_timeout;
     limits.start_anywhere = true;  // a group may have sent long before this daemon joined
@@ -201,6 +217,19 @@ std::shared_ptr<const DatagramStream> UdpSocket::datagrams(const Stream& stream)
     return stream.datagrams;
 }
 
+std::optional<proto::DatagramKey> UdpSocket::key(const Stream& stream) {
+    if (!stream.seal)
+        return std::nullopt;
+    return stream.seal->key();
+}
+
+UdpSocket::McastStream& UdpSocket::mcast_stream(const std::string& source) {
+    auto& known = mcast_streams_[source];
+    if (!known)
+        known = std::make_unique<McastStream>(proto::random_datagram_key());
+    return *known;
+}
+
 DatagramMarks UdpSocket::marks_for(int dscp) const {
     boost::system::error_code ec;
     const auto local = socket_.local_endpoint(ec);
@@ -211,14 +240,17 @@ DatagramMarks UdpSocket::marks_for(int dscp) const {
 }
 
 bool UdpSocket::send(const asio::ip::udp::endpoint& to, std::uint64_t stream, std::uint64_t message,
-                     proto::ByteView record, DatagramMarks* marks) {
+                     proto::ByteView record, DatagramMarks* marks, proto::DatagramSeal* seal) {
     const std::size_t fragment = config_.fragment_bytes;
     const auto count = proto::fragment_count(record.size(), fragment);
-    const bool signing = secret_.has_value();
-    // Headers (and MACs) of one sendmmsg call, each in its own slot; the fragments are sent from
-    // the record itself (gather), not copied.
+    const bool sealed = seal != nullptr;
+    // Headers (and tags) of one sendmmsg call, each in its own slot; the fragments are sent from
+    // the record itself (gather), not copied, unless sealed: then from their sealed copies.
     std::array<std::array<std::uint8_t, proto::max_datagram_header>, datagrams_per_call> headers{};
-    std::array<std::array<std::uint8_t, proto::datagram_mac_size>, datagrams_per_call> macs{};
+    std::array<std::array<std::uint8_t, proto::datagram_sealed_tag_size>, datagrams_per_call> tags{};
+    thread_local std::vector<std::uint8_t> sealed_bodies;
+    if (sealed)
+        sealed_bodies.resize(std::max(sealed_bodies.size(), datagrams_per_call * fragment));
     std::array<iovec, datagrams_per_call * 3> pieces{};
     std::array<mmsghdr, datagrams_per_call> messages{};
     proto::Bytes header;
@@ -229,19 +261,22 @@ bool UdpSocket::send(const asio::ip::udp::endpoint& to, std::uint64_t stream, st
             const std::uint64_t fragment_index = index + i;
             header.clear();
             proto::append_datagram_header(
-                header, {stream, message, record.size(), fragment, fragment_index, signing});
+                header, {stream, message, record.size(), fragment, fragment_index, sealed});
             std::copy(header.begin(), header.end(), headers[i].begin());
             const std::size_t begin = fragment_index * fragment;
             const std::size_t size = std::min(record.size() - begin, fragment);
-            const proto::ByteView body(record.data() + begin, size);
+            proto::ByteView body(record.data() + begin, size);
+            if (sealed) {
+                std::uint8_t* out = sealed_bodies.data() + i * fragment;
+                seal->seal({headers[i].data(), header.size()}, message, fragment_index, body, out, tags[i].data());
+                body = {out, size};
+            }
             std::size_t used = 0;
             pieces[3 * i + used++] = {headers[i].data(), header.size()};
             if (size != 0)
                 pieces[3 * i + used++] = {const_cast<std::uint8_t*>(body.data()), size};
-            if (signing) {
-                secret_->datagram_mac({headers[i].data(), header.size()}, body, macs[i].data());
-                pieces[3 * i + used++] = {macs[i].data(), macs[i].size()};
-            }
+            if (sealed)
+                pieces[3 * i + used++] = {tags[i].data(), tags[i].size()};
             messages[i] = {};
             messages[i].msg_hdr.msg_name = const_cast<void*>(static_cast<const void*>(to.data()));
             messages[i].msg_hdr.msg_namelen = static_cast<socklen_t>(to.size());
@@ -278,7 +313,8 @@ bool UdpSocket::send(const asio::ip::udp::endpoint& to, std::uint64_t stream, st
 
 void UdpSocket::send_counted(const asio::ip::udp::endpoint& to, std::uint64_t stream,
                              std::uint64_t& next_message, proto::ByteView record, UdpSendCounters& counters,
-                             const std::string& description, DatagramMarks* marks) {
+                             const std::string& description, DatagramMarks* marks,
+                             proto::DatagramSeal* seal) {
     if (record.size() > config_.max_message) {
         // Never numbered: the receiver sees no gap for it; the sender's counter says it.
         if (counters.dropped_too_large++ == 0) {
@@ -291,7 +327,7 @@ void UdpSocket::send_counted(const asio::ip::udp::endpoint& to, std::uint64_t st
     }
     if (marks && priority_refused_)
         marks->drop_priority();
-    if (send(to, stream, next_message++, record, marks))
+    if (send(to, stream, next_message++, record, marks, seal))
         ++counters.messages;
     else
         ++counters.dropped_send;
@@ -344,12 +380,6 @@ void UdpSocket::take(proto::ByteView bytes, const asio::ip::udp::endpoint& from,
         spdlog::debug("udp: bad datagram from {}: {}", from.address().to_string(), decoded.error().message);
         return;
     }
-    if (secret_ &&
-        (!decoded->header.has_mac || !secret_->datagram_mac_ok(decoded->signed_part, decoded->mac))) {
-        // Checked before the stream sees it: a forged datagram must not move its position.
-        ++counters_.bad_mac;
-        return;
-    }
     std::shared_ptr<Stream> looked_up;
     if (!fixed) {
         const auto it = streams_.find(decoded->header.stream);
@@ -363,6 +393,18 @@ void UdpSocket::take(proto::ByteView bytes, const asio::ip::udp::endpoint& from,
     if (stream->sender != from.address()) {
         ++counters_.wrong_sender;
         return;
+    }
+    if (stream->seal || decoded->header.sealed) {
+        // Opened before the stream sees it: a forged datagram must not move its position.
+        thread_local std::vector<std::uint8_t> opened(largest_datagram);
+        const auto& header = decoded->header;
+        if (!stream->seal || !header.sealed ||
+            !stream->seal->open(decoded->head, header.message, header.index, decoded->fragment, decoded->tag,
+                                opened.data())) {
+            ++counters_.bad_mac;
+            return;
+        }
+        decoded->fragment = {opened.data(), decoded->fragment.size()};
     }
     auto message = stream->datagrams->take(*decoded, DatagramStream::Clock::now());
     if (!message)

@@ -21,7 +21,7 @@ std::uint64_t fragment_count(std::uint64_t length, std::uint64_t fragment_size) 
 void append_datagram_header(Bytes& out, const DatagramHeader& header) {
     out.insert(out.end(), std::begin(magic), std::end(magic));
     out.push_back(datagram_version);
-    out.push_back(header.has_mac ? datagram_flag_mac : 0);
+    out.push_back(header.sealed ? datagram_flag_sealed : 0);
     append_varint(out, header.stream);
     append_varint(out, header.message);
     append_varint(out, header.length);
@@ -44,11 +44,11 @@ Result<DatagramView> decode_datagram(ByteView datagram, std::uint64_t max_messag
         return Error{"datagram version " + std::to_string(*version) + ", expected " +
                      std::to_string(datagram_version)};
     }
-    if ((*flags & ~datagram_flag_mac) != 0)
+    if ((*flags & ~datagram_flag_sealed) != 0)
         return Error{"unknown datagram flags " + std::to_string(*flags)};
     DatagramView view;
     auto& h = view.header;
-    h.has_mac = (*flags & datagram_flag_mac) != 0;
+    h.sealed = (*flags & datagram_flag_sealed) != 0;
     const auto stream = reader.varint("stream");
     const auto message = reader.varint("message");
     const auto length = reader.varint("length");
@@ -77,11 +77,12 @@ Result<DatagramView> decode_datagram(ByteView datagram, std::uint64_t max_messag
                      "-fragment message"};
     }
     ByteView rest = reader.rest();
-    if (h.has_mac) {
-        if (rest.size() < datagram_mac_size)
-            return Error{"datagram too short for its MAC"};
-        view.mac = rest.last(datagram_mac_size);
-        rest = rest.first(rest.size() - datagram_mac_size);
+    view.head = datagram.first(datagram.size() - rest.size());
+    if (h.sealed) {
+        if (rest.size() < datagram_sealed_tag_size)
+            return Error{"sealed datagram too short for its tag"};
+        view.tag = rest.last(datagram_sealed_tag_size);
+        rest = rest.first(rest.size() - datagram_sealed_tag_size);
     }
     const std::uint64_t begin = h.index * h.fragment_size;
     // index < count keeps begin within length; fragment_size may be any 64-bit number.
@@ -91,7 +92,6 @@ Result<DatagramView> decode_datagram(ByteView datagram, std::uint64_t max_messag
                      " bytes, expected " + std::to_string(expected)};
     }
     view.fragment = rest;
-    view.signed_part = datagram.first(datagram.size() - view.mac.size());
     return view;
 }
 

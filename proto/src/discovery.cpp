@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "plexus/proto/control.hpp"
+#include "plexus/proto/datagram_seal.hpp"
 #include "plexus/proto/defaults.hpp"
 #include "plexus/proto/frame.hpp"
 
@@ -113,11 +114,17 @@ Result<NamesChoice> choose_names(const std::optional<std::string>& flag, const s
     return NamesChoice{default_names_address, NamesSource::fallback, "discovery is off (PLEXUS_DISCOVERY)"};
 }
 
-Bytes discovery_query() {
-    return encode_request({1, DiscoverRequest{}.encode()});
+std::string discovery_nonce() {
+    // A datagram key is 16 random bytes as hex: just what a nonce needs.
+    return key_text(random_datagram_key());
 }
 
-std::optional<std::string> discovery_answer(ByteView datagram, const std::string& from) {
+Bytes discovery_query(const std::string& nonce) {
+    return encode_request({1, DiscoverRequest{nonce}.encode()});
+}
+
+std::optional<DiscoveryAnswer> discovery_answer(ByteView datagram, const std::string& from, const Secret* secret,
+                                                const std::string& nonce) {
     FrameDecoder decoder(datagram.size() + 16);
     const auto decoded = decoder.decode(datagram);
     if (decoded.status != DecodeStatus::frame || decoded.type != FrameType::reply)
@@ -131,16 +138,24 @@ std::optional<std::string> discovery_answer(ByteView datagram, const std::string
     auto endpoint = parse_endpoint(answer->names);
     if (!endpoint || endpoint->port == 0)
         return std::nullopt;
+    DiscoveryAnswer out;
+    // The proof covers the address as the name server wrote it, before HOST is filled in.
+    out.proven = secret != nullptr && !nonce.empty() &&
+                 same_text(answer->proof, secret->discovery_proof(nonce, answer->names));
     if (unspecified(endpoint->host))
         endpoint->host = from;
-    return endpoint->text();
+    out.names = endpoint->text();
+    return out;
 }
 
-Bytes discovery_reply(std::uint64_t id, const Endpoint& names) {
+Bytes discovery_reply(std::uint64_t id, const Endpoint& names, const Secret* secret, const std::string& nonce) {
     Endpoint advertised = names;
     if (unspecified(advertised.host))
         advertised.host = "0.0.0.0";
-    return encode_reply({id, ReplyCode::ok, DiscoverReply{advertised.text()}.encode()});
+    DiscoverReply reply{advertised.text()};
+    if (secret && !nonce.empty())
+        reply.proof = secret->discovery_proof(nonce, reply.names);
+    return encode_reply({id, ReplyCode::ok, reply.encode()});
 }
 
 }  // namespace plexus::proto

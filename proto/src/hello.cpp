@@ -76,16 +76,4 @@ Result<Hello> decode_hello(ByteView fields) {
     return hello;
 }
 
-Bytes encode_auth(ByteView proof) {
-    Bytes out;
-    append_frame(out, FrameType::auth, proof);
-    return out;
-}
-
-Result<ByteView> decode_auth(ByteView fields) {
-    if (fields.size() != 32)
-        return Error{"auth frame of " + std::to_string(fields.size()) + " bytes, expected 32"};
-    return fields;
-}
-
 }  // namespace plexus::proto

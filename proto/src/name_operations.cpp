@@ -191,19 +191,29 @@ Result<McastGroupReply> McastGroupReply::decode(const json& body) {
 // discover
 
 json DiscoverRequest::encode() const {
-    return request_body(op);
+    auto body = request_body(op);
+    if (!nonce.empty())
+        body["nonce"] = nonce;
+    return body;
 }
 Result<DiscoverRequest> DiscoverRequest::decode(const json& body) {
-    return Reader(body, request_of(op)).result(DiscoverRequest{});
+    DiscoverRequest out;
+    Reader in(body, request_of(op));
+    in.text("nonce", out.nonce);
+    return in.result(std::move(out));
 }
 
 json DiscoverReply::encode() const {
-    return {{"names", names}};
+    json body = {{"names", names}};
+    if (!proof.empty())
+        body["proof"] = proof;
+    return body;
 }
 Result<DiscoverReply> DiscoverReply::decode(const json& body) {
     DiscoverReply out;
     Reader in(body, reply_of(Op::discover));
     in.text("names", out.names);
+    in.text("proof", out.proof);
     return in.result(std::move(out));
 }
 

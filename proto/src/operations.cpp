@@ -173,6 +173,8 @@ json AttachRequest::encode() const {
         {"source", source}, {"destination", destination}, {"carrier", carrier}, {"strict", strict}};
     if (!group.empty())
         fields["group"] = group;
+    if (!key.empty())
+        fields["key"] = key;
     return request_with(op, std::move(fields));
 }
 Result<AttachRequest> AttachRequest::decode(const json& body) {
@@ -183,6 +185,7 @@ Result<AttachRequest> AttachRequest::decode(const json& body) {
     in.text("carrier", out.carrier);
     in.flag("strict", out.strict);
     in.text("group", out.group);
+    in.text("key", out.key);
     return in.result(std::move(out));
 }
 
@@ -192,6 +195,8 @@ json AttachReply::encode() const {
         out["udp_port"] = *udp_port;
         out["stream"] = stream;
     }
+    if (!key.empty())
+        out["key"] = key;
     return out;
 }
 Result<AttachReply> AttachReply::decode(const json& body) {
@@ -202,6 +207,7 @@ Result<AttachReply> AttachReply::decode(const json& body) {
     in.whole("capacity", out.capacity);
     in.whole("udp_port", out.udp_port);
     in.whole("stream", out.stream);
+    in.text("key", out.key);
     return in.result(std::move(out));
 }
 

@@ -101,7 +101,7 @@ ssl_ctx_st* new_psk_tls_context(const Secret& secret) {
         fail("no TLS_AES_128_GCM_SHA256");
     std::unique_ptr<SSL_SESSION, decltype(&::SSL_SESSION_free)> session(::SSL_SESSION_new(),
                                                                         ::SSL_SESSION_free);
-    const Proof key = secret.tls_key();
+    const Digest key = secret.tls_key();
     if (!session || ::SSL_SESSION_set1_master_key(session.get(), key.data(), key.size()) != 1 ||
         ::SSL_SESSION_set_cipher(session.get(), cipher) != 1 ||
         ::SSL_SESSION_set_protocol_version(session.get(), TLS1_3_VERSION) != 1)

@@ -216,8 +216,8 @@ int main(int argc, char** argv) {
     proto::Bytes fragment;
     proto::append_datagram_header(fragment, {5, 9, 3000, 1400, 2, true});
     fragment.insert(fragment.end(), 200, 0x5a);
-    fragment.insert(fragment.end(), proto::datagram_mac_size, 0x11);
-    seed("frame_fields", "datagram_fragment_mac", fragment);
+    fragment.insert(fragment.end(), proto::datagram_sealed_tag_size, 0x11);
+    seed("frame_fields", "datagram_fragment_sealed", fragment);
     seed("frame_fields", "discovery_reply", proto::discovery_reply(3, {"0.0.0.0", 10100}));
     seed("frame_fields", "discovery_reply_host", proto::discovery_reply(3, {"192.168.1.20", 10100}));
 

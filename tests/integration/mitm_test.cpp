@@ -1,9 +1,10 @@
 // A man in the middle (issue 32): a host on the path between two daemons, and between one of them
-// and the name server, relays every byte (a relay of the test's own, on its own network namespace)
-// and keeps a capture. With the deployment secret every TCP link is TLS 1.3: the capture holds no
-// payload, no port name and no node name; every record the relay alters, injects or replays is
-// refused and counted by the daemon that reads it, and the stream comes back by itself. Without
-// a secret (--insecure), the same capture reads everything: the check can fail.
+// and the name server, relays every byte and datagram (a relay of the test's own, on its own
+// network namespace) and keeps a capture. With the deployment secret every TCP link is TLS 1.3 and
+// every udp datagram is sealed: the capture holds no payload, no port name and no node name; every
+// record or datagram the relay alters, injects or replays is refused and counted by the daemon
+// that reads it (datagrams recorded before the reader restarted too), and the stream comes back by
+// itself. Without a secret (--insecure), the same capture reads everything: the check can fail.
 //
 // Hosts: the name server on 0, the writing daemon on 1, the reading daemon on 2, the relay on 3.
 // The writer reaches the name server through the relay (--names RELAY:PORT), and the reader
@@ -38,6 +39,22 @@ constexpr std::string_view payload_mark = "mitm-payload-";
 
 int port_of(const std::string& host_port) {
     return std::stoi(host_port.substr(host_port.rfind(':') + 1));
+}
+
+sockaddr_in address_of(const std::string& host, int port) {
+    sockaddr_in address{};
+    address.sin_family = AF_INET;
+    address.sin_port = htons(static_cast<std::uint16_t>(port));
+    ::inet_pton(AF_INET, host.c_str(), &address.sin_addr);
+    return address;
+}
+
+int udp_bound(const std::string& host, int port) {
+    const int fd = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+    const auto address = address_of(host, port);
+    if (::bind(fd, reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0)
+        return -1;
+    return fd;
 }
 
 int listen_on(const std::string& host, int port) {
@@ -91,11 +108,66 @@ struct Relayed {
     int application_records = 0;
 };
 
+/// The attack named in the file `attack`, if any: read once, then the file is gone and
+/// `attack`.done says it was carried out.
+std::string take_attack(const std::string& attack, const std::string& prefix) {
+    if (!std::filesystem::exists(attack))
+        return {};
+    std::string what;
+    std::ifstream(attack) >> what;
+    if (what.rfind(prefix, 0) != 0)
+        return {};
+    std::filesystem::remove(attack);
+    std::ofstream(attack + ".done") << what;
+    return what;
+}
+
+/// The relay's datagrams: every one from the writer goes on to `target` (from the relay's own
+/// address, as the reader's link does), kept in the capture and in `history`. The attacks that
+/// start with "datagram-" land on the next one.
+struct DatagramRelay {
+    int fd = -1;
+    sockaddr_in target{};
+    std::vector<std::vector<std::uint8_t>> history;
+
+    void pass(std::ofstream& out, const std::string& attack) {
+        std::vector<std::uint8_t> datagram(65536);
+        const ssize_t n = ::recv(fd, datagram.data(), datagram.size(), MSG_DONTWAIT);
+        if (n <= 0)
+            return;
+        datagram.resize(static_cast<std::size_t>(n));
+        out.write(reinterpret_cast<const char*>(datagram.data()), n).flush();
+        const std::string what = history.empty() ? std::string{} : take_attack(attack, "datagram-");
+        if (what == "datagram-flip") {
+            datagram[datagram.size() - 20] ^= 0x01;  // in the fragment, before the 16-byte tag
+        } else if (what == "datagram-forge") {
+            // The last datagram's header, then bytes of the relay's choosing where the sealed
+            // fragment and its tag were.
+            auto forged = history.back();
+            for (std::size_t i = forged.size() - 40; i < forged.size(); ++i)
+                forged[i] = static_cast<std::uint8_t>(i * 37 + 11);
+            send(forged);
+        } else if (what == "datagram-replay") {
+            send(history.back());
+        } else if (what == "datagram-replay-all") {
+            for (const auto& old : history)
+                send(old);
+        }
+        send(datagram);
+        history.push_back(std::move(datagram));
+    }
+    void send(const std::vector<std::uint8_t>& datagram) const {
+        ::sendto(fd, datagram.data(), datagram.size(), 0, reinterpret_cast<const sockaddr*>(&target),
+                 sizeof target);
+    }
+};
+
 /// The relay's body, inside its host: forwards `listen_host`:P to `targets[P]`:P for each port P,
 /// appends every byte either way to `capture`, and, on the connections to `attack_port`, applies
 /// the attack named in the file `attack` (then removes it) before the next application-data record.
+/// Datagrams to `listen_host`:`datagram_port` go on to its target likewise (DatagramRelay).
 int relay(const std::string& listen_host, const std::map<int, std::string>& targets, int attack_port,
-          const std::string& capture, const std::string& attack, const std::string& ready) {
+          int datagram_port, const std::string& capture, const std::string& attack, const std::string& ready) {
     std::map<int, int> listeners;  // fd -> port
     for (const auto& [port, target] : targets) {
         const int fd = listen_on(listen_host, port);
@@ -103,11 +175,17 @@ int relay(const std::string& listen_host, const std::map<int, std::string>& targ
             return 10;
         listeners[fd] = port;
     }
+    DatagramRelay datagrams;
+    datagrams.fd = udp_bound(listen_host, datagram_port);
+    if (datagrams.fd < 0)
+        return 12;
+    datagrams.target = address_of(targets.at(datagram_port), datagram_port);
     std::ofstream(ready) << "ready";
     std::ofstream out(capture, std::ios::binary);
     std::vector<Relayed> relayed;
     for (;;) {
         std::vector<pollfd> watched;
+        watched.push_back({datagrams.fd, POLLIN, 0});
         for (const auto& [fd, port] : listeners)
             watched.push_back({fd, POLLIN, 0});
         for (const auto& r : relayed) {
@@ -117,6 +195,8 @@ int relay(const std::string& listen_host, const std::map<int, std::string>& targ
         if (::poll(watched.data(), watched.size(), 1000) < 0)
             return 11;
         std::size_t at = 0;
+        if (watched[at++].revents & POLLIN)
+            datagrams.pass(out, attack);
         const std::size_t polled = relayed.size();  // those accepted below were not polled yet
         for (const auto& [fd, port] : listeners) {
             if (watched[at++].revents & POLLIN) {
@@ -156,22 +236,20 @@ int relay(const std::string& listen_host, const std::map<int, std::string>& targ
                     std::vector<std::uint8_t> record(r.pending.begin(), r.pending.begin() + size);
                     r.pending.erase(r.pending.begin(), r.pending.begin() + size);
                     const bool application = record[0] == 0x17;
-                    if (application && r.attackable && r.application_records > 0 &&
-                        std::filesystem::exists(attack)) {
-                        std::string what;
-                        std::ifstream(attack) >> what;
-                        std::filesystem::remove(attack);
-                        if (what == "flip") {
+                    const std::string what = application && r.attackable && r.application_records > 0
+                                                 ? take_attack(attack, "record-")
+                                                 : std::string{};
+                    if (!what.empty()) {
+                        if (what == "record-flip") {
                             record[5 + (size - 5) / 2] ^= 0x01;
-                        } else if (what == "inject") {
+                        } else if (what == "record-inject") {
                             std::vector<std::uint8_t> forged{0x17, 0x03, 0x03, 0x00, 0x40};
                             for (int b = 0; b < 0x40; ++b)
                                 forged.push_back(static_cast<std::uint8_t>(b * 37 + 11));
                             gone = !write_all(r.to, forged.data(), forged.size());
-                        } else if (what == "replay") {
+                        } else if (what == "record-replay") {
                             gone = !write_all(r.to, r.last_record.data(), r.last_record.size());
                         }
-                        std::ofstream(attack + ".done") << what;
                     }
                     if (application) {
                         ++r.application_records;
@@ -209,7 +287,7 @@ struct PathThroughARelay {
         relay_pid = net.host(3).fork_inside([&, secret] {
             return relay(net.host(3).address(),
                          {{names_port, net.host(0).address()}, {reader_port, net.host(2).address()}},
-                         secret ? reader_port : -1, capture_file(), attack_file(), ready);
+                         secret ? reader_port : -1, reader_port, capture_file(), attack_file(), ready);
         });
         if (!eventually([&] { return std::filesystem::exists(ready); }, 20s))
             throw std::runtime_error("the relay did not start");
@@ -272,21 +350,29 @@ bool stream_flows(Port& source, Port& sink, std::uint64_t& next, std::chrono::mi
 }
 
 /// The path, a writer on one daemon and a reader on the other, connected (persistent) through the
-/// relay.
+/// relay by `carrier`.
 struct StreamThroughARelay {
-    explicit StreamThroughARelay(bool secret)
+    explicit StreamThroughARelay(bool secret, const std::string& carrier = "tcp")
         : path(secret),
           writing({path.writer->socket()}),
-          reading({path.reader->socket()}),
+          reading(std::make_unique<Client>(Client::Options{path.reader->socket()})),
           source(writing.open(out_port())),
-          sink(reading.open(in_port())) {
-        writing.connect(out_port(), in_port(), "tcp", true);
+          sink(reading->open(in_port())) {
+        writing.connect(out_port(), in_port(), carrier, true);
+    }
+    /// The reader's daemon restarted (killed, started again): its port opened again.
+    void restart_reader() {
+        sink.reset();
+        reading.reset();
+        path.reader->start_again();
+        reading = std::make_unique<Client>(Client::Options{path.reader->socket()});
+        sink = reading->open(in_port());
     }
     PathThroughARelay path;
     Client writing;
-    Client reading;
+    std::unique_ptr<Client> reading;
     Port source;
-    Port sink;
+    std::optional<Port> sink;
 };
 
 /// What a relay must not read with the secret, and reads without it.
@@ -300,9 +386,9 @@ TEST(Mitm_test, ARelayOnThePathReadsNothingAndEveryRecordItAltersInjectsOrReplay
     StreamThroughARelay stream(true);
     auto& [path, writing, reading, source, sink] = stream;
     std::uint64_t next = 1;
-    ASSERT_TRUE(stream_flows(source, sink, next, 30s)) << path.writer->process().err();
+    ASSERT_TRUE(stream_flows(source, *sink, next, 30s)) << path.writer->process().err();
 
-    for (const std::string attack : {"flip", "inject", "replay"}) {
+    for (const std::string attack : {"record-flip", "record-inject", "record-replay"}) {
         const auto refused_before = path.reader_stats().value("tls_records_refused", std::uint64_t{0});
         std::filesystem::remove(path.attack_file() + ".done");
         std::ofstream(path.attack_file()) << attack;
@@ -311,7 +397,7 @@ TEST(Mitm_test, ARelayOnThePathReadsNothingAndEveryRecordItAltersInjectsOrReplay
         ASSERT_TRUE(eventually(
             [&] {
                 source.write(json(std::string(payload_mark) + std::to_string(next++)));
-                while (sink.read(1ms)) {
+                while (sink->read(1ms)) {
                 }
                 return std::filesystem::exists(path.attack_file() + ".done");
             },
@@ -323,7 +409,7 @@ TEST(Mitm_test, ARelayOnThePathReadsNothingAndEveryRecordItAltersInjectsOrReplay
             },
             30s))
             << attack << " was not counted: " << path.reader_stats().dump();
-        ASSERT_TRUE(stream_flows(source, sink, next, 60s))
+        ASSERT_TRUE(stream_flows(source, *sink, next, 60s))
             << attack << ": the stream did not come back\n--- writer:\n"
             << path.writer->process().out() << path.writer->process().err() << "\n--- reader:\n"
             << path.reader->process().out() << path.reader->process().err();
@@ -338,15 +424,97 @@ TEST(Mitm_test, ARelayOnThePathReadsNothingAndEveryRecordItAltersInjectsOrReplay
         EXPECT_EQ(capture.find(plain), std::string::npos) << "the relay read '" << plain << "'";
 }
 
+std::uint64_t reader_counter(PathThroughARelay& path, const std::string& name) {
+    return path.reader_stats().value(name, std::uint64_t{0});
+}
+
+/// Reads what arrives for a while; true when none of it was written before `from` (a replay that
+/// got through would bring an old payload back).
+bool nothing_older_arrives(Port& sink, std::uint64_t from) {
+    const auto until = Clock::now() + 300ms;
+    while (Clock::now() < until) {
+        while (auto message = sink.read(20ms)) {
+            const auto text = message->data.get<std::string>();
+            if (std::stoull(text.substr(payload_mark.size())) < from)
+                return false;
+        }
+    }
+    return true;
+}
+
+TEST(Mitm_test, EveryDatagramTheRelayAltersForgesOrReplaysIsRefusedEvenAfterTheReaderRestarts) {
+    PLEXUS_NEEDS_NETNS();
+    StreamThroughARelay stream(true, "udp");
+    auto& path = stream.path;
+    std::uint64_t next = 1;
+    ASSERT_TRUE(stream_flows(stream.source, *stream.sink, next, 30s)) << path.writer->process().err();
+
+    // The relay attacks the next datagram after the file names the attack.
+    auto carry_out = [&](const std::string& attack) {
+        std::filesystem::remove(path.attack_file() + ".done");
+        std::ofstream(path.attack_file()) << attack;
+        return eventually(
+            [&] {
+                stream.source.write(json(std::string(payload_mark) + std::to_string(next++)));
+                while (stream.sink->read(1ms)) {
+                }
+                return std::filesystem::exists(path.attack_file() + ".done");
+            },
+            30s);
+    };
+    for (const std::string attack : {"datagram-flip", "datagram-forge"}) {
+        const auto refused_before = reader_counter(path, "udp_bad_mac");
+        ASSERT_TRUE(carry_out(attack)) << attack << ": the relay saw no datagram to attack";
+        EXPECT_TRUE(eventually([&] { return reader_counter(path, "udp_bad_mac") > refused_before; }, 30s))
+            << attack << " was not refused: " << path.reader_stats().dump();
+        ASSERT_TRUE(stream_flows(stream.source, *stream.sink, next, 30s)) << attack;
+    }
+    // The last datagram again: it opens (same stream, same key), and the stream refuses it as late.
+    const auto late = [&] {
+        const auto inbound = inbound_stats(path.dir, *path.reader, in_port(), out_port());
+        return inbound.is_null() ? std::uint64_t{0} : inbound.value("late", std::uint64_t{0});
+    };
+    const auto late_before = late();
+    ASSERT_TRUE(carry_out("datagram-replay"));
+    EXPECT_TRUE(eventually([&] { return late() > late_before; }, 30s));
+    EXPECT_TRUE(nothing_older_arrives(*stream.sink, next));
+
+    // The reader's daemon restarts; the writer's persistent connection is made again, with a new
+    // stream (numbered from 1 again) and a new key. Every datagram of before, replayed, is refused.
+    stream.restart_reader();
+    ASSERT_TRUE(stream_flows(stream.source, *stream.sink, next, 60s))
+        << "the stream did not come back after the restart\n--- writer:\n"
+        << path.writer->process().out() << path.writer->process().err();
+    const auto refused_before = reader_counter(path, "udp_bad_mac");
+    const auto from = next;
+    ASSERT_TRUE(carry_out("datagram-replay-all"));
+    EXPECT_TRUE(eventually([&] { return reader_counter(path, "udp_bad_mac") > refused_before; }, 30s))
+        << path.reader_stats().dump();
+    EXPECT_TRUE(nothing_older_arrives(*stream.sink, from));
+    ASSERT_TRUE(stream_flows(stream.source, *stream.sink, next, 30s));
+
+    // What the relay saw of the payloads: sealed datagrams.
+    const std::string capture = path.capture();
+    EXPECT_EQ(capture.find(std::string(payload_mark)), std::string::npos) << "the relay read a payload";
+}
+
 TEST(Mitm_test, WithoutASecretTheSameRelayReadsPayloadsPortsAndNodes) {
     PLEXUS_NEEDS_NETNS();
     StreamThroughARelay stream(false);
     auto& [path, writing, reading, source, sink] = stream;
     std::uint64_t next = 1;
-    ASSERT_TRUE(stream_flows(source, sink, next, 30s));
+    ASSERT_TRUE(stream_flows(source, *sink, next, 30s));
     const std::string capture = path.capture();
     for (const auto& plain : plain_texts())
         EXPECT_NE(capture.find(plain), std::string::npos) << "the plain capture lacks '" << plain << "'";
+}
+
+TEST(Mitm_test, WithoutASecretTheSameRelayReadsUdpPayloads) {
+    PLEXUS_NEEDS_NETNS();
+    StreamThroughARelay stream(false, "udp");
+    std::uint64_t next = 1;
+    ASSERT_TRUE(stream_flows(stream.source, *stream.sink, next, 30s));
+    EXPECT_NE(stream.path.capture().find(std::string(payload_mark)), std::string::npos);
 }
 
 }  // namespace mitm_test

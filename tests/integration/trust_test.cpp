@@ -158,39 +158,73 @@ TEST_F(Trust_test, AHostWithoutTheSecretCannotAskRegisterConnectOrForgeAnAttach)
     EXPECT_TRUE(parsed["ports"][0]["inbound"].empty()) << stats.out;
 }
 
-TEST_F(Trust_test, ADiscoveryAnswerFromANameServerWithoutTheSecretIsRefused) {
-    // A rogue name server on host 0 answers discovery (any plexus-names listening beyond loopback
-    // does); it holds another secret, as a forger would hold none of ours. The daemon on host 1 finds
-    // it, and must refuse it: its TLS handshake fails, nothing is registered.
+TEST_F(Trust_test, DiscoveryAnswersWithoutTheDeploymentsProofAreIgnored) {
+    // Two rogue name servers answer discovery (any plexus-names listening beyond loopback does):
+    // one holds another secret, as a forger would hold none of ours, and proves that one; the
+    // other has none and proves nothing. A daemon with the secret takes neither answer: it names
+    // both as ignored and never connects to them, so neither learns anything of it.
     const std::string other = dir.file("rogue-secret");
     std::ofstream(other) << "a-secret-that-is-not-the-deployment-one";
     ::chmod(other.c_str(), 0600);
-    const auto& rogue_host = net->host(0);
-    const std::string rogue_ready = dir.file("rogue.ready");
-    Process rogue(rogue_host.wrap({names_path(), "--listen", rogue_host.address() + ":0", "--secret-file",
-                                   other, "--ready-file", rogue_ready}),
-                  {}, dir.file("rogue"));
-    ASSERT_TRUE(eventually([&] { return std::filesystem::exists(rogue_ready); }, 20s)) << rogue.err();
+    const auto& keyed_host = net->host(0);
+    const auto& open_host = net->host(2);
+    const std::string keyed_ready = dir.file("keyed.ready");
+    const std::string open_ready = dir.file("open.ready");
+    Process keyed(keyed_host.wrap({names_path(), "--listen", keyed_host.address() + ":0", "--secret-file", other,
+                                   "--ready-file", keyed_ready, "--log-level", "debug"}),
+                  {}, dir.file("keyed"));
+    Process open(open_host.wrap({names_path(), "--listen", open_host.address() + ":0", "--insecure",
+                                 "--ready-file", open_ready, "--log-level", "debug"}),
+                 {}, dir.file("open"));
+    ASSERT_TRUE(eventually([&] { return std::filesystem::exists(keyed_ready); }, 20s)) << keyed.err();
+    ASSERT_TRUE(eventually([&] { return std::filesystem::exists(open_ready); }, 20s)) << open.err();
     const auto& host = net->host(1);
     Process daemon(
         host.wrap({plexusd_path(), "--node", "misled", "--socket", dir.file("misled.sock"), "--listen",
                    host.address() + ":0", "--secret-file", test_secret_file(), "--log-level", "debug"}),
         {}, dir.file("misled"));
+    const std::string ignored = "ignored answers without this deployment's proof from ";
     ASSERT_TRUE(eventually(
         [&] {
             const auto log = daemon.out() + daemon.err();
-            return log.find("TLS handshake failed") != std::string::npos || !daemon.running();
+            return log.find(ignored) != std::string::npos || !daemon.running();
         },
         30s))
         << daemon.out() << daemon.err();
     const auto log = daemon.out() + daemon.err();
-    EXPECT_NE(log.find("found by multicast discovery"), std::string::npos) << log;
+    const auto line = log.substr(log.find(ignored));
+    const auto said = line.substr(0, line.find('\n'));
+    EXPECT_NE(said.find(keyed_host.address()), std::string::npos) << said;
+    EXPECT_NE(said.find(open_host.address()), std::string::npos) << said;
+    // It fell back to the default address instead (nothing listens there: it keeps trying).
+    EXPECT_NE(log.find("name server 127.0.0.1:10100"), std::string::npos) << log;
     EXPECT_EQ(log.find("registered node 'misled'"), std::string::npos) << log;
-    // The rogue saw a handshake it could not complete, and learned no node name.
-    EXPECT_TRUE(
-        eventually([&] { return rogue.out().find("TLS handshake failed") != std::string::npos; }, 20s))
-        << rogue.out() << rogue.err();
-    EXPECT_EQ(rogue.out().find("misled"), std::string::npos) << rogue.out();
+    // Both rogues answered queries, and neither was ever connected to.
+    EXPECT_NE(keyed.out().find("discovery query from " + host.address()), std::string::npos) << keyed.out();
+    EXPECT_NE(open.out().find("discovery query from " + host.address()), std::string::npos) << open.out();
+    EXPECT_EQ(keyed.out().find("TLS handshake"), std::string::npos) << keyed.out();
+    EXPECT_EQ(keyed.out().find("misled"), std::string::npos) << keyed.out();
+    EXPECT_EQ(open.out().find("misled"), std::string::npos) << open.out();
+    EXPECT_EQ(open.out().find("authentication required"), std::string::npos) << open.out();
+}
+
+TEST_F(Trust_test, DiscoveryFindsTheNameServerThatProvesTheSecretPastARogueOne) {
+    // The same rogue beside this deployment's name server: however the answers race, the daemon
+    // registers with the one that proves the secret.
+    const std::string other = dir.file("rogue-secret");
+    std::ofstream(other) << "a-secret-that-is-not-the-deployment-one";
+    ::chmod(other.c_str(), 0600);
+    const auto& rogue_host = net->host(0);
+    const std::string rogue_ready = dir.file("rogue.ready");
+    Process rogue(rogue_host.wrap({names_path(), "--listen", rogue_host.address() + ":0", "--secret-file", other,
+                                   "--ready-file", rogue_ready}),
+                  {}, dir.file("rogue"));
+    ASSERT_TRUE(eventually([&] { return std::filesystem::exists(rogue_ready); }, 20s)) << rogue.err();
+    NameServerProcess names(dir, net->host(2));
+    // Ready means registered: with the name server it names.
+    Daemon daemon(dir, net->host(1), "found", discover_names);
+    EXPECT_EQ(daemon.names(), names.address());
+    EXPECT_EQ(rogue.out().find("TLS handshake"), std::string::npos) << rogue.out();
 }
 
 }  // namespace trust_test

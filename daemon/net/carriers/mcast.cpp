@@ -57,6 +57,8 @@ Task<proto::Result<proto::AttachRequest>> McastCarrier::prepare_attach(CarrierHo
     if (!given)
         co_return proto::Error{"no multicast group for " + request.source + ": " + given.error().message};
     request.group = *given;
+    if (host.udp().sealing())  // inside the TLS link: only the receiving daemons learn it
+        request.key = proto::key_text(host.udp().mcast_stream(request.source).seal.key());
     co_return request;
 }
 
@@ -97,7 +99,14 @@ Task<proto::Result<proto::AttachReply>> McastCarrier::attach_receiving_end(Recei
     const auto sender = context.session->remote_ip();
     if (!sender)
         co_return proto::Error{"the mcast carrier needs a link over TCP"};
-    auto joined = context.host.udp().join_group(*group, context.inlet, *sender);
+    std::optional<proto::DatagramKey> key;
+    if (!context.request.key.empty()) {
+        auto given = proto::parse_key_text(context.request.key);
+        if (!given)
+            co_return proto::Error{"the key of " + source + "'s mcast stream: " + given.error().message};
+        key = *given;
+    }
+    auto joined = context.host.udp().join_group(*group, context.inlet, *sender, key);
     if (!joined)
         co_return joined.error();
     context.inlet->datagrams = UdpSocket::datagrams(**joined);

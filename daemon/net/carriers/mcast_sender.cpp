@@ -49,8 +49,8 @@ void McastSender::filtered(std::vector<Filtered>& results) {
 
 void McastSender::send(const Message& message) {
     for_each_record(message, [this](const Message& single) {
-        socket_.send_counted(group_, 0, next_message_, single.record, counters_, "mcast " + source_,
-                             marks_ ? &*marks_ : nullptr);
+        socket_.send_counted(group_, 0, stream_.next_message, single.record, counters_, "mcast " + source_,
+                             marks_ ? &*marks_ : nullptr, socket_.sealing() ? &stream_.seal : nullptr);
     });
 }
 

@@ -29,7 +29,10 @@ struct McastSendCounters : UdpSendCounters {
 class McastSender final : public FilterClient {
 public:
     McastSender(UdpSocket& socket, asio::ip::udp::endpoint group, std::string source)
-        : socket_(socket), group_(std::move(group)), source_(std::move(source)) {}
+        : socket_(socket),
+          group_(std::move(group)),
+          source_(std::move(source)),
+          stream_(socket.mcast_stream(source_)) {}
     ~McastSender() override;
     void deliver(const Message& message);
     void filtered(std::vector<Filtered>& results) override;
@@ -54,7 +57,7 @@ private:
     UdpSocket& socket_;
     asio::ip::udp::endpoint group_;
     std::string source_;
-    std::uint64_t next_message_ = 0;
+    UdpSocket::McastStream& stream_;  ///< the port's numbering and key, which outlive this sender
     /// The last unit sent, held so that its storage (and so its address) cannot be reused by a
     /// later message while it is compared against.
     Message last_;

@@ -10,7 +10,7 @@ namespace plexus::daemon::carriers {
 void UdpLink::deliver(const Message& message) {
     for_each_record(message, [this](const Message& single) {
         socket_.send_counted(to_, stream_, next_message_, single.record, counters_, description_,
-                             marks_ ? &*marks_ : nullptr);
+                             marks_ ? &*marks_ : nullptr, seal_.get());
     });
 }
 
@@ -32,11 +32,20 @@ proto::Result<SendingEnd> UdpCarrier::make_sending_end(const SendingContext& con
             "the daemon at " + context.endpoint.text() +
             " gave no usable udp port and stream for this connection (udp needs IP addresses)"};
     }
+    std::optional<proto::DatagramKey> key;
+    if (context.host.udp().sealing()) {
+        auto given = proto::parse_key_text(context.attached.key);
+        if (!given)
+            return proto::Error{"the daemon at " + context.endpoint.text() +
+                                " gave no usable key for this udp stream's sealed datagrams: " +
+                                given.error().message};
+        key = *given;
+    }
     const asio::ip::udp::endpoint to(address, static_cast<std::uint16_t>(port));
     auto link = std::make_shared<UdpLink>(
         context.host.udp(), to, stream, context.link,
         "connection " + context.request.source + " -> " + context.request.destination,
-        context.carrier.qos.dscp);
+        context.carrier.qos.dscp, key);
     SendingEnd end;
     end.sink = link;
     end.send_monitors = own_send_monitors(context, *link);
@@ -56,6 +65,8 @@ Task<proto::Result<proto::AttachReply>> UdpCarrier::attach_receiving_end(Receivi
     context.inlet->datagrams = UdpSocket::datagrams(*stream);
     answer.udp_port = socket.port();
     answer.stream = UdpSocket::id(*stream);
+    if (const auto key = UdpSocket::key(*stream))
+        answer.key = proto::key_text(*key);  // inside the TLS link: only the sender learns it
     context.session->hold_while_linked(stream);
     co_return answer;
 }

@@ -23,7 +23,8 @@ namespace plexus::daemon::carriers {
 class UdpLink : public MessageSink {
 public:
     UdpLink(UdpSocket& socket, asio::ip::udp::endpoint to, std::uint64_t stream,
-            std::shared_ptr<Peer> control, std::string description, std::optional<int> dscp = {})
+            std::shared_ptr<Peer> control, std::string description, std::optional<int> dscp = {},
+            std::optional<proto::DatagramKey> key = {})
         : socket_(socket),
           to_(std::move(to)),
           stream_(stream),
@@ -31,6 +32,8 @@ public:
           description_(std::move(description)) {
         if (dscp)
             marks_ = socket_.marks_for(*dscp);
+        if (key)
+            seal_ = std::make_unique<proto::DatagramSeal>(*key);
     }
     bool full() const override { return false; }
     std::size_t room() const override { return never_full_room; }
@@ -48,6 +51,7 @@ private:
     std::uint64_t next_message_ = 0;
     UdpSendCounters counters_;
     std::optional<DatagramMarks> marks_;  ///< qos.dscp: the shared socket marks each datagram
+    std::unique_ptr<proto::DatagramSeal> seal_;  ///< with a secret: the key the receiver gave
 };
 
 /// udp: best effort, every message at once as datagrams on the daemon's UDP socket; losses are

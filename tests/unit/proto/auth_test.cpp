@@ -20,66 +20,29 @@ Secret secret_of(std::string_view bytes) {
     return *secret;
 }
 
-TEST(Auth_test, AProofHoldsOnlyForItsNoncesRoleNodeAndSecret) {
-    const auto secret = secret_of("0123456789abcdef-secret");
-    const auto a = random_nonce();
-    const auto b = random_nonce();
-    EXPECT_NE(a, b);
-    const auto proof = secret.prove(Party::connecting, a, b, "daemon", "arm");
-    EXPECT_TRUE(same_proof(proof, secret.prove(Party::connecting, a, b, "daemon", "arm")));
-    EXPECT_FALSE(same_proof(proof, secret.prove(Party::connecting, b, a, "daemon", "arm")));
-    EXPECT_FALSE(same_proof(proof, secret.prove(Party::connecting, a, b, "link", "arm")));
-    EXPECT_FALSE(same_proof(proof, secret.prove(Party::connecting, a, b, "daemon", "head")));
-    EXPECT_FALSE(
-        same_proof(proof, secret_of("another-secret-of-16").prove(Party::connecting, a, b, "daemon", "arm")));
-    // Role and node are length-prefixed: moving a byte from one to the other changes the proof.
-    EXPECT_FALSE(same_proof(secret.prove(Party::connecting, a, b, "ab", "c"),
-                            secret.prove(Party::connecting, a, b, "a", "bc")));
-    EXPECT_FALSE(same_proof(proof, ByteView(proof).first(31)));
-    // The other end's proof over the very same fields differs: it cannot be reflected back.
-    EXPECT_FALSE(same_proof(proof, secret.prove(Party::accepting, a, b, "daemon", "arm")));
-}
-
-TEST(Auth_test, ADatagramMacFailsOnAnyChangedByte) {
-    const auto secret = secret_of("0123456789abcdef-secret");
-    Bytes datagram(100, 7);
-    std::uint8_t mac[16];
-    secret.datagram_mac(datagram, mac);
-    EXPECT_TRUE(secret.datagram_mac_ok(datagram, {mac, 16}));
-    for (std::size_t i = 0; i < datagram.size(); i += 13) {
-        auto changed = datagram;
-        changed[i] ^= 1;
-        EXPECT_FALSE(secret.datagram_mac_ok(changed, {mac, 16})) << i;
-    }
-    EXPECT_FALSE(secret_of("another-secret-of-16").datagram_mac_ok(datagram, {mac, 16}));
-    EXPECT_FALSE(secret.datagram_mac_ok(datagram, {mac, 15}));
-}
-
-TEST(Auth_test, ADatagramMacIsTheDocumentedHmacEveryTime) {
-    // PROTOCOL.md: the first 16 bytes of HMAC-SHA256(HMAC-SHA256(secret, "plexus-datagram-v1"),
-    // datagram), computed here with OpenSSL's one-shot HMAC. Repeated, because one context is
-    // re-initialised for every datagram: nothing of one may leak into the next.
+TEST(Auth_test, TheTlsKeyIsTheDocumentedHmac) {
+    // PROTOCOL.md: HMAC-SHA256(secret, "plexus tls psk v1"), here with OpenSSL's one-shot HMAC.
     const std::string secret_bytes = "0123456789abcdef-secret";
-    const auto secret = secret_of(secret_bytes);
-    const std::string label = "plexus-datagram-v1";
-    std::uint8_t key[32];
+    const std::string label = "plexus tls psk v1";
+    std::uint8_t expected[32];
     unsigned int size = 0;
     ::HMAC(EVP_sha256(), secret_bytes.data(), static_cast<int>(secret_bytes.size()),
-           reinterpret_cast<const std::uint8_t*>(label.data()), label.size(), key, &size);
-    for (std::size_t length : {1u, 100u, 1400u, 100u}) {
-        Bytes datagram(length);
-        for (std::size_t i = 0; i < length; ++i)
-            datagram[i] = static_cast<std::uint8_t>(i * 31 + length);
-        std::uint8_t expected[32];
-        ::HMAC(EVP_sha256(), key, sizeof key, datagram.data(), datagram.size(), expected, &size);
-        std::uint8_t mac[16];
-        secret.datagram_mac(datagram, mac);
-        EXPECT_EQ(Bytes(mac, mac + 16), Bytes(expected, expected + 16)) << length;
-        // Head and body hashed as one.
-        secret.datagram_mac(ByteView(datagram).first(length / 2), ByteView(datagram).subspan(length / 2),
-                            mac);
-        EXPECT_EQ(Bytes(mac, mac + 16), Bytes(expected, expected + 16)) << length;
-    }
+           reinterpret_cast<const std::uint8_t*>(label.data()), label.size(), expected, &size);
+    const auto key = secret_of(secret_bytes).tls_key();
+    EXPECT_EQ(Bytes(key.begin(), key.end()), Bytes(expected, expected + 32));
+    EXPECT_NE(secret_of("another-secret-of-16").tls_key(), key);
+}
+
+TEST(Auth_test, ADiscoveryProofBindsTheSecretTheNonceAndTheAddress) {
+    const auto secret = secret_of("0123456789abcdef-secret");
+    const auto proof = secret.discovery_proof("nonce-1", "10.0.0.1:10100");
+    EXPECT_EQ(proof.size(), 64u);
+    EXPECT_TRUE(same_text(proof, secret.discovery_proof("nonce-1", "10.0.0.1:10100")));
+    EXPECT_FALSE(same_text(proof, secret.discovery_proof("nonce-2", "10.0.0.1:10100")));
+    EXPECT_FALSE(same_text(proof, secret.discovery_proof("nonce-1", "10.0.0.2:10100")));
+    EXPECT_FALSE(same_text(proof, secret_of("another-secret-of-16").discovery_proof("nonce-1", "10.0.0.1:10100")));
+    // The parts cannot run into each other.
+    EXPECT_FALSE(same_text(secret.discovery_proof("ab", "c"), secret.discovery_proof("a", "bc")));
 }
 
 TEST(Auth_test, ShortSecretsAndOpenFilesAreRefused) {
@@ -94,10 +57,7 @@ TEST(Auth_test, ShortSecretsAndOpenFilesAreRefused) {
     auto loaded = Secret::load(path);
     ASSERT_TRUE(loaded) << loaded.error().message;
     // The trailing newline is not part of the secret.
-    const auto n = random_nonce();
-    EXPECT_TRUE(
-        same_proof(loaded->prove(Party::connecting, n, n, "r", "n"),
-                   secret_of("a-secret-long-enough-for-this").prove(Party::connecting, n, n, "r", "n")));
+    EXPECT_EQ(loaded->tls_key(), secret_of("a-secret-long-enough-for-this").tls_key());
     ::chmod(path, 0644);
     auto open = Secret::load(path);
     ASSERT_FALSE(open);

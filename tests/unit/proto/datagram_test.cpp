@@ -5,11 +5,11 @@
 namespace plexus::proto {
 namespace {
 
-Bytes make_datagram(DatagramHeader header, const Bytes& fragment, const Bytes& mac = {}) {
+Bytes make_datagram(DatagramHeader header, const Bytes& fragment, const Bytes& tag = {}) {
     Bytes out;
     append_datagram_header(out, header);
     out.insert(out.end(), fragment.begin(), fragment.end());
-    out.insert(out.end(), mac.begin(), mac.end());
+    out.insert(out.end(), tag.begin(), tag.end());
     return out;
 }
 
@@ -23,18 +23,19 @@ TEST(Datagram_test, RoundTripsAFragmentOfAMessage) {
     EXPECT_EQ(decoded->header.length, 250u);
     EXPECT_EQ(decoded->header.index, 2u);
     EXPECT_EQ(decoded->fragment.size(), 50u);  // the last fragment holds what is left
-    EXPECT_TRUE(decoded->mac.empty());
-    EXPECT_EQ(decoded->signed_part.size(), datagram.size());
+    EXPECT_TRUE(decoded->tag.empty());
+    EXPECT_EQ(decoded->head.size() + decoded->fragment.size(), datagram.size());
 }
 
-TEST(Datagram_test, SeparatesTheMacFromTheFragment) {
-    const Bytes mac(datagram_mac_size, 0xee);
-    const auto datagram = make_datagram({1, 0, 3, 3, 0, true}, {1, 2, 3}, mac);
+TEST(Datagram_test, SeparatesHeaderFragmentAndTagOfASealedDatagram) {
+    const Bytes tag(datagram_sealed_tag_size, 0xee);
+    const auto datagram = make_datagram({1, 0, 3, 3, 0, true}, {1, 2, 3}, tag);
     auto decoded = decode_datagram(datagram, 1000);
     ASSERT_TRUE(decoded) << decoded.error().message;
-    EXPECT_EQ(decoded->fragment.size(), 3u);
-    EXPECT_EQ(Bytes(decoded->mac.begin(), decoded->mac.end()), mac);
-    EXPECT_EQ(decoded->signed_part.size(), datagram.size() - datagram_mac_size);
+    EXPECT_TRUE(decoded->header.sealed);
+    EXPECT_EQ(Bytes(decoded->fragment.begin(), decoded->fragment.end()), (Bytes{1, 2, 3}));
+    EXPECT_EQ(Bytes(decoded->tag.begin(), decoded->tag.end()), tag);
+    EXPECT_EQ(decoded->head.size(), datagram.size() - 3 - datagram_sealed_tag_size);
 }
 
 TEST(Datagram_test, AnEmptyRecordIsOneEmptyFragment) {
@@ -75,7 +76,7 @@ TEST(Datagram_test, RefusesWhatDoesNotAddUp) {
     EXPECT_EQ(reason(bad_flags), "unknown datagram flags 128");
     auto bad_version = make_datagram({1, 0, 1, 1, 0, false}, {0});
     bad_version[4] = 9;
-    EXPECT_EQ(reason(bad_version), "datagram version 9, expected 1");
+    EXPECT_EQ(reason(bad_version), "datagram version 9, expected 2");
 }
 
 TEST(Datagram_test, AHugeFragmentSizeDoesNotOverflow) {

@@ -149,13 +149,5 @@ TEST(HelloAuth_test, AHelloWithoutTheAppendedFieldsHasNoSecret) {
     EXPECT_FALSE(decoded->has_secret);
 }
 
-TEST(HelloAuth_test, AnAuthFrameHoldsExactlyAProof) {
-    const Bytes proof(32, 5);
-    const Bytes frame = encode_auth(proof);
-    EXPECT_EQ(frame[1], static_cast<std::uint8_t>(FrameType::auth));
-    EXPECT_TRUE(decode_auth(ByteView(frame).subspan(2)));
-    EXPECT_FALSE(decode_auth(ByteView(proof).first(31)));
-}
-
 }  // namespace
 }  // namespace plexus::proto

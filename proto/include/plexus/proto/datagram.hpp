@@ -3,7 +3,10 @@
 // fragment of it, per datagram. Pure functions, no sockets.
 //
 //     datagram = raw[4] "PLXD" | u8 version | u8 flags | varint stream | varint message
-//              | varint length | varint fragment_size | varint index | fragment | [raw[16] mac]
+//              | varint length | varint fragment_size | varint index | fragment | [raw[16] tag]
+//
+// A sealed datagram (flag 1, with the deployment secret: datagram_seal.hpp) carries its fragment
+// encrypted, followed by the AES-GCM tag that authenticates it and the header before it.
 //
 // `message` counts the messages of one stream (0, 1, 2, ...): a gap is a loss. Fragment `index`
 // covers bytes [index * fragment_size, min(length, (index + 1) * fragment_size)) of the record,
@@ -15,10 +18,11 @@
 
 namespace plexus::proto {
 
-inline constexpr std::uint8_t datagram_version = 1;
-inline constexpr std::uint8_t datagram_flag_mac = 0x01;
-/// Bytes of the MAC at the end of a datagram whose flags say it has one.
-inline constexpr std::size_t datagram_mac_size = 16;
+/// 2: sealed fragments replaced version 1's MAC of the whole datagram under one deployment key.
+inline constexpr std::uint8_t datagram_version = 2;
+inline constexpr std::uint8_t datagram_flag_sealed = 0x01;
+/// Bytes of the tag at the end of a sealed datagram.
+inline constexpr std::size_t datagram_sealed_tag_size = 16;
 /// Most fragments one message may be cut into (bounds the bookkeeping of a reassembly).
 inline constexpr std::uint64_t max_datagram_fragments = 1u << 16;
 /// The largest header: magic, version, flags and five varints of at most 10 bytes.
@@ -30,20 +34,20 @@ struct DatagramHeader {
     std::uint64_t length = 0;  ///< the whole record's size
     std::uint64_t fragment_size = 0;
     std::uint64_t index = 0;
-    bool has_mac = false;
+    bool sealed = false;  ///< the fragment is encrypted, and a tag follows it
 };
 
 struct DatagramView {
     DatagramHeader header;
-    ByteView fragment;
-    ByteView signed_part;  ///< everything the MAC covers: the datagram without its MAC
-    ByteView mac;          ///< empty when the datagram has none
+    ByteView head;      ///< the header's bytes: what a seal authenticates beside the fragment
+    ByteView fragment;  ///< encrypted when the datagram is sealed
+    ByteView tag;       ///< empty when the datagram is not sealed
 };
 
 /// How many fragments a record of `length` bytes is cut into (at least one, for an empty record).
 std::uint64_t fragment_count(std::uint64_t length, std::uint64_t fragment_size);
 
-/// Appends a datagram header. The fragment (and the MAC, if flagged) follow it.
+/// Appends a datagram header. The fragment (and the tag, if sealed) follow it.
 void append_datagram_header(Bytes& out, const DatagramHeader& header);
 
 /// Decodes a datagram; refused when it is malformed or its record would pass `max_message` bytes.

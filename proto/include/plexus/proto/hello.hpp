@@ -2,8 +2,9 @@
 // The hello exchange: each side's first frame. Carries the protocol version from day one.
 //     fields = "PLXS" | varint version | string role | string node [| raw[32] nonce | u8 flags]
 // The nonce and flags were appended within version 2 (a reader ignores what it does not know):
-// flags bit 0 says the sender holds the deployment secret and will prove it with an auth frame
-// (PROTOCOL.md, "Authentication"). A hello without them is one from a sender with no secret.
+// flags bit 0 says the sender holds the deployment secret. Since TLS (PROTOCOL.md,
+// "Authentication") a hello with a secret travels inside the TLS link the secret keys, and the
+// nonce is no longer answered (the auth frame that answered it is retired).
 
 #include <array>
 #include <cstdint>
@@ -28,11 +29,6 @@ struct Hello {
     /// refuse a message that would not fit before sending anything); 0: not said (older peers).
     std::uint64_t max_frame = 0;
 };
-
-/// A whole auth frame: the proof (32 bytes) that its sender holds the deployment secret.
-Bytes encode_auth(ByteView proof);
-/// The proof of an auth frame's fields; refused unless exactly 32 bytes.
-Result<ByteView> decode_auth(ByteView fields);
 
 /// A whole hello frame.
 Bytes encode_hello(const Hello& hello);

@@ -136,12 +136,14 @@ struct McastGroupReply {
 /// `discover`: a datagram to the discovery group asking where the name server is.
 struct DiscoverRequest {
     static constexpr Op op = Op::discover;
+    std::string nonce;  ///< fresh for each query: a name server with the secret proves itself over it
     nlohmann::json encode() const;                                      ///< the request body
     static Result<DiscoverRequest> decode(const nlohmann::json& body);  ///< from a request body
 };
 /// The answer to `discover`.
 struct DiscoverReply {
     std::string names;              ///< the name server's address; host 0.0.0.0 means "the one that answered"
+    std::string proof;  ///< with a secret and a nonce: Secret::discovery_proof(nonce, names)
     nlohmann::json encode() const;  ///< the reply body
     static Result<DiscoverReply> decode(const nlohmann::json& body);  ///< from a reply body
 };

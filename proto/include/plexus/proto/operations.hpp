@@ -123,6 +123,7 @@ struct AttachRequest {
     std::string carrier;            ///< the whole carrier text (the recv. clauses are built here)
     bool strict = false;            ///< as in connect
     std::string group;              ///< mcast only: the source's group, "A.B.C.D:PORT"; else empty
+    std::string key;                ///< mcast with a secret: the key of the source's sealed stream (hex)
     nlohmann::json encode() const;  ///< the request body
     static Result<AttachRequest> decode(const nlohmann::json& body);  ///< from a request body
 };
@@ -133,6 +134,7 @@ struct AttachReply {
     std::uint64_t capacity = 16;                                    ///< and its capacity
     std::optional<std::uint64_t> udp_port;                          ///< udp: where to send the datagrams
     std::uint64_t stream = 0;                                       ///< udp: the stream they belong to
+    std::string key;  ///< udp with a secret: the key to seal the stream's datagrams with (hex)
     nlohmann::json encode() const;                                  ///< the reply body
     static Result<AttachReply> decode(const nlohmann::json& body);  ///< from a reply body
 };
