@@ -155,7 +155,6 @@ int main(int argc, char** argv) {
     hello.has_secret = true;
     frames.emplace_back("hello", proto::encode_hello(hello));
     frames.emplace_back("hello_client", proto::encode_hello({proto::protocol_version, "client", ""}));
-    frames.emplace_back("auth", proto::encode_auth(proto::Bytes(32, 0xab)));
     frames.emplace_back("request",
                         proto::encode_request({7, {{"op", "connect"}, {"src", "/a"}, {"dst", "/b"}}}));
     frames.emplace_back("request_big_id", proto::encode_request({1ull << 40, sample_body}));

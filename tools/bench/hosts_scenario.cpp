@@ -363,14 +363,16 @@ void print_tables(const HostsOptions& options, const std::vector<Row>& rows,
         "%+.1f%%\n",
         secure.size(), median(secure), percentile(secure, 0.9), median(insecure), percentile(insecure, 0.9),
         100 * (ratio(median(secure), median(insecure)) - 1));
-    std::printf("  %-22s %12s %12s %9s  %s\n", "udp", "secret", "insecure", "added", "target at 64 B: <= 5%");
+    // With the secret every udp datagram is sealed (AES-128-GCM under its stream's key); insecure
+    // ones are plain. Issue 32's targets: +10% latency at 64 B, -15% throughput at 1 MiB.
+    std::printf("  %-22s %12s %12s %9s  %s\n", "udp (sealed)", "secret", "insecure", "added", "target");
     for (const std::size_t size : {small, large}) {
         const Row& latency = find_row(rows, "latency", "udp", size);
         const auto& s = *latency.find("plexus");
         const auto& i = *latency.find("plexus_insecure");
         const double added = 100 * (ratio(s.p50_us, i.p50_us) - 1);
         std::printf("  %-22s %12.1f %12.1f %8.1f%%  %s\n", ("latency p50 us, " + size_text(size)).c_str(),
-                    s.p50_us, i.p50_us, added, size == small ? (added <= 5 ? "met" : "missed") : "");
+                    s.p50_us, i.p50_us, added, size == small ? (added <= 10 ? "<= 10%: met" : "<= 10%: missed") : "");
     }
     for (const std::size_t size : {small, large}) {
         const Row& throughput = find_row(rows, "throughput", "udp", size);
@@ -381,7 +383,7 @@ void print_tables(const HostsOptions& options, const std::vector<Row>& rows,
         std::printf(
             "  %-22s %12.0f %12.0f %8.1f%%  %s (lost %.1f%% / %.1f%%; daemons CPU us/msg %.2f / %.2f)\n",
             ("msgs/s, " + size_text(size)).c_str(), s.msgs_per_s, i.msgs_per_s, added,
-            size == small ? (added <= 5 ? "met" : "missed") : "", 100 * s.lost, 100 * i.lost,
+            size == large ? (added <= 15 ? "<= 15%: met" : "<= 15%: missed") : "", 100 * s.lost, 100 * i.lost,
             s.cpu_us_per_msg, i.cpu_us_per_msg);
     }
     std::fflush(stdout);
@@ -433,7 +435,7 @@ int run_hosts(const HostsOptions& given) {
         std::vector<std::pair<std::string, Measurement*>> systems{{"plexus", with_secret.get()},
                                                                   {"floor", floor.get()}};
         std::unique_ptr<Measurement> without;
-        if (carrier != "mcast") {  // TCP: TLS's cost; udp: the datagram MACs'
+        if (carrier != "mcast") {  // TCP: TLS's cost; udp: the seals'
             without = plexus_latency(*plexus_insecure, o);
             systems.emplace_back("plexus_insecure", without.get());
         }
