@@ -50,6 +50,9 @@ private:
     Task<std::tuple<boost::system::error_code, std::size_t>> write_tls(
         const std::vector<asio::const_buffer>& buffers);
     Task<std::tuple<boost::system::error_code, std::size_t>> read_given_back(asio::mutable_buffer buffer);
+    /// Writes what OpenSSL has written to the socket; returns at once when another coroutine is at
+    /// it (that one sends these bytes too).
+    Task<boost::system::error_code> flush_tls();
 
     struct Tls;
     Socket socket_;

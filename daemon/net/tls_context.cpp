@@ -1,6 +1,7 @@
 #include "tls_context.hpp"
 
-#include <boost/asio/ssl/context.hpp>
+#include <openssl/ssl.h>
+
 #include <map>
 #include <mutex>
 
@@ -8,10 +9,11 @@
 
 namespace plexus::daemon {
 
-TlsContext::TlsContext(const proto::Secret& secret)
-    : context_(std::make_unique<boost::asio::ssl::context>(proto::new_psk_tls_context(secret))) {}
+TlsContext::TlsContext(const proto::Secret& secret) : context_(proto::new_psk_tls_context(secret)) {}
 
-TlsContext::~TlsContext() = default;
+TlsContext::~TlsContext() {
+    ::SSL_CTX_free(context_);
+}
 
 std::shared_ptr<TlsContext> TlsContext::of(const proto::Secret& secret) {
     static std::mutex lock;

@@ -6,9 +6,7 @@
 
 #include "plexus/proto/auth.hpp"
 
-namespace boost::asio::ssl {
-class context;
-}
+struct ssl_ctx_st;
 
 namespace plexus::daemon {
 
@@ -25,10 +23,11 @@ public:
     TlsContext(const TlsContext&) = delete;
     TlsContext& operator=(const TlsContext&) = delete;
 
-    boost::asio::ssl::context& asio_context() { return *context_; }
+    /// The OpenSSL context (SSL_CTX*) sessions are made from (ByteStream).
+    ssl_ctx_st* native() const { return context_; }
 
 private:
-    std::unique_ptr<boost::asio::ssl::context> context_;
+    ssl_ctx_st* context_;
 };
 
 }  // namespace plexus::daemon
