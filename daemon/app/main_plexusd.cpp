@@ -131,9 +131,9 @@ int main(int argc, char** argv) {
             throw std::runtime_error(secret.error().message);
         config.secret = *secret;
         const auto* proving = config.secret ? &*config.secret : nullptr;
-        auto found = embedded ? plexus::proto::choose_names(names, config_file, [] { return std::nullopt; })
-                              : plexus::proto::find_names(names, config_file, std::chrono::milliseconds(600),
-                                                          proving);
+        auto found =
+            embedded ? plexus::proto::choose_names(names, config_file, [] { return std::nullopt; })
+                     : plexus::proto::find_names(names, config_file, std::chrono::milliseconds(600), proving);
         if (!found)
             throw std::runtime_error(found.error().message);
         config.names = endpoint_or_throw(found->address, "--names");

@@ -9,8 +9,8 @@
 #include "../net/keepalive.hpp"
 #include "name_protocol.hpp"
 #include "plexus/proto/discovery.hpp"
-#include "plexus/proto/name_operations.hpp"
 #include "plexus/proto/frame.hpp"
+#include "plexus/proto/name_operations.hpp"
 #include "request_parser.hpp"
 #include "state_file.hpp"
 
@@ -158,9 +158,9 @@ Task<void> NameServer::discovery_loop() {
         spdlog::debug("names: discovery query from {}", from.address().to_string());
         // With the secret, the answer proves it over the query's nonce (discovery.hpp).
         const auto query = proto::DiscoverRequest::decode(request->body);
-        const auto answer = proto::discovery_reply(request->id, endpoint(),
-                                                   config_.secret ? &*config_.secret : nullptr,
-                                                   query ? query->nonce : std::string{});
+        const auto answer =
+            proto::discovery_reply(request->id, endpoint(), config_.secret ? &*config_.secret : nullptr,
+                                   query ? query->nonce : std::string{});
         co_await discovery_.async_send_to(asio::buffer(answer), from, use_nothrow);
     }
 }

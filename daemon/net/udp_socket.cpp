@@ -37,7 +37,7 @@ struct UdpSocket::Stream {
     std::shared_ptr<DatagramStream> datagrams;
     std::unique_ptr<proto::DatagramSeal> seal;  ///< when sealing: the key its datagrams are sealed with
     UdpSocket* owner = nullptr;                 ///< null once the socket is gone
-    std::shared_ptr<Group> group;  ///< mcast: the joined group, left with the last handle
+    std::shared_ptr<Group> group;               ///< mcast: the joined group, left with the last handle
     ~Stream() {
         if (owner && id != 0)
             owner->streams_.erase(id);
@@ -130,10 +130,9 @@ std::shared_ptr<UdpSocket::Stream> UdpSocket::open_stream(std::weak_ptr<Inlet> i
     return stream;
 }
 
-proto::Result<std::shared_ptr<UdpSocket::Stream>> UdpSocket::join_group(const asio::ip::udp::endpoint& group,
-                                                                        std::weak_ptr<Inlet> inlet,
-                                                                        asio::ip::address sender,
-                                                                        std::optional<proto::DatagramKey> seal_key) {
+proto::Result<std::shared_ptr<UdpSocket::Stream>> UdpSocket::join_group(
+    const asio::ip::udp::endpoint& group, std::weak_ptr<Inlet> inlet, asio::ip::address sender,
+    std::optional<proto::DatagramKey> seal_key) {
     using Outcome = proto::Result<std::shared_ptr<Stream>>;
     if (sealing() != seal_key.has_value()) {
         return Outcome(proto::Error{sealing() ? "the sending daemon gave no key for its sealed mcast stream"
@@ -148,8 +147,9 @@ proto::Result<std::shared_ptr<UdpSocket::Stream>> UdpSocket::join_group(const as
                 if (stream->seal && stream->seal->key() != *seal_key) {
                     // A new run of the sending daemon (a new key) while a link of its earlier run
                     // still holds the group: its persistent connections try again once that closes.
-                    return Outcome(proto::Error{"group " + key + " is still fed by an earlier run of the daemon at " +
-                                                sender.to_string() + " (another key): try again when its link closes"});
+                    return Outcome(
+                        proto::Error{"group " + key + " is still fed by an earlier run of the daemon at " +
+                                     sender.to_string() + " (another key): try again when its link closes"});
                 }
                 stream->inlets.push_back(std::move(inlet));
                 return Outcome(stream);
@@ -260,15 +260,16 @@ bool UdpSocket::send(const asio::ip::udp::endpoint& to, std::uint64_t stream, st
         for (std::size_t i = 0; i < batch; ++i) {
             const std::uint64_t fragment_index = index + i;
             header.clear();
-            proto::append_datagram_header(
-                header, {stream, message, record.size(), fragment, fragment_index, sealed});
+            proto::append_datagram_header(header,
+                                          {stream, message, record.size(), fragment, fragment_index, sealed});
             std::copy(header.begin(), header.end(), headers[i].begin());
             const std::size_t begin = fragment_index * fragment;
             const std::size_t size = std::min(record.size() - begin, fragment);
             proto::ByteView body(record.data() + begin, size);
             if (sealed) {
                 std::uint8_t* out = sealed_bodies.data() + i * fragment;
-                seal->seal({headers[i].data(), header.size()}, message, fragment_index, body, out, tags[i].data());
+                seal->seal({headers[i].data(), header.size()}, message, fragment_index, body, out,
+                           tags[i].data());
                 body = {out, size};
             }
             std::size_t used = 0;

@@ -84,7 +84,9 @@ Result<DatagramKey> parse_key_text(const std::string& text) {
 }
 
 DatagramSeal::DatagramSeal(const DatagramKey& key)
-    : key_(key), encrypt_(std::make_unique<Cipher>(key, true)), decrypt_(std::make_unique<Cipher>(key, false)) {}
+    : key_(key),
+      encrypt_(std::make_unique<Cipher>(key, true)),
+      decrypt_(std::make_unique<Cipher>(key, false)) {}
 
 DatagramSeal::~DatagramSeal() = default;
 
@@ -100,7 +102,8 @@ void DatagramSeal::seal(ByteView head, std::uint64_t message, std::uint64_t inde
         (!plain.empty() &&
          ::EVP_EncryptUpdate(context, out, &written, plain.data(), static_cast<int>(plain.size())) != 1) ||
         ::EVP_EncryptFinal_ex(context, out + plain.size(), &written) != 1 ||
-        ::EVP_CIPHER_CTX_ctrl(context, EVP_CTRL_GCM_GET_TAG, static_cast<int>(datagram_sealed_tag_size), tag) != 1)
+        ::EVP_CIPHER_CTX_ctrl(context, EVP_CTRL_GCM_GET_TAG, static_cast<int>(datagram_sealed_tag_size),
+                              tag) != 1)
         throw std::runtime_error("OpenSSL failed to seal a datagram");
 }
 

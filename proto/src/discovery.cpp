@@ -123,8 +123,8 @@ Bytes discovery_query(const std::string& nonce) {
     return encode_request({1, DiscoverRequest{nonce}.encode()});
 }
 
-std::optional<DiscoveryAnswer> discovery_answer(ByteView datagram, const std::string& from, const Secret* secret,
-                                                const std::string& nonce) {
+std::optional<DiscoveryAnswer> discovery_answer(ByteView datagram, const std::string& from,
+                                                const Secret* secret, const std::string& nonce) {
     FrameDecoder decoder(datagram.size() + 16);
     const auto decoded = decoder.decode(datagram);
     if (decoded.status != DecodeStatus::frame || decoded.type != FrameType::reply)
@@ -148,7 +148,8 @@ std::optional<DiscoveryAnswer> discovery_answer(ByteView datagram, const std::st
     return out;
 }
 
-Bytes discovery_reply(std::uint64_t id, const Endpoint& names, const Secret* secret, const std::string& nonce) {
+Bytes discovery_reply(std::uint64_t id, const Endpoint& names, const Secret* secret,
+                      const std::string& nonce) {
     Endpoint advertised = names;
     if (unspecified(advertised.host))
         advertised.host = "0.0.0.0";

@@ -65,12 +65,14 @@ DiscoveryResult query_discovery(const Endpoint& group, std::chrono::milliseconds
                 continue;
             std::array<char, INET_ADDRSTRLEN> text{};
             ::inet_ntop(AF_INET, &from.sin_addr, text.data(), text.size());
-            auto answer = discovery_answer({buffer.data(), static_cast<std::size_t>(n)}, text.data(), secret, nonce);
+            auto answer =
+                discovery_answer({buffer.data(), static_cast<std::size_t>(n)}, text.data(), secret, nonce);
             if (!answer)
                 continue;
             if (secret && !answer->proven) {
                 // Not one of this deployment's name servers (or a forgery): wait on for one that is.
-                if (std::find(result.ignored.begin(), result.ignored.end(), text.data()) == result.ignored.end())
+                if (std::find(result.ignored.begin(), result.ignored.end(), text.data()) ==
+                    result.ignored.end())
                     result.ignored.emplace_back(text.data());
                 continue;
             }

@@ -167,7 +167,8 @@ struct DatagramRelay {
 /// the attack named in the file `attack` (then removes it) before the next application-data record.
 /// Datagrams to `listen_host`:`datagram_port` go on to its target likewise (DatagramRelay).
 int relay(const std::string& listen_host, const std::map<int, std::string>& targets, int attack_port,
-          int datagram_port, const std::string& capture, const std::string& attack, const std::string& ready) {
+          int datagram_port, const std::string& capture, const std::string& attack,
+          const std::string& ready) {
     std::map<int, int> listeners;  // fd -> port
     for (const auto& [port, target] : targets) {
         const int fd = listen_on(listen_host, port);

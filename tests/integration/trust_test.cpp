@@ -170,8 +170,8 @@ TEST_F(Trust_test, DiscoveryAnswersWithoutTheDeploymentsProofAreIgnored) {
     const auto& open_host = net->host(2);
     const std::string keyed_ready = dir.file("keyed.ready");
     const std::string open_ready = dir.file("open.ready");
-    Process keyed(keyed_host.wrap({names_path(), "--listen", keyed_host.address() + ":0", "--secret-file", other,
-                                   "--ready-file", keyed_ready, "--log-level", "debug"}),
+    Process keyed(keyed_host.wrap({names_path(), "--listen", keyed_host.address() + ":0", "--secret-file",
+                                   other, "--ready-file", keyed_ready, "--log-level", "debug"}),
                   {}, dir.file("keyed"));
     Process open(open_host.wrap({names_path(), "--listen", open_host.address() + ":0", "--insecure",
                                  "--ready-file", open_ready, "--log-level", "debug"}),
@@ -216,8 +216,8 @@ TEST_F(Trust_test, DiscoveryFindsTheNameServerThatProvesTheSecretPastARogueOne) 
     ::chmod(other.c_str(), 0600);
     const auto& rogue_host = net->host(0);
     const std::string rogue_ready = dir.file("rogue.ready");
-    Process rogue(rogue_host.wrap({names_path(), "--listen", rogue_host.address() + ":0", "--secret-file", other,
-                                   "--ready-file", rogue_ready}),
+    Process rogue(rogue_host.wrap({names_path(), "--listen", rogue_host.address() + ":0", "--secret-file",
+                                   other, "--ready-file", rogue_ready}),
                   {}, dir.file("rogue"));
     ASSERT_TRUE(eventually([&] { return std::filesystem::exists(rogue_ready); }, 20s)) << rogue.err();
     NameServerProcess names(dir, net->host(2));

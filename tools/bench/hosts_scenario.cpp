@@ -7,6 +7,7 @@
 #include <cmath>
 #include <condition_variable>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <mutex>
@@ -339,6 +340,7 @@ void print_tables(const HostsOptions& options, const std::vector<Row>& rows,
     {
         // With the secret every TCP link is TLS 1.3 (AES-128-GCM); --insecure is plain TCP, which
         // is what the secret's links were before they were encrypted (an HMAC proof at connect only).
+        // PLEXUS_BENCH_AA=1 makes both plain: then "added" is the comparison's own noise.
         const auto& latency = find_row(rows, "latency", "tcp", small);
         const auto& throughput = find_row(rows, "throughput", "tcp", large);
         const double latency_added =
@@ -372,7 +374,8 @@ void print_tables(const HostsOptions& options, const std::vector<Row>& rows,
         const auto& i = *latency.find("plexus_insecure");
         const double added = 100 * (ratio(s.p50_us, i.p50_us) - 1);
         std::printf("  %-22s %12.1f %12.1f %8.1f%%  %s\n", ("latency p50 us, " + size_text(size)).c_str(),
-                    s.p50_us, i.p50_us, added, size == small ? (added <= 10 ? "<= 10%: met" : "<= 10%: missed") : "");
+                    s.p50_us, i.p50_us, added,
+                    size == small ? (added <= 10 ? "<= 10%: met" : "<= 10%: missed") : "");
     }
     for (const std::size_t size : {small, large}) {
         const Row& throughput = find_row(rows, "throughput", "udp", size);
@@ -416,7 +419,9 @@ int run_hosts(const HostsOptions& given) {
     }
     if (options.calls)
         return run_hosts_calls(options, *network, dir);
-    const std::string secret = write_secret(dir);
+    // PLEXUS_BENCH_AA=1: the "secret" deployment runs --insecure too, an A/A check that the
+    // comparison of section 4 has no bias of its own (docs/BENCHMARKS.md).
+    const std::string secret = std::getenv("PLEXUS_BENCH_AA") ? std::string() : write_secret(dir);
     // Different groups and group ports: the two deployments share hosts 1 and 2.
     const Deployment secure(*network, dir, options, "s", secret, {1, 2, 3, 4}, 10100, "239.255.81.0/24",
                             10102);

@@ -36,9 +36,9 @@ proto::Result<SendingEnd> UdpCarrier::make_sending_end(const SendingContext& con
     if (context.host.udp().sealing()) {
         auto given = proto::parse_key_text(context.attached.key);
         if (!given)
-            return proto::Error{"the daemon at " + context.endpoint.text() +
-                                " gave no usable key for this udp stream's sealed datagrams: " +
-                                given.error().message};
+            return proto::Error{
+                "the daemon at " + context.endpoint.text() +
+                " gave no usable key for this udp stream's sealed datagrams: " + given.error().message};
         key = *given;
     }
     const asio::ip::udp::endpoint to(address, static_cast<std::uint16_t>(port));

@@ -50,7 +50,7 @@ private:
     std::string description_;
     std::uint64_t next_message_ = 0;
     UdpSendCounters counters_;
-    std::optional<DatagramMarks> marks_;  ///< qos.dscp: the shared socket marks each datagram
+    std::optional<DatagramMarks> marks_;         ///< qos.dscp: the shared socket marks each datagram
     std::unique_ptr<proto::DatagramSeal> seal_;  ///< with a secret: the key the receiver gave
 };
 

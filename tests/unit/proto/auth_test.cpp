@@ -40,7 +40,8 @@ TEST(Auth_test, ADiscoveryProofBindsTheSecretTheNonceAndTheAddress) {
     EXPECT_TRUE(same_text(proof, secret.discovery_proof("nonce-1", "10.0.0.1:10100")));
     EXPECT_FALSE(same_text(proof, secret.discovery_proof("nonce-2", "10.0.0.1:10100")));
     EXPECT_FALSE(same_text(proof, secret.discovery_proof("nonce-1", "10.0.0.2:10100")));
-    EXPECT_FALSE(same_text(proof, secret_of("another-secret-of-16").discovery_proof("nonce-1", "10.0.0.1:10100")));
+    EXPECT_FALSE(
+        same_text(proof, secret_of("another-secret-of-16").discovery_proof("nonce-1", "10.0.0.1:10100")));
     // The parts cannot run into each other.
     EXPECT_FALSE(same_text(secret.discovery_proof("ab", "c"), secret.discovery_proof("a", "bc")));
 }

@@ -73,10 +73,10 @@ TEST(DatagramSeal_test, KeysTravelAsThirtyTwoHexDigits) {
     EXPECT_FALSE(parse_key_text(text.substr(1)));
     EXPECT_FALSE(parse_key_text(std::string(31, '0') + "g"));
     EXPECT_EQ(*parse_key_text(std::string(32, 'F')), DatagramKey{[] {
-                  DatagramKey all{};
-                  all.fill(0xff);
-                  return all;
-              }()});
+        DatagramKey all{};
+        all.fill(0xff);
+        return all;
+    }()});
 }
 
 }  // namespace

@@ -62,14 +62,15 @@ std::string discovery_nonce();
 Bytes discovery_query(const std::string& nonce = {});
 /// What an answer datagram says.
 struct DiscoveryAnswer {
-    std::string names;  ///< the name server's address, HOST filled in from `from` when it was 0.0.0.0
+    std::string names;    ///< the name server's address, HOST filled in from `from` when it was 0.0.0.0
     bool proven = false;  ///< it carries a good proof over the query's nonce (only with a secret)
 };
 /// The answer in a datagram; `from` is the address the answer came from, used when the name server
 /// listens on every address. With `secret`, `proven` says whether its proof over `nonce` is good.
 /// nullopt when the datagram is not an answer.
 std::optional<DiscoveryAnswer> discovery_answer(ByteView datagram, const std::string& from,
-                                                const Secret* secret = nullptr, const std::string& nonce = {});
+                                                const Secret* secret = nullptr,
+                                                const std::string& nonce = {});
 /// The answer the name server sends for its listening endpoint to a query with `nonce`, with a
 /// proof when it has `secret` and the query a nonce.
 Bytes discovery_reply(std::uint64_t id, const Endpoint& names, const Secret* secret = nullptr,
