@@ -1,7 +1,7 @@
 #pragma once
 // TLS 1.3 with an external pre-shared key made from the deployment secret (docs/SECURITY.md,
 // "Encrypted links"): every TCP link of a deployment that has a secret is encrypted and
-// authenticated end to end, with no certificate to manage. The daemons (through Asio's ssl::stream)
+// authenticated end to end, with no certificate to manage. The daemons (OpenSSL over memory BIOs)
 // and libplexus (OpenSSL directly, blocking) use the same context, so both ends agree on every
 // parameter by construction.
 //
