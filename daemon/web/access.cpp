@@ -2,6 +2,8 @@
 
 #include <boost/system/error_code.hpp>
 
+#include "plexus/proto/hex.hpp"
+
 namespace plexus::daemon::web {
 
 namespace {
@@ -54,23 +56,15 @@ std::optional<std::string> token_of(std::string_view authorization, std::string_
 }
 
 namespace {
-int hex_digit(char c) {
-    if (c >= '0' && c <= '9')
-        return c - '0';
-    if (c >= 'a' && c <= 'f')
-        return c - 'a' + 10;
-    if (c >= 'A' && c <= 'F')
-        return c - 'A' + 10;
-    return -1;
-}
 
 std::string percent_decoded(std::string_view text) {
     std::string out;
     out.reserve(text.size());
     for (std::size_t i = 0; i < text.size(); ++i) {
-        if (text[i] == '%' && i + 2 < text.size() && hex_digit(text[i + 1]) >= 0 &&
-            hex_digit(text[i + 2]) >= 0) {
-            out.push_back(static_cast<char>(hex_digit(text[i + 1]) * 16 + hex_digit(text[i + 2])));
+        if (text[i] == '%' && i + 2 < text.size() && proto::hex_digit_value(text[i + 1]) >= 0 &&
+            proto::hex_digit_value(text[i + 2]) >= 0) {
+            out.push_back(static_cast<char>(proto::hex_digit_value(text[i + 1]) * 16 +
+                                            proto::hex_digit_value(text[i + 2])));
             i += 2;
         } else {
             out.push_back(text[i]);  // a stray '%' stays as it is

@@ -9,6 +9,8 @@
 #include <openssl/evp.h>
 #include <openssl/hmac.h>
 
+#include "plexus/proto/hex.hpp"
+
 namespace plexus::proto {
 
 namespace {
@@ -35,17 +37,6 @@ Bytes length_prefixed(std::string_view text) {
     out[1] = static_cast<std::uint8_t>(text.size());
     std::copy(text.begin(), text.end(), out.begin() + 2);
     return out;
-}
-
-std::string hex(const Digest& digest) {
-    static constexpr char digits[] = "0123456789abcdef";
-    std::string text;
-    text.reserve(digest.size() * 2);
-    for (const std::uint8_t byte : digest) {
-        text.push_back(digits[byte >> 4]);
-        text.push_back(digits[byte & 0x0f]);
-    }
-    return text;
 }
 }  // namespace
 
@@ -88,11 +79,12 @@ Digest Secret::tls_key() const {
 }
 
 std::string Secret::web_token() const {
-    return hex(hmac(*secret_, {as_bytes(web_token_label)}));
+    return hex_text(hmac(*secret_, {as_bytes(web_token_label)}));
 }
 
 std::string Secret::discovery_proof(std::string_view nonce, std::string_view address) const {
-    return hex(hmac(*secret_, {as_bytes(discovery_label), length_prefixed(nonce), length_prefixed(address)}));
+    return hex_text(
+        hmac(*secret_, {as_bytes(discovery_label), length_prefixed(nonce), length_prefixed(address)}));
 }
 
 }  // namespace plexus::proto

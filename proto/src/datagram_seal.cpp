@@ -5,6 +5,8 @@
 
 #include <stdexcept>
 
+#include "plexus/proto/hex.hpp"
+
 namespace plexus::proto {
 
 namespace {
@@ -19,16 +21,6 @@ std::array<std::uint8_t, nonce_size> nonce_of(std::uint64_t message, std::uint64
     for (int i = 0; i < 4; ++i)
         nonce[8 + i] = static_cast<std::uint8_t>(index >> (24 - 8 * i));
     return nonce;
-}
-
-int digit_value(char c) {
-    if (c >= '0' && c <= '9')
-        return c - '0';
-    if (c >= 'a' && c <= 'f')
-        return c - 'a' + 10;
-    if (c >= 'A' && c <= 'F')
-        return c - 'A' + 10;
-    return -1;
 }
 
 }  // namespace
@@ -58,14 +50,7 @@ DatagramKey random_datagram_key() {
 }
 
 std::string key_text(const DatagramKey& key) {
-    static constexpr char digits[] = "0123456789abcdef";
-    std::string text;
-    text.reserve(2 * key.size());
-    for (const std::uint8_t byte : key) {
-        text.push_back(digits[byte >> 4]);
-        text.push_back(digits[byte & 0x0f]);
-    }
-    return text;
+    return hex_text(key);
 }
 
 Result<DatagramKey> parse_key_text(const std::string& text) {
@@ -74,8 +59,8 @@ Result<DatagramKey> parse_key_text(const std::string& text) {
         return Error{"a datagram key is " + std::to_string(2 * key.size()) + " hexadecimal digits, not " +
                      std::to_string(text.size()) + " characters"};
     for (std::size_t i = 0; i < key.size(); ++i) {
-        const int high = digit_value(text[2 * i]);
-        const int low = digit_value(text[2 * i + 1]);
+        const int high = hex_digit_value(text[2 * i]);
+        const int low = hex_digit_value(text[2 * i + 1]);
         if (high < 0 || low < 0)
             return Error{"a datagram key holds a character that is not a hexadecimal digit"};
         key[i] = static_cast<std::uint8_t>(high << 4 | low);
