@@ -110,6 +110,7 @@ proto::Status Daemon::bind() {
         names_config.grace = config_.names_grace;
         names_config.handshake_timeout = config_.handshake_timeout;
         names_config.secret = config_.secret;
+        names_config.peer_limits = config_.peer_limits;
         if (auto group = proto::discovery_group(); group)
             names_config.discovery = *group;
         else
@@ -332,17 +333,7 @@ std::unique_ptr<PeerLimits::Ticket> Daemon::admit_peer(PeerLimits& limits, const
     if (admission.ticket)
         return std::move(admission.ticket);
     ++counters().peers_refused;
-    // A peer at its limit may keep trying as fast as it likes: one line a second at most, with
-    // how many were refused since the last one.
-    const auto now = std::chrono::steady_clock::now();
-    if (now - last_refusal_logged_ < std::chrono::seconds(1)) {
-        ++refusals_not_logged_;
-    } else {
-        spdlog::warn("refused a connection from {}: it has {} ({} more refused since the last such line)",
-                     peer, limits.explain(admission.refusal), refusals_not_logged_);
-        last_refusal_logged_ = now;
-        refusals_not_logged_ = 0;
-    }
+    limits.log_refusal("", peer, admission.refusal);
     return nullptr;
 }
 

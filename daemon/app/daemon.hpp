@@ -130,8 +130,6 @@ private:
     UdpSocket udp_;
     std::shared_ptr<PeerLimits> tcp_peers_;    ///< by IP address: connections, handshakes, failed proofs
     std::shared_ptr<PeerLimits> local_peers_;  ///< by uid: connections only (no secret to fail)
-    std::chrono::steady_clock::time_point last_refusal_logged_{};
-    std::uint64_t refusals_not_logged_ = 0;
     asio::signal_set signals_;
     std::map<std::uint64_t, std::weak_ptr<Session>> sessions_;
     std::vector<std::weak_ptr<Peer>> links_;  ///< sending ends of tcp connections, flushed at shutdown

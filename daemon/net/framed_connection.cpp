@@ -132,6 +132,7 @@ void FramedConnection::close(const std::string& reason) {
     wake_.notify();
     hello_signal_.notify();
     on_closed(reason);
+    peer_ticket_.reset();  // the peer may connect again in its place
     if (auto calls = std::move(calls_))
         calls->closed(*this);  // after on_closed: a session's ports are gone by then
 }
@@ -331,6 +332,8 @@ bool FramedConnection::accept_peer(proto::Hello hello) {
         return false;
     }
     peer_hello_ = std::move(hello);
+    if (peer_ticket_)
+        peer_ticket_->handshake_done();
     hello_signal_.notify();
     return true;
 }
@@ -339,6 +342,8 @@ Task<void> FramedConnection::refuse_unauthenticated(std::string reason, bool can
     auto self = shared_from_this();
     spdlog::warn("{}: {}", description_, reason);
     on_auth_failure(reason);
+    if (peer_ticket_)
+        peer_ticket_->proof_failed();
     // Every failed attempt costs the peer this long: no fast guessing, whatever it tries.
     constexpr auto failure_pause = std::chrono::seconds(1);
     asio::steady_timer pause(executor(), failure_pause);

@@ -13,6 +13,7 @@
 #include "byte_stream.hpp"
 #include "frame_reader.hpp"
 #include "outbox.hpp"
+#include "peer_limits.hpp"
 #include "plexus/proto/auth.hpp"
 #include "plexus/proto/hello.hpp"
 #include "session_rings.hpp"
@@ -88,6 +89,9 @@ public:
     bool use_rings(std::unique_ptr<SessionRings> rings, proto::Bytes answer);
     /// The rings in use, or null (a socket-only session).
     const SessionRings* rings() const { return rings_.get(); }
+    /// Counts this connection against its peer's limits (peer_limits.hpp) until it closes: its
+    /// handshake ends with the peer's hello, and a failed proof of the secret is the peer's.
+    void count_against_peer(std::unique_ptr<PeerLimits::Ticket> ticket) { peer_ticket_ = std::move(ticket); }
 
 protected:
     /// The call table told of this socket's end; null until a call came or went on it.
@@ -170,6 +174,7 @@ private:
     std::shared_ptr<CallTable> calls_;     ///< set once a call came or went on this socket
     std::shared_ptr<SessionRings> rings_;  ///< the shared-memory rings, once the peer asked for them
     bool writing_rings_ = false;           ///< the rings answer went: our frames go into the rings
+    std::unique_ptr<PeerLimits::Ticket> peer_ticket_;
 };
 
 }  // namespace plexus::daemon

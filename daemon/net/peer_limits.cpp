@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include <spdlog/spdlog.h>
+
 namespace plexus::daemon {
 
 PeerLimits::Ticket::~Ticket() {
@@ -17,6 +19,22 @@ void PeerLimits::Ticket::handshake_done() {
 
 void PeerLimits::Ticket::proof_failed(Clock::time_point now) {
     limits_->proof_failed(peer_, now);
+}
+
+void PeerLimits::log_refusal(const std::string& who, const std::string& peer, Refusal refusal,
+                             Clock::time_point now) {
+    std::uint64_t unsaid = 0;
+    {
+        std::lock_guard lock(mutex_);
+        if (now - last_logged_ < std::chrono::seconds(1)) {
+            ++not_logged_;
+            return;
+        }
+        last_logged_ = now;
+        unsaid = std::exchange(not_logged_, 0);
+    }
+    spdlog::warn("{}refused a connection from {}: it has {} ({} more refused since the last such line)", who,
+                 peer, explain(refusal), unsaid);
 }
 
 PeerLimits::Admission PeerLimits::admit(const std::string& peer, Clock::time_point now) {

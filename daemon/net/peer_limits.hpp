@@ -61,6 +61,11 @@ public:
 
     /// "1024 connections open (peer_connections)": the limit a refusal hit, for the log.
     std::string explain(Refusal refusal) const;
+    /// Logs a refused connection from `peer` (`who` starts the line: "" or "names: "): one line a
+    /// second at most, saying how many were refused since the last one. A peer at its limit may
+    /// keep trying as fast as it likes; the log must not grow as fast.
+    void log_refusal(const std::string& who, const std::string& peer, Refusal refusal,
+                     Clock::time_point now = Clock::now());
     /// Peers with something counted (open connections or recent failed proofs).
     std::size_t peers() const;
 
@@ -80,6 +85,8 @@ private:
     const PeerLimitConfig config_;
     mutable std::mutex mutex_;
     std::map<std::string, Peer> peers_;
+    Clock::time_point last_logged_{};
+    std::uint64_t not_logged_ = 0;
 };
 
 }  // namespace plexus::daemon

@@ -42,8 +42,6 @@ proto::Status Session::on_hello(const proto::Hello& hello) {
         return proto::Error{"unknown role '" + hello.role + "' (expected client, daemon or link)"};
     }
     role_ = hello.role;
-    if (peer_ticket_)
-        peer_ticket_->handshake_done();
     return proto::Ok{};
 }
 
@@ -563,8 +561,6 @@ Task<void> Session::wait_for_space() {
 
 void Session::on_auth_failure(const std::string&) {
     ++daemon_.counters().auth_failures;
-    if (peer_ticket_)
-        peer_ticket_->proof_failed();
 }
 
 void Session::on_handshake_timeout() {
@@ -582,7 +578,6 @@ void Session::on_protocol_error() {
 void Session::on_closed(const std::string& reason) {
     spdlog::debug("{} closed: {}", description(), reason);
     shm_regions_.clear();
-    peer_ticket_.reset();  // the peer may connect again in its place
     daemon_.session_closed(*this);
 }
 

@@ -59,7 +59,6 @@ public:
     /// Keeps `thing` (a udp connection's datagram stream) alive for as long as the link is.
     void hold_while_linked(std::shared_ptr<void> thing) { held_ = std::move(thing); }
     /// What this session counts against its peer's limits (net/peer_limits.hpp), until it closes.
-    void count_against_peer(std::unique_ptr<PeerLimits::Ticket> ticket) { peer_ticket_ = std::move(ticket); }
 
 protected:
     proto::Status on_hello(const proto::Hello& hello) override;
@@ -124,7 +123,6 @@ private:
     std::shared_ptr<Port> link_port_;
     std::shared_ptr<Inlet> link_;
     std::shared_ptr<void> held_;
-    std::unique_ptr<PeerLimits::Ticket> peer_ticket_;
     /// Ports this session opened, by the handle its data frames carry.
     std::map<std::uint64_t, std::shared_ptr<Port>> ports_;
     std::uint64_t next_handle_ = 1;
