@@ -52,6 +52,21 @@ int main(int argc, char** argv) {
     app.add_option("--mcast-port", mcast_port, "the UDP port of every mcast group")
         ->transform(plexus::daemon::whole_number(1, 65535))
         ->capture_default_str();
+    plexus::daemon::PeerLimitConfig peer_limits;
+    app.add_option("--peer-connections", peer_limits.connections,
+                   "connections one IP address may hold open at once (more are closed at once, counted in "
+                   "ping's peers_refused)")
+        ->transform(plexus::daemon::whole_number(1, 1'000'000))
+        ->capture_default_str();
+    app.add_option("--peer-handshakes", peer_limits.handshakes,
+                   "of those, connections not through their handshake yet")
+        ->transform(plexus::daemon::whole_number(1, 1'000'000))
+        ->capture_default_str();
+    app.add_option("--peer-failed-proofs", peer_limits.failed_proofs,
+                   "failed proofs of the secret (TLS handshakes) one IP address may make in a minute before "
+                   "its connections are refused; 0: no limit")
+        ->transform(plexus::daemon::whole_number(0, 1'000'000))
+        ->capture_default_str();
     std::string secret_file;
     bool insecure = false;
     app.add_option("--secret-file", secret_file,
@@ -98,6 +113,7 @@ int main(int argc, char** argv) {
     config.discovery = *group;
     config.handshake_timeout = std::chrono::milliseconds(handshake_timeout_ms);
     config.secret = *secret;
+    config.peer_limits = peer_limits;
     {
         // A.B.C.D/PREFIX inside 224.0.0.0/4, at most 65,536 groups.
         const auto slash = mcast_range.find('/');

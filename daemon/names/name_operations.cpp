@@ -78,7 +78,7 @@ proto::Reply NameServer::ping(const Asked& asked) {
     if (!decode<proto::PingRequest>(asked.request, refusal))
         return refusal;
     return ok(asked.request, proto::NamesPingReply{endpoint().text(), auth_failures_, handshake_timeouts_,
-                                                   tls_records_refused_});
+                                                   tls_records_refused_, peers_refused_});
 }
 
 proto::Reply NameServer::lookup(const Asked& asked) {

@@ -56,8 +56,19 @@ private:
 }  // namespace
 
 NameServer::NameServer(asio::io_context& io, NameServerConfig config)
-    : io_(io), config_(std::move(config)), registry_(config_.grace), acceptor_(io), udp_(io), discovery_(io) {
+    : io_(io),
+      config_(std::move(config)),
+      registry_(config_.grace),
+      acceptor_(io),
+      udp_(io),
+      discovery_(io),
+      peers_(std::make_shared<PeerLimits>(config_.peer_limits)) {
     registry_.set_mcast_range(config_.mcast_first, config_.mcast_count, config_.mcast_port);
+}
+
+void NameServer::refused(const std::string& peer, PeerLimits::Refusal refusal) {
+    ++peers_refused_;
+    peers_->log_refusal("names: ", peer, refusal);
 }
 
 NameServer::~NameServer() {
@@ -190,10 +201,19 @@ Task<void> NameServer::accept_loop() {
             spdlog::warn("names: accept failed: {}", ec.message());
             continue;
         }
+        // A peer over its limits is closed at once, before anything is read from it.
+        const auto remote = socket.remote_endpoint(ec);
+        const std::string peer = "address " + (ec ? std::string("?") : remote.address().to_string());
+        auto admission = peers_->admit(peer);
+        if (!admission.ticket) {
+            refused(peer, admission.refusal);
+            continue;  // the socket closes here
+        }
         socket.set_option(asio::ip::tcp::no_delay(true), ec);
         keep_alive(socket.native_handle());
         auto session = std::make_shared<NameSession>(Socket(std::move(socket)), *this, next_session_++);
-        session->set_description("names session");
+        session->set_description("names session from " + peer.substr(8));
+        session->count_against_peer(std::move(admission.ticket));
         session->require_secret(config_.secret);
         session->set_handshake_timeout(config_.handshake_timeout);
         session->start({proto::protocol_version, "names", ""});

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "../net/asio.hpp"
+#include "../net/peer_limits.hpp"
 #include "plexus/proto/auth.hpp"
 #include "plexus/proto/control.hpp"
 #include "plexus/proto/endpoint.hpp"
@@ -32,6 +33,10 @@ struct NameServerConfig {
     std::uint32_t mcast_first = (239u << 24) | (255u << 16) | (81u << 8);  // 239.255.81.0
     std::uint32_t mcast_count = 256;
     std::uint16_t mcast_port = 10102;
+    /// What one TCP peer (an IP address) may hold at once: connections, handshakes in flight,
+    /// failed proofs of the secret a minute (a daemon's config keys peer_*, which an embedded
+    /// name server shares).
+    PeerLimitConfig peer_limits;
 };
 
 /// The name server: ports and daemons over TCP; the same port number over UDP answers the
@@ -60,6 +65,7 @@ public:
     std::uint64_t auth_failures() const { return auth_failures_; }
     void count_handshake_timeout() { ++handshake_timeouts_; }
     void count_tls_refused() { ++tls_records_refused_; }
+    std::uint64_t peers_refused() const { return peers_refused_; }
 
 private:
     Task<void> accept_loop();
@@ -87,6 +93,8 @@ private:
     static const Operation operations_[];
     proto::Reply handle(const proto::Request& request, std::uint64_t session, const SessionAddresses& where);
     // name_operations.cpp: one handler per op.
+    /// Counts a connection refused for its peer's limits and logs it, at most one line a second.
+    void refused(const std::string& peer, PeerLimits::Refusal refusal);
     proto::Reply ping(const Asked& asked);
     proto::Reply lookup(const Asked& asked);
     proto::Reply list(const Asked& asked);
@@ -107,6 +115,8 @@ private:
     std::uint64_t auth_failures_ = 0;
     std::uint64_t handshake_timeouts_ = 0;
     std::uint64_t tls_records_refused_ = 0;
+    std::uint64_t peers_refused_ = 0;  ///< connections refused at accept for their peer's limits
+    std::shared_ptr<PeerLimits> peers_;
     bool stopped_ = false;
 };
 

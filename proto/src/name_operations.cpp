@@ -14,6 +14,8 @@ json NamesPingReply::encode() const {
     json body{{"names", names}, {"auth_failures", auth_failures}, {"handshake_timeouts", handshake_timeouts}};
     if (tls_records_refused)
         body["tls_records_refused"] = *tls_records_refused;
+    if (peers_refused)
+        body["peers_refused"] = *peers_refused;
     return body;
 }
 Result<NamesPingReply> NamesPingReply::decode(const json& body) {
@@ -23,6 +25,7 @@ Result<NamesPingReply> NamesPingReply::decode(const json& body) {
     in.whole("auth_failures", out.auth_failures);
     in.whole("handshake_timeouts", out.handshake_timeouts);
     in.whole("tls_records_refused", out.tls_records_refused);
+    in.whole("peers_refused", out.peers_refused);
     return in.result(std::move(out));
 }
 

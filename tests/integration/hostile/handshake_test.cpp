@@ -117,6 +117,40 @@ TEST(Hostile_test, APeerBeyondItsHandshakesInFlightIsRefusedAtOnceAndOthersAreSe
         << log;
 }
 
+TEST(Hostile_test, TheNameServerRefusesAPeerBeyondItsHandshakesInFlightAndCountsIt) {
+    TempDir dir;
+    NameServerProcess names(dir, {"--peer-handshakes", "2"});
+    auto first = Stream::tcp(names.address());
+    auto second = Stream::tcp(names.address());
+    ASSERT_TRUE(greeted(first) && greeted(second));
+    auto third = Stream::tcp(names.address());
+    EXPECT_TRUE(closed_at_once(third)) << end_name(third.end());
+    // Counted in its ping (asked over UDP: loopback, no secret).
+    auto ping = [&]() -> nlohmann::json {
+        Datagrams udp(names.address());
+        auto answer = udp.exchange(request_frame(7, {{"op", "ping"}}));
+        if (!answer || answer->type != FrameType::reply)
+            return {};
+        auto reply = proto::decode_reply(answer->fields);
+        return reply ? reply->body : nlohmann::json{};
+    };
+    EXPECT_EQ(ping().value("peers_refused", std::uint64_t{99}), 1u) << ping().dump();
+    // Once the silent ones go, the address is admitted again: a daemon registers through it.
+    first.close();
+    second.close();
+    EXPECT_TRUE(eventually([&] {
+        auto again = Stream::tcp(names.address());
+        return greeted(again);
+    })) << "the address stayed refused after its connections closed";
+    Daemon daemon(dir, "solo", names.address());
+    EXPECT_EQ(run_cli(dir, daemon, {"list"}).status, 0);
+    const auto log = names.process().out() + names.process().err();
+    EXPECT_NE(log.find("names: refused a connection from address 127.0.0.1: it has 2 connections not through "
+                       "their handshake (peer_handshakes)"),
+              std::string::npos)
+        << log;
+}
+
 TEST(Hostile_test, ALocalUserBeyondItsConnectionsIsRefusedUntilOneCloses) {
     TempDir dir;
     Daemon daemon(dir, "solo", "", with_peer_limits(dir, R"({"peer_connections": 3, "peer_handshakes": 3})"));

@@ -22,6 +22,8 @@ struct NamesPingReply {
     std::uint64_t handshake_timeouts = 0;  ///< TCP peers cut off for not finishing it in time
     /// Encrypted links cut off for a record that failed its check; absent from an older server.
     std::optional<std::uint64_t> tls_records_refused;
+    /// Connections refused at accept for their peer's limits (peer_limits); absent from an older server.
+    std::optional<std::uint64_t> peers_refused;
     nlohmann::json encode() const;                                     ///< the reply body
     static Result<NamesPingReply> decode(const nlohmann::json& body);  ///< from a reply body
 };
@@ -143,7 +145,7 @@ struct DiscoverRequest {
 /// The answer to `discover`.
 struct DiscoverReply {
     std::string names;              ///< the name server's address; host 0.0.0.0 means "the one that answered"
-    std::string proof;  ///< with a secret and a nonce: Secret::discovery_proof(nonce, names)
+    std::string proof;              ///< with a secret and a nonce: Secret::discovery_proof(nonce, names)
     nlohmann::json encode() const;  ///< the reply body
     static Result<DiscoverReply> decode(const nlohmann::json& body);  ///< from a reply body
 };
