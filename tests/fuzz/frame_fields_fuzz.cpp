@@ -186,7 +186,8 @@ void check_datagram(proto::ByteView datagram) {
     PLEXUS_FUZZ_CHECK(header.length <= max_message);
     PLEXUS_FUZZ_CHECK(header.index < proto::fragment_count(header.length, header.fragment_size));
     PLEXUS_FUZZ_CHECK(decoded->tag.size() == (header.sealed ? proto::datagram_sealed_tag_size : 0));
-    PLEXUS_FUZZ_CHECK(decoded->head.size() + decoded->fragment.size() + decoded->tag.size() == datagram.size());
+    PLEXUS_FUZZ_CHECK(decoded->head.size() + decoded->fragment.size() + decoded->tag.size() ==
+                      datagram.size());
     proto::Bytes again;
     proto::append_datagram_header(again, header);
     again.insert(again.end(), decoded->fragment.begin(), decoded->fragment.end());

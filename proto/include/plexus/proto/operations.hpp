@@ -129,13 +129,13 @@ struct AttachRequest {
 };
 /// The answer to `attach`: the sending daemon shapes its end after the destination's queue.
 struct AttachReply {
-    std::vector<std::string> warnings;                              ///< as in connect
-    std::string policy = "strict";                                  ///< the destination port's queue policy
-    std::uint64_t capacity = 16;                                    ///< and its capacity
-    std::optional<std::uint64_t> udp_port;                          ///< udp: where to send the datagrams
-    std::uint64_t stream = 0;                                       ///< udp: the stream they belong to
-    std::string key;  ///< udp with a secret: the key to seal the stream's datagrams with (hex)
-    nlohmann::json encode() const;                                  ///< the reply body
+    std::vector<std::string> warnings;      ///< as in connect
+    std::string policy = "strict";          ///< the destination port's queue policy
+    std::uint64_t capacity = 16;            ///< and its capacity
+    std::optional<std::uint64_t> udp_port;  ///< udp: where to send the datagrams
+    std::uint64_t stream = 0;               ///< udp: the stream they belong to
+    std::string key;                ///< udp with a secret: the key to seal the stream's datagrams with (hex)
+    nlohmann::json encode() const;  ///< the reply body
     static Result<AttachReply> decode(const nlohmann::json& body);  ///< from a reply body
 };
 
