@@ -23,6 +23,12 @@ constexpr std::size_t record_bytes = 16 * 1024;
 /// The context of a secret, made once per process: OpenSSL 3 takes a while to make one. Freed
 /// at exit (its channels, each holding a reference of its own, are gone by then or keep it alive).
 SSL_CTX* context_of(const proto::Secret& secret) {
+    // OpenSSL is set up before the map below exists: functions registered to run at exit run in
+    // the reverse order, so the map then frees its contexts before OpenSSL's own clean-up runs.
+    // The other way round, the clean-up drops the callback that frees each context's session,
+    // and every process that spoke TLS leaked it (LeakSanitizer; found when Secret stopped
+    // calling OpenSSL, which had set it up earlier by chance).
+    ::OPENSSL_init_ssl(0, nullptr);
     using Owned = std::unique_ptr<SSL_CTX, decltype(&::SSL_CTX_free)>;
     static std::mutex lock;
     static std::map<proto::Digest, Owned> made;
