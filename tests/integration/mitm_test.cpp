@@ -334,24 +334,8 @@ std::string in_port() {
     return "/" + std::string(reader_node) + "/in";
 }
 
-/// Writes `payload_mark` + n from `next` on until the reader has one written after `from`; true
-/// when one came within `timeout`.
-bool stream_flows(Port& source, Port& sink, std::uint64_t& next, std::chrono::milliseconds timeout) {
-    const std::uint64_t from = next;
-    const auto deadline = Clock::now() + timeout;
-    while (Clock::now() < deadline) {
-        source.write(json(std::string(payload_mark) + std::to_string(next++)));
-        while (auto message = sink.read(20ms)) {
-            const auto text = message->data.get<std::string>();
-            if (std::stoull(text.substr(payload_mark.size())) >= from)
-                return true;
-        }
-    }
-    return false;
-}
-
 /// The path, a writer on one daemon and a reader on the other, connected (persistent) through the
-/// relay by `carrier`.
+/// relay by `carrier`; the messages written, numbered, and those read.
 struct StreamThroughARelay {
     explicit StreamThroughARelay(bool secret, const std::string& carrier = "tcp")
         : path(secret),
@@ -369,11 +353,51 @@ struct StreamThroughARelay {
         reading = std::make_unique<Client>(Client::Options{path.reader->socket()});
         sink = reading->open(in_port());
     }
+    /// Writes the next numbered message.
+    void write() { source.write(json(std::string(payload_mark) + std::to_string(next++))); }
+    /// Reads one message within `timeout`: its number. The stream hands messages on in order and
+    /// each once, so a number not above the last one read is a replay that got through (messages
+    /// still on their way when a step of the test ended arrive later, and are above it).
+    std::optional<std::uint64_t> read(std::chrono::milliseconds timeout) {
+        auto message = sink->read(timeout);
+        if (!message)
+            return std::nullopt;
+        const auto text = message->data.get<std::string>();
+        const std::uint64_t number = std::stoull(text.substr(payload_mark.size()));
+        if (number <= last_read)
+            replays_read.push_back(number);
+        last_read = std::max(last_read, number);
+        return number;
+    }
+    /// Writes a message at a time until the reader has one written from now on; true when one came
+    /// within `timeout`.
+    bool flows(std::chrono::milliseconds timeout) {
+        const std::uint64_t from = next;
+        const auto deadline = Clock::now() + timeout;
+        while (Clock::now() < deadline) {
+            write();
+            while (auto number = read(20ms)) {
+                if (*number >= from)
+                    return true;
+            }
+        }
+        return false;
+    }
+    /// Reads whatever arrives for a while.
+    void read_for(std::chrono::milliseconds time) {
+        const auto until = Clock::now() + time;
+        while (Clock::now() < until)
+            read(20ms);
+    }
+
     PathThroughARelay path;
     Client writing;
     std::unique_ptr<Client> reading;
     Port source;
     std::optional<Port> sink;
+    std::uint64_t next = 1;
+    std::uint64_t last_read = 0;
+    std::vector<std::uint64_t> replays_read;  ///< numbers read again, or after a later one
 };
 
 /// What a relay must not read with the secret, and reads without it.
@@ -385,9 +409,8 @@ std::vector<std::string> plain_texts() {
 TEST(Mitm_test, ARelayOnThePathReadsNothingAndEveryRecordItAltersInjectsOrReplaysIsRefusedAndCounted) {
     PLEXUS_NEEDS_NETNS();
     StreamThroughARelay stream(true);
-    auto& [path, writing, reading, source, sink] = stream;
-    std::uint64_t next = 1;
-    ASSERT_TRUE(stream_flows(source, *sink, next, 30s)) << path.writer->process().err();
+    auto& path = stream.path;
+    ASSERT_TRUE(stream.flows(30s)) << path.writer->process().err();
 
     for (const std::string attack : {"record-flip", "record-inject", "record-replay"}) {
         const auto refused_before = path.reader_stats().value("tls_records_refused", std::uint64_t{0});
@@ -397,8 +420,8 @@ TEST(Mitm_test, ARelayOnThePathReadsNothingAndEveryRecordItAltersInjectsOrReplay
         // and the link is made again by itself.
         ASSERT_TRUE(eventually(
             [&] {
-                source.write(json(std::string(payload_mark) + std::to_string(next++)));
-                while (sink->read(1ms)) {
+                stream.write();
+                while (stream.read(1ms)) {
                 }
                 return std::filesystem::exists(path.attack_file() + ".done");
             },
@@ -410,11 +433,12 @@ TEST(Mitm_test, ARelayOnThePathReadsNothingAndEveryRecordItAltersInjectsOrReplay
             },
             30s))
             << attack << " was not counted: " << path.reader_stats().dump();
-        ASSERT_TRUE(stream_flows(source, *sink, next, 60s))
+        ASSERT_TRUE(stream.flows(60s))
             << attack << ": the stream did not come back\n--- writer:\n"
             << path.writer->process().out() << path.writer->process().err() << "\n--- reader:\n"
             << path.reader->process().out() << path.reader->process().err();
     }
+    EXPECT_TRUE(stream.replays_read.empty()) << "a replayed message got through: " << stream.replays_read[0];
     const auto log = path.reader->process().out() + path.reader->process().err();
     EXPECT_NE(log.find("the encrypted link broke"), std::string::npos) << log;
 
@@ -429,26 +453,11 @@ std::uint64_t reader_counter(PathThroughARelay& path, const std::string& name) {
     return path.reader_stats().value(name, std::uint64_t{0});
 }
 
-/// Reads what arrives for a while; true when none of it was written before `from` (a replay that
-/// got through would bring an old payload back).
-bool nothing_older_arrives(Port& sink, std::uint64_t from) {
-    const auto until = Clock::now() + 300ms;
-    while (Clock::now() < until) {
-        while (auto message = sink.read(20ms)) {
-            const auto text = message->data.get<std::string>();
-            if (std::stoull(text.substr(payload_mark.size())) < from)
-                return false;
-        }
-    }
-    return true;
-}
-
 TEST(Mitm_test, EveryDatagramTheRelayAltersForgesOrReplaysIsRefusedEvenAfterTheReaderRestarts) {
     PLEXUS_NEEDS_NETNS();
     StreamThroughARelay stream(true, "udp");
     auto& path = stream.path;
-    std::uint64_t next = 1;
-    ASSERT_TRUE(stream_flows(stream.source, *stream.sink, next, 30s)) << path.writer->process().err();
+    ASSERT_TRUE(stream.flows(30s)) << path.writer->process().err();
 
     // The relay attacks the next datagram after the file names the attack.
     auto carry_out = [&](const std::string& attack) {
@@ -456,8 +465,8 @@ TEST(Mitm_test, EveryDatagramTheRelayAltersForgesOrReplaysIsRefusedEvenAfterTheR
         std::ofstream(path.attack_file()) << attack;
         return eventually(
             [&] {
-                stream.source.write(json(std::string(payload_mark) + std::to_string(next++)));
-                while (stream.sink->read(1ms)) {
+                stream.write();
+                while (stream.read(1ms)) {
                 }
                 return std::filesystem::exists(path.attack_file() + ".done");
             },
@@ -468,7 +477,7 @@ TEST(Mitm_test, EveryDatagramTheRelayAltersForgesOrReplaysIsRefusedEvenAfterTheR
         ASSERT_TRUE(carry_out(attack)) << attack << ": the relay saw no datagram to attack";
         EXPECT_TRUE(eventually([&] { return reader_counter(path, "udp_bad_mac") > refused_before; }, 30s))
             << attack << " was not refused: " << path.reader_stats().dump();
-        ASSERT_TRUE(stream_flows(stream.source, *stream.sink, next, 30s)) << attack;
+        ASSERT_TRUE(stream.flows(30s)) << attack;
     }
     // The last datagram again: it opens (same stream, same key), and the stream refuses it as late.
     const auto late = [&] {
@@ -478,21 +487,26 @@ TEST(Mitm_test, EveryDatagramTheRelayAltersForgesOrReplaysIsRefusedEvenAfterTheR
     const auto late_before = late();
     ASSERT_TRUE(carry_out("datagram-replay"));
     EXPECT_TRUE(eventually([&] { return late() > late_before; }, 30s));
-    EXPECT_TRUE(nothing_older_arrives(*stream.sink, next));
+    stream.read_for(300ms);
+    EXPECT_TRUE(stream.replays_read.empty())
+        << "the replayed message got through: " << stream.replays_read[0];
 
     // The reader's daemon restarts; the writer's persistent connection is made again, with a new
-    // stream (numbered from 1 again) and a new key. Every datagram of before, replayed, is refused.
+    // stream (numbered from 1 again) and a new key. Every datagram of before, replayed, is refused:
+    // those of the stream before the restart open under no key the reader holds (or name a stream
+    // it no longer has), those of the new one are late.
     stream.restart_reader();
-    ASSERT_TRUE(stream_flows(stream.source, *stream.sink, next, 60s))
-        << "the stream did not come back after the restart\n--- writer:\n"
-        << path.writer->process().out() << path.writer->process().err();
-    const auto refused_before = reader_counter(path, "udp_bad_mac");
-    const auto from = next;
+    ASSERT_TRUE(stream.flows(60s)) << "the stream did not come back after the restart\n--- writer:\n"
+                                   << path.writer->process().out() << path.writer->process().err();
+    const auto refused = [&] {
+        return reader_counter(path, "udp_bad_mac") + reader_counter(path, "udp_unknown_stream");
+    };
+    const auto refused_before = refused();
     ASSERT_TRUE(carry_out("datagram-replay-all"));
-    EXPECT_TRUE(eventually([&] { return reader_counter(path, "udp_bad_mac") > refused_before; }, 30s))
-        << path.reader_stats().dump();
-    EXPECT_TRUE(nothing_older_arrives(*stream.sink, from));
-    ASSERT_TRUE(stream_flows(stream.source, *stream.sink, next, 30s));
+    EXPECT_TRUE(eventually([&] { return refused() > refused_before; }, 30s)) << path.reader_stats().dump();
+    stream.read_for(300ms);
+    EXPECT_TRUE(stream.replays_read.empty()) << "a replayed message got through: " << stream.replays_read[0];
+    ASSERT_TRUE(stream.flows(30s));
 
     // What the relay saw of the payloads: sealed datagrams.
     const std::string capture = path.capture();
@@ -502,10 +516,8 @@ TEST(Mitm_test, EveryDatagramTheRelayAltersForgesOrReplaysIsRefusedEvenAfterTheR
 TEST(Mitm_test, WithoutASecretTheSameRelayReadsPayloadsPortsAndNodes) {
     PLEXUS_NEEDS_NETNS();
     StreamThroughARelay stream(false);
-    auto& [path, writing, reading, source, sink] = stream;
-    std::uint64_t next = 1;
-    ASSERT_TRUE(stream_flows(source, *sink, next, 30s));
-    const std::string capture = path.capture();
+    ASSERT_TRUE(stream.flows(30s));
+    const std::string capture = stream.path.capture();
     for (const auto& plain : plain_texts())
         EXPECT_NE(capture.find(plain), std::string::npos) << "the plain capture lacks '" << plain << "'";
 }
@@ -513,8 +525,7 @@ TEST(Mitm_test, WithoutASecretTheSameRelayReadsPayloadsPortsAndNodes) {
 TEST(Mitm_test, WithoutASecretTheSameRelayReadsUdpPayloads) {
     PLEXUS_NEEDS_NETNS();
     StreamThroughARelay stream(false, "udp");
-    std::uint64_t next = 1;
-    ASSERT_TRUE(stream_flows(stream.source, *stream.sink, next, 30s));
+    ASSERT_TRUE(stream.flows(30s));
     EXPECT_NE(stream.path.capture().find(std::string(payload_mark)), std::string::npos);
 }
 
