@@ -39,6 +39,10 @@ std::optional<Message> DatagramStream::take(const proto::DatagramView& datagram,
     const auto& h = datagram.header;
     ++counters_.datagrams;
     if (limits_.start_anywhere && !started_) {
+        if (h.message < limits_.first) {
+            ++counters_.late;
+            return std::nullopt;
+        }
         started_ = true;
         next_ = h.message;
     }

@@ -47,6 +47,10 @@ public:
         /// Take the first message seen as the start (a multicast group joined mid-stream), rather
         /// than counting every message before it as lost.
         bool start_anywhere = false;
+        /// With start_anywhere: no message below this one starts the stream (they count as late).
+        /// The sender's next number when the receiver joined: an old datagram replayed cannot be
+        /// the first message handed on.
+        std::uint64_t first = 0;
     };
 
     DatagramStream(std::shared_ptr<ReassemblyBudget> budget, Limits limits)

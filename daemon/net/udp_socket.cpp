@@ -132,7 +132,7 @@ std::shared_ptr<UdpSocket::Stream> UdpSocket::open_stream(std::weak_ptr<Inlet> i
 
 proto::Result<std::shared_ptr<UdpSocket::Stream>> UdpSocket::join_group(
     const asio::ip::udp::endpoint& group, std::weak_ptr<Inlet> inlet, asio::ip::address sender,
-    std::optional<proto::DatagramKey> seal_key) {
+    std::optional<proto::DatagramKey> seal_key, std::uint64_t first_message) {
     using Outcome = proto::Result<std::shared_ptr<Stream>>;
     if (sealing() != seal_key.has_value()) {
         return Outcome(proto::Error{sealing() ? "the sending daemon gave no key for its sealed mcast stream"
@@ -188,6 +188,7 @@ proto::Result<std::shared_ptr<UdpSocket::Stream>> UdpSocket::join_group(
     DatagramStream::Limits limits;
     limits.timeout = config_.reassembly_timeout;
     limits.start_anywhere = true;  // a group may have sent long before this daemon joined
+    limits.first = first_message;
     stream->datagrams = std::make_shared<DatagramStream>(budget_, limits);
     stream->owner = this;
     stream->group = joined;

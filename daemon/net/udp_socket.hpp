@@ -86,11 +86,13 @@ public:
     std::shared_ptr<Stream> open_stream(std::weak_ptr<Inlet> inlet, asio::ip::address sender);
     /// Joins multicast `group` (once per group, however many connections listen to it) for a
     /// connection into `inlet` whose source's daemon at `sender` sends there, sealed under `key`
-    /// (when sealing: the sender's key from its attach). The group is left when the last handle is
-    /// dropped.
+    /// (when sealing: the sender's key from its attach), from message `first_message` on (the
+    /// sender's next number then: nothing older starts the stream). The group is left when the last
+    /// handle is dropped.
     proto::Result<std::shared_ptr<Stream>> join_group(const asio::ip::udp::endpoint& group,
                                                       std::weak_ptr<Inlet> inlet, asio::ip::address sender,
-                                                      std::optional<proto::DatagramKey> key);
+                                                      std::optional<proto::DatagramKey> key,
+                                                      std::uint64_t first_message = 0);
     static std::uint64_t id(const Stream& stream);
     /// The key the stream's datagrams are sealed with; nullopt when not sealing.
     static std::optional<proto::DatagramKey> key(const Stream& stream);

@@ -175,6 +175,8 @@ json AttachRequest::encode() const {
         fields["group"] = group;
     if (!key.empty())
         fields["key"] = key;
+    if (first_message != 0)
+        fields["first_message"] = first_message;
     return request_with(op, std::move(fields));
 }
 Result<AttachRequest> AttachRequest::decode(const json& body) {
@@ -186,6 +188,7 @@ Result<AttachRequest> AttachRequest::decode(const json& body) {
     in.flag("strict", out.strict);
     in.text("group", out.group);
     in.text("key", out.key);
+    in.whole("first_message", out.first_message);
     return in.result(std::move(out));
 }
 

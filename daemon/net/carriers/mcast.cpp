@@ -57,8 +57,10 @@ Task<proto::Result<proto::AttachRequest>> McastCarrier::prepare_attach(CarrierHo
     if (!given)
         co_return proto::Error{"no multicast group for " + request.source + ": " + given.error().message};
     request.group = *given;
+    auto& stream = host.udp().mcast_stream(request.source);
     if (host.udp().sealing())  // inside the TLS link: only the receiving daemons learn it
-        request.key = proto::key_text(host.udp().mcast_stream(request.source).seal.key());
+        request.key = proto::key_text(stream.seal.key());
+    request.first_message = stream.next_message;
     co_return request;
 }
 
@@ -106,7 +108,8 @@ Task<proto::Result<proto::AttachReply>> McastCarrier::attach_receiving_end(Recei
             co_return proto::Error{"the key of " + source + "'s mcast stream: " + given.error().message};
         key = *given;
     }
-    auto joined = context.host.udp().join_group(*group, context.inlet, *sender, key);
+    auto joined =
+        context.host.udp().join_group(*group, context.inlet, *sender, key, context.request.first_message);
     if (!joined)
         co_return joined.error();
     context.inlet->datagrams = UdpSocket::datagrams(**joined);

@@ -161,5 +161,22 @@ TEST_F(Reassembly_test, AOneDatagramMessageUnderTheNumberOfAnUnfinishedOneLeaves
     EXPECT_EQ(budget->bytes, 0u);
 }
 
+TEST_F(Reassembly_test, AStreamJoinedMidwayStartsNoEarlierThanTheSendersNextMessage) {
+    // A multicast group joined when the sender's next message was 10: an old datagram replayed
+    // (9, or 3) does not start the stream, and so is never handed on; 10 does.
+    DatagramStream::Limits limits;
+    limits.start_anywhere = true;
+    limits.first = 10;
+    DatagramStream joined(budget, limits);
+    EXPECT_FALSE(joined.take(send(9, 10, 1400).views[0], now));
+    EXPECT_FALSE(joined.take(send(3, 10, 1400).views[0], now));
+    EXPECT_EQ(joined.counters().late, 2u);
+    EXPECT_TRUE(joined.take(send(10, 10, 1400).views[0], now));
+    EXPECT_FALSE(joined.take(send(9, 10, 1400).views[0], now));
+    EXPECT_TRUE(joined.take(send(12, 10, 1400).views[0], now));
+    EXPECT_EQ(joined.counters().messages, 2u);
+    EXPECT_EQ(joined.counters().lost, 1u);  // 11
+}
+
 }  // namespace
 }  // namespace plexus::daemon

@@ -118,13 +118,17 @@ using DisconnectReply = EmptyReply;
 /// `attach`: the first request on a link, asked of the daemon of the destination.
 struct AttachRequest {
     static constexpr Op op = Op::attach;
-    std::string source;             ///< the sending port, on the link's node
-    std::string destination;        ///< the port here
-    std::string carrier;            ///< the whole carrier text (the recv. clauses are built here)
-    bool strict = false;            ///< as in connect
-    std::string group;              ///< mcast only: the source's group, "A.B.C.D:PORT"; else empty
-    std::string key;                ///< mcast with a secret: the key of the source's sealed stream (hex)
-    nlohmann::json encode() const;  ///< the request body
+    std::string source;       ///< the sending port, on the link's node
+    std::string destination;  ///< the port here
+    std::string carrier;      ///< the whole carrier text (the recv. clauses are built here)
+    bool strict = false;      ///< as in connect
+    std::string group;        ///< mcast only: the source's group, "A.B.C.D:PORT"; else empty
+    std::string key;          ///< mcast with a secret: the key of the source's sealed stream (hex)
+    /// mcast: the number of the source's next message. A receiver that joins takes no message
+    /// numbered below it, so an old datagram replayed (it still opens under the key) cannot be
+    /// the first message a new receiver hands on.
+    std::uint64_t first_message = 0;
+    nlohmann::json encode() const;                                    ///< the request body
     static Result<AttachRequest> decode(const nlohmann::json& body);  ///< from a request body
 };
 /// The answer to `attach`: the sending daemon shapes its end after the destination's queue.
