@@ -12,6 +12,7 @@
 #include "plexus/proto/auth.hpp"
 #include "plexus/proto/frame.hpp"
 #include "plexus/proto/hello.hpp"
+#include "plexus/proto/identity.hpp"
 
 namespace plexus::detail {
 
@@ -133,11 +134,21 @@ TcpGreeting tcp_handshake(int fd, const std::string& address, std::chrono::milli
 
 std::optional<proto::Secret> secret_from_environment() {
     const char* path = std::getenv("PLEXUS_SECRET_FILE");
-    if (!path || !*path)
+    if (!path || !*path) {
+        if (const char* identity = std::getenv("PLEXUS_IDENTITY"); identity && *identity)
+            throw Error(ErrorCode::usage,
+                        "PLEXUS_IDENTITY needs the deployment secret too (PLEXUS_SECRET_FILE): identities "
+                        "come on top of it");
         return std::nullopt;
+    }
     auto secret = proto::Secret::load(path);
     if (!secret)
         throw Error(ErrorCode::usage, secret.error().message);
+    auto identity = proto::identity_from_environment();
+    if (!identity)
+        throw Error(ErrorCode::usage, identity.error().message);
+    if (*identity)
+        secret->set_identity(**identity);
     return *secret;
 }
 

@@ -31,12 +31,12 @@ SSL_CTX* context_of(const proto::Secret& secret) {
     ::OPENSSL_init_ssl(0, nullptr);
     using Owned = std::unique_ptr<SSL_CTX, decltype(&::SSL_CTX_free)>;
     static std::mutex lock;
-    static std::map<proto::Digest, Owned> made;
+    static std::map<std::string, Owned> made;
     const std::lock_guard guard(lock);
-    auto found = made.find(secret.tls_key());
+    const std::string key = proto::link_tls_context_key(secret);
+    auto found = made.find(key);
     if (found == made.end())
-        found =
-            made.emplace(secret.tls_key(), Owned(proto::new_psk_tls_context(secret), ::SSL_CTX_free)).first;
+        found = made.emplace(key, Owned(proto::new_link_tls_context(secret), ::SSL_CTX_free)).first;
     return found->second.get();
 }
 
@@ -80,8 +80,11 @@ TlsChannel::TlsChannel(int fd, const proto::Secret& secret, const std::string& a
             throw Error(ErrorCode::timeout, "TLS handshake with " + address + ": " + why);
         throw Error(ErrorCode::refused,
                     "TLS handshake with " + address + " failed: " + why +
-                        " (it does not hold this deployment's secret, or runs without one: "
-                        "PLEXUS_SECRET_FILE must name the same secret as its --secret-file)");
+                        (secret.identity()
+                             ? " (with PLEXUS_IDENTITY, it must show a valid certificate of the same CA, and "
+                               "accept this identity's)"
+                             : " (it does not hold this deployment's secret, or runs without one: "
+                               "PLEXUS_SECRET_FILE must name the same secret as its --secret-file)"));
     }
 }
 
@@ -110,7 +113,7 @@ ssize_t TlsChannel::outcome(int result, short* waits_for) {
             errno = EPROTO;
             return -1;
         default:
-            failure_ = proto::last_tls_error();
+            failure_ = proto::tls_handshake_failure(ssl_);
             errno = EPROTO;
             return -1;
     }

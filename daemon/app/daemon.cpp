@@ -110,6 +110,7 @@ proto::Status Daemon::bind() {
         names_config.grace = config_.names_grace;
         names_config.handshake_timeout = config_.handshake_timeout;
         names_config.secret = config_.secret;
+        names_config.permissions = config_.permissions;
         names_config.peer_limits = config_.peer_limits;
         if (auto group = proto::discovery_group(); group)
             names_config.discovery = *group;
@@ -320,7 +321,8 @@ Task<void> Daemon::accept_unix() {
             admit_peer(*local_peers_, peer ? "uid " + std::to_string(peer->uid) : std::string("uid ?"));
         if (!ticket)
             continue;
-        start_session(Socket(std::move(socket)), "local session", shards_.place(), about, std::move(ticket));
+        start_session(Socket(std::move(socket)), "local session", shards_.place(), about, std::move(ticket),
+                      peer ? std::optional<uid_t>(peer->uid) : std::nullopt);
     }
 }
 
@@ -347,7 +349,8 @@ Task<void> Daemon::back_off_after_accept_error() {
 }
 
 void Daemon::start_session(Socket socket, const std::string& description, std::size_t shard,
-                           const std::string& peer, std::unique_ptr<PeerLimits::Ticket> ticket) {
+                           const std::string& peer, std::unique_ptr<PeerLimits::Ticket> ticket,
+                           std::optional<uid_t> local_user) {
     ++counters().sessions_accepted;
     const auto id = next_session_++;
     if (shard != 0) {
@@ -369,6 +372,8 @@ void Daemon::start_session(Socket socket, const std::string& description, std::s
     auto session = std::make_shared<Session>(std::move(socket), *this, id, shard);
     session->set_description(description + " #" + std::to_string(id) + peer);
     session->count_against_peer(std::move(ticket));
+    if (local_user)
+        session->set_local_user(*local_user);
     spdlog::debug("{} accepted", session->description());
     sessions_[id] = session;
     session->require_secret(config_.secret);  // only TCP peers are asked for it

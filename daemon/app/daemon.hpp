@@ -105,9 +105,11 @@ private:
     Task<void> announce_ready();
     /// Starts a session on `shard` (0: this thread; else a data thread, the socket moved there).
     /// `description` names the session in the log ("local session"), followed by its number and
-    /// `peer` (a local client's uid, gid and pid).
+    /// `peer` (a local client's uid, gid and pid); `local_user` is the local client's uid, for the
+    /// permissions.
     void start_session(Socket socket, const std::string& description, std::size_t shard = 0,
-                       const std::string& peer = "", std::unique_ptr<PeerLimits::Ticket> ticket = nullptr);
+                       const std::string& peer = "", std::unique_ptr<PeerLimits::Ticket> ticket = nullptr,
+                       std::optional<uid_t> local_user = std::nullopt);
     /// Counts a new connection against its peer's limits; null (counted, logged) when it is refused.
     std::unique_ptr<PeerLimits::Ticket> admit_peer(PeerLimits& limits, const std::string& peer);
     /// What session_closed() does, on this thread.

@@ -68,9 +68,19 @@ int main(int argc, char** argv) {
         ->transform(plexus::daemon::whole_number(0, 1'000'000))
         ->capture_default_str();
     std::string secret_file;
+    std::string identity;
     bool insecure = false;
     app.add_option("--secret-file", secret_file,
                    "the deployment secret (env PLEXUS_SECRET_FILE): every TCP link is TLS 1.3 keyed by it");
+    std::string permissions_file;
+    app.add_option("--permissions", permissions_file,
+                   "a permissions file (JSON rules, docs/SECURITY.md): a node may then register only the "
+                   "ports a rule lets it \"open\"; refusals are logged once and counted (ping's "
+                   "permission_refusals)");
+    app.add_option("--identity", identity,
+                   "the name server's identity directory (`plexus pki issue NAME --names`; env "
+                   "PLEXUS_IDENTITY): links are then mutual TLS with certificates, and a node may only "
+                   "register under the name its certificate gives; needs the secret too");
     app.add_flag("--insecure", insecure, "listen beyond loopback without a secret (anyone may register)");
     // spdlog reads a name it does not know as "off": a typo would silence the daemon.
     app.add_option("--log-level", log_level, "trace, debug, info, warn, error")
@@ -94,7 +104,8 @@ int main(int argc, char** argv) {
         return 2;
     }
     spdlog::set_level(spdlog::level::from_str(log_level));
-    auto secret = plexus::daemon::load_deployment_secret(secret_file);
+    auto secret =
+        plexus::daemon::load_deployment_secret(secret_file, identity, plexus::proto::Subject::Kind::names);
     if (!secret) {
         std::cerr << "plexus-names: " << secret.error().message << '\n';
         return 2;
@@ -114,6 +125,12 @@ int main(int argc, char** argv) {
     config.handshake_timeout = std::chrono::milliseconds(handshake_timeout_ms);
     config.secret = *secret;
     config.peer_limits = peer_limits;
+    auto permissions = plexus::daemon::load_permissions(permissions_file);
+    if (!permissions) {
+        std::cerr << "plexus-names: " << permissions.error().message << '\n';
+        return 2;
+    }
+    config.permissions = *permissions;
     {
         // A.B.C.D/PREFIX inside 224.0.0.0/4, at most 65,536 groups.
         const auto slash = mcast_range.find('/');

@@ -70,7 +70,8 @@ int main(int argc, char** argv) {
                    "this daemon come from");
     app.add_option("--socket", socket, "Unix socket for local clients (env PLEXUS_SOCKET)")
         ->capture_default_str();
-    app.add_option("--node", node, "this daemon's node name, unique among daemons")->capture_default_str();
+    auto* node_option = app.add_option("--node", node, "this daemon's node name, unique among daemons")
+                            ->capture_default_str();
     app.add_option("--scripts", config.script_dirs, "directory of monitor scripts (repeatable)");
     app.add_option("--monitor-libs", config.monitor_lib_dirs,
                    "directory of compiled monitors, type.so (repeatable); plugins are trusted code that "
@@ -104,6 +105,17 @@ int main(int argc, char** argv) {
         "the deployment secret (env PLEXUS_SECRET_FILE): a file only its owner may read, 16+ bytes, "
         "the same on every machine; every TCP link is TLS 1.3 keyed by it, udp/mcast datagrams are "
         "sealed (AES-GCM, a key per stream), and discovery takes only a name server that holds it");
+    std::string identity;
+    app.add_option("--identity", identity,
+                   "this node's identity directory (`plexus pki issue NODE`; env PLEXUS_IDENTITY): TCP links "
+                   "are then mutual TLS with certificates, and the node is the one its certificate names "
+                   "(--node may be left out); needs the secret too");
+    std::string permissions_file;
+    app.add_option("--permissions", permissions_file,
+                   "a permissions file (JSON rules by node and local user, docs/SECURITY.md): who may open, "
+                   "write, read, connect or attach monitors to which ports; what no rule allows is refused "
+                   "(exit 4 for the asker), logged once and counted (stats: permission_refusals). Without "
+                   "it, everyone may do everything");
     std::optional<std::string> http;
     app.add_option("--http", http,
                    "serve the web page of the whole system, its JSON views, live stream and Prometheus "
@@ -126,10 +138,26 @@ int main(int argc, char** argv) {
         if (!config_file.empty())
             plexus::daemon::apply_config_file(config_file, config);
         // The secret first: discovery takes only a name server that proves it holds it.
-        auto secret = plexus::daemon::load_deployment_secret(secret_file);
+        auto secret = plexus::daemon::load_deployment_secret(secret_file, identity);
         if (!secret)
             throw std::runtime_error(secret.error().message);
         config.secret = *secret;
+        auto permissions = plexus::daemon::load_permissions(permissions_file);
+        if (!permissions)
+            throw std::runtime_error(permissions.error().message);
+        config.permissions = *permissions;
+        if (const auto* certified = config.secret ? config.secret->identity() : nullptr) {
+            const std::string& named = certified->subject().name;
+            if (node_option->count() > 0 && node != named)
+                throw std::runtime_error("--node " + node + ": this node's identity (" +
+                                         certified->directory() + ") is that of node '" + named + "'");
+            if (embedded)
+                throw std::runtime_error(
+                    "--embedded-names with --identity: a name server needs a name server's "
+                    "identity; run plexus-names --identity with one (`plexus pki issue NAME "
+                    "--names`)");
+            node = named;
+        }
         const auto* proving = config.secret ? &*config.secret : nullptr;
         auto found =
             embedded ? plexus::proto::choose_names(names, config_file, [] { return std::nullopt; })

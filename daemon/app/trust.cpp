@@ -17,18 +17,51 @@ bool loopback(const std::string& host) {
 }
 }  // namespace
 
-proto::Result<std::optional<proto::Secret>> load_deployment_secret(const std::string& flag_path) {
-    std::string path = flag_path;
+proto::Result<std::optional<proto::Secret>> load_deployment_secret(const std::string& flag_path,
+                                                                   const std::string& identity_flag,
+                                                                   proto::Subject::Kind kind) {
+    const auto flag_or_env = [](const std::string& flag, const char* variable) {
+        if (!flag.empty())
+            return flag;
+        const char* env = std::getenv(variable);
+        return std::string(env && *env ? env : "");
+    };
+    const std::string path = flag_or_env(flag_path, "PLEXUS_SECRET_FILE");
+    const std::string identity_dir = flag_or_env(identity_flag, "PLEXUS_IDENTITY");
     if (path.empty()) {
-        if (const char* env = std::getenv("PLEXUS_SECRET_FILE"); env && *env)
-            path = env;
-    }
-    if (path.empty())
+        if (!identity_dir.empty())
+            return proto::Error{
+                "--identity needs the deployment secret too (--secret-file or PLEXUS_SECRET_FILE): "
+                "identities come on top of it"};
         return std::optional<proto::Secret>{};
+    }
     auto secret = proto::Secret::load(path);
     if (!secret)
         return secret.error();
+    if (!identity_dir.empty()) {
+        auto identity = proto::Identity::load(identity_dir);
+        if (!identity)
+            return identity.error();
+        if (identity->subject().kind != kind) {
+            const proto::Subject wanted{kind, "NAME"};
+            return proto::Error{"identity " + identity_dir + " is that of " + identity->subject().text() +
+                                "; this program needs one of a " +
+                                (kind == proto::Subject::Kind::names ? "name server" : "node") + " (" +
+                                wanted.uri() + ": `plexus pki issue" +
+                                (kind == proto::Subject::Kind::names ? " --names" : "") + "`)"};
+        }
+        secret->set_identity(*identity);
+    }
     return std::optional<proto::Secret>{*secret};
+}
+
+proto::Result<std::shared_ptr<const Permissions>> load_permissions(const std::string& path) {
+    if (path.empty())
+        return std::shared_ptr<const Permissions>{};
+    auto permissions = Permissions::load(path);
+    if (!permissions)
+        return permissions.error();
+    return std::shared_ptr<const Permissions>(std::make_shared<const Permissions>(std::move(*permissions)));
 }
 
 proto::Status check_listening(const std::vector<std::string>& hosts, bool has_secret, bool insecure,

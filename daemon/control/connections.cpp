@@ -47,7 +47,7 @@ carriers::SendStageMaker ControlPlane::send_stage_maker(std::shared_ptr<monitor:
         };
 }
 
-Task<proto::Reply> ControlPlane::connect(std::shared_ptr<Session>, const proto::Request& request) {
+Task<proto::Reply> ControlPlane::connect(std::shared_ptr<Session> session, const proto::Request& request) {
     auto decoded = proto::ConnectRequest::decode(request.body);
     if (!decoded)
         co_return malformed(decoded.error());
@@ -72,6 +72,13 @@ Task<proto::Reply> ControlPlane::connect(std::shared_ptr<Session>, const proto::
     }
     auto& router = host_.router();
     auto port = router.find(source);
+    auto local_destination = router.find(destination);
+    // Every daemon the request passes checks its asker: here a local user or the node that
+    // forwarded it; the source's daemon also checks what the connection itself needs.
+    if (auto allowed =
+            connect_permitted(session.get(), carrier, source, destination, port && local_destination);
+        !allowed)
+        co_return refuse(allowed.error().message);
     if (!port)
         co_return co_await forward(request, asked.forwarded, source);
     // The send-side monitors run here whatever the destination; made first, so that a script
@@ -83,7 +90,6 @@ Task<proto::Reply> ControlPlane::connect(std::shared_ptr<Session>, const proto::
     if (!route)
         co_return refuse(route.error().message);
 
-    auto local_destination = router.find(destination);
     // No carrier named: the table's choice (local when both ports are here, else tcp). A carrier
     // between daemons named explicitly goes through the network even between ports of this daemon
     // (over loopback); only a carrier within the daemon (`local`), or none, stays in it.
@@ -141,24 +147,33 @@ Task<proto::Reply> ControlPlane::connect(std::shared_ptr<Session>, const proto::
         co_return ok(proto::ConnectReply{connection->carrier, wired->warnings});
     }
     std::string where;
+    std::string node;
     if (local_destination) {
         where = host_.address();
+        node = host_.config().node;
     } else {
         auto looked_up = co_await host_.names().lookup(destination);
         if (!looked_up)
             co_return refuse(looked_up.error().message);
         where = looked_up->address;
+        node = looked_up->node;
+        // The destination's node reads the source: it must be allowed to.
+        if (permissions_.enforcing()) {
+            if (auto allowed = permitted(Principal{.node = node}, Action::read, source); !allowed)
+                co_return refuse(allowed.error().message);
+        }
     }
     std::string chosen_text = carrier_text;
     if (automatic)
         chosen_text = base;
     std::shared_ptr<monitor::MonitorChain> chain = std::move(*send_chain);
-    co_return co_await connect_remote(asked, port, chosen_text, chosen, where, chain, std::move(*route));
+    co_return co_await connect_remote(asked, port, chosen_text, chosen, where, node, chain,
+                                      std::move(*route));
 }
 
 Task<proto::Reply> ControlPlane::connect_remote(proto::ConnectRequest asked, std::shared_ptr<Port> port,
                                                 std::string carrier, const carriers::Carrier* chosen,
-                                                std::string address,
+                                                std::string address, std::string node,
                                                 std::shared_ptr<monitor::MonitorChain> send_chain,
                                                 std::optional<arbitration::Constraint> route) {
     const std::string source = port->name();
@@ -170,7 +185,7 @@ Task<proto::Reply> ControlPlane::connect_remote(proto::ConnectRequest asked, std
     auto endpoint = proto::parse_endpoint(address);
     if (!endpoint)
         co_return refuse("the name server gave a bad address for " + destination + ": " + address);
-    auto link = co_await open_link(port, chosen, destination, carrier, *endpoint, asked.strict);
+    auto link = co_await open_link(port, chosen, destination, carrier, *endpoint, node, asked.strict);
     if (!link.peer)
         co_return link.answer;
     const proto::Carrier parsed = parsed_or_empty(carrier);
@@ -213,7 +228,8 @@ Task<proto::Reply> ControlPlane::connect_remote(proto::ConnectRequest asked, std
 Task<ControlPlane::AttachedLink> ControlPlane::open_link(std::shared_ptr<Port> port,
                                                          const carriers::Carrier* chosen,
                                                          std::string destination, std::string carrier,
-                                                         proto::Endpoint endpoint, bool strict) {
+                                                         proto::Endpoint endpoint, std::string node,
+                                                         bool strict) {
     const std::string source = port->name();
     AttachedLink end;
     proto::AttachRequest request;
@@ -239,6 +255,15 @@ Task<ControlPlane::AttachedLink> ControlPlane::open_link(std::shared_ptr<Port> p
     }
     auto link_peer = *peer;
     link_peer->set_description("link " + source + " -> " + destination);
+    // With identities a daemon's hello names its certificate's node (FramedConnection): the one
+    // reached must be the node the name server gives for the destination, not a host on the path
+    // that answers in its place with a certificate of its own.
+    if (secret && secret->identity() && link_peer->peer_hello().node != node) {
+        link_peer->close("not the destination's node");
+        end.answer = refuse("the daemon at " + endpoint.text() + " is node '" + link_peer->peer_hello().node +
+                            "', not node '" + node + "' that the name server gives for " + destination);
+        co_return end;
+    }
     // qos.dscp marks the link's socket: every connection has a link socket of its own, so the
     // mark is this connection's alone (udp and mcast mark their datagrams themselves).
     const proto::Qos qos = parsed_or_empty(carrier).qos;
@@ -335,6 +360,16 @@ Task<proto::Reply> ControlPlane::attach(std::shared_ptr<Session> session, const 
         co_return refuse("port " + source + " lives on node '" + owner->node +
                          "', and this link comes from node '" + link_node + "': refused");
     }
+    // The linking node writes into the destination, and runs monitors on it if it asks for any.
+    if (auto allowed = permitted(session.get(), Action::write, destination); !allowed)
+        co_return refuse(allowed.error().message);
+    for (const auto& clause : carrier->clauses) {
+        if (clause.side != proto::Side::recv)
+            continue;
+        if (auto allowed = permitted(session.get(), Action::monitor, destination); !allowed)
+            co_return refuse(allowed.error().message);
+        break;
+    }
     const InletSpec spec{port, source, *carrier, carrier->text(), asked->strict};
     auto wired = wire_inlet(host_.scripts(), host_.clock(), spec);
     if (!wired)
@@ -366,12 +401,14 @@ Task<proto::Reply> ControlPlane::attach(std::shared_ptr<Session> session, const 
     co_return ok(answer);
 }
 
-Task<proto::Reply> ControlPlane::disconnect(std::shared_ptr<Session>, const proto::Request& request) {
+Task<proto::Reply> ControlPlane::disconnect(std::shared_ptr<Session> session, const proto::Request& request) {
     const auto asked = proto::DisconnectRequest::decode(request.body);
     if (!asked)
         co_return malformed(asked.error());
     const std::string source = asked->source;
     const std::string destination = asked->destination;
+    if (auto allowed = permitted(session.get(), Action::connect, source); !allowed)
+        co_return refuse(allowed.error().message);
     if (!host_.router().find(source))
         co_return co_await forward(request, asked->forwarded, source);
     auto removed = host_.router().remove(source, destination);

@@ -52,7 +52,7 @@ const ControlPlane::Operation* ControlPlane::find_operation(Op op, const std::st
 }
 
 ControlPlane::ControlPlane(asio::any_io_executor executor, ControlHost& host)
-    : executor_(std::move(executor)), host_(host) {}
+    : executor_(std::move(executor)), host_(host), permissions_(host.config().permissions) {}
 
 Task<proto::Reply> ControlPlane::handle(std::shared_ptr<Session> session, proto::Request request) {
     const std::string op = request.body["op"];

@@ -16,6 +16,7 @@
 #include "names/name_protocol.hpp"
 #include "net/asio.hpp"
 #include "net/carriers/carrier.hpp"
+#include "net/permission_gate.hpp"
 #include "net/shm_region.hpp"
 #include "plexus/proto/control.hpp"
 #include "plexus/proto/endpoint.hpp"
@@ -87,18 +88,19 @@ private:
     // connections.cpp
     /// Needs no session: restore_persistent calls it with none.
     Task<proto::Reply> connect(std::shared_ptr<Session> session, const proto::Request& request);
-    /// The connection to another daemon (`address`) with carrier `carrier` (its text, and its
-    /// entry in the carrier table, `chosen`), and its route constraint (carrier_rules.hpp).
+    /// The connection to another daemon (`address`, node `node`) with carrier `carrier` (its text,
+    /// and its entry in the carrier table, `chosen`), and its route constraint (carrier_rules.hpp).
     Task<proto::Reply> connect_remote(proto::ConnectRequest asked, std::shared_ptr<Port> source,
                                       std::string carrier, const carriers::Carrier* chosen,
-                                      std::string address, std::shared_ptr<monitor::MonitorChain> send_chain,
+                                      std::string address, std::string node,
+                                      std::shared_ptr<monitor::MonitorChain> send_chain,
                                       std::optional<arbitration::Constraint> route);
-    /// Connects to the daemon at `endpoint` and asks it to attach `destination` for this
-    /// connection, with what carrier `chosen` adds to the request. The carrier then makes the
+    /// Connects to the daemon of node `node` at `endpoint` and asks it to attach `destination` for
+    /// this connection, with what carrier `chosen` adds to the request. The carrier then makes the
     /// sending end on this link (connect_remote).
     Task<AttachedLink> open_link(std::shared_ptr<Port> source, const carriers::Carrier* chosen,
                                  std::string destination, std::string carrier, proto::Endpoint endpoint,
-                                 bool strict);
+                                 std::string node, bool strict);
     /// What makes the stage of a connection's send-side monitors, for its carrier to call (null
     /// without monitors). The control plane owns the scripts; the carrier chooses where they report.
     carriers::SendStageMaker send_stage_maker(std::shared_ptr<monitor::MonitorChain> chain);
@@ -160,11 +162,25 @@ private:
     proto::Hello our_hello(const char* role) const;
     std::function<void()> space_notifier();
 
+    // permissions.cpp: the permissions file's checks (core/permissions.hpp), at connect time.
+    /// Ok when `who` may do `action` on `port`; else the refusal, counted (stats) and logged once.
+    proto::Status permitted(const Principal& who, Action action, std::string_view port);
+    /// The same for what `asker` asks (nothing to check without one: the daemon's own requests,
+    /// remaking persistent connections, were checked when first made).
+    proto::Status permitted(const Session* asker, Action action, std::string_view port);
+    /// What a connection with `carrier` from `source` to `destination` needs of the one who asks
+    /// at the source's daemon: connect on the source, monitor on the ports its monitors run on
+    /// (send clauses: the source; recv: the destination), write on a destination of this daemon.
+    proto::Status connect_permitted(const Session* asker, const proto::Carrier& carrier,
+                                    const std::string& source, const std::string& destination,
+                                    bool local_destination);
+
     /// How long a connect to another daemon, and a request on it, may take.
     static constexpr auto peer_timeout = std::chrono::seconds(5);
 
     asio::any_io_executor executor_;
     ControlHost& host_;
+    PermissionGate permissions_;
     std::shared_ptr<ShmUsage> shm_usage_ = std::make_shared<ShmUsage>();
     std::uint64_t next_region_ = 1;
     std::map<std::uint64_t, Recording> recordings_;

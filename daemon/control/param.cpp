@@ -144,7 +144,7 @@ proto::Reply answer(std::vector<proto::MonitorParams> results, bool any_setparam
 
 }  // namespace
 
-Task<proto::Reply> ControlPlane::param(std::shared_ptr<Session>, const proto::Request& request) {
+Task<proto::Reply> ControlPlane::param(std::shared_ptr<Session> session, const proto::Request& request) {
     const auto decoded = proto::ParamRequest::decode(request.body);
     if (!decoded)
         co_return malformed(decoded.error());
@@ -154,6 +154,10 @@ Task<proto::Reply> ControlPlane::param(std::shared_ptr<Session>, const proto::Re
     const std::string& action = asked.action;
     if (action != "get" && action != "set")
         co_return proto::make_refusal(0, ReplyCode::usage, "param action must be get or set");
+    if (action == "set") {  // changing what a connection's monitors do is attaching them anew
+        if (auto allowed = permitted(session.get(), Action::monitor, source); !allowed)
+            co_return proto::make_refusal(0, ReplyCode::refused, allowed.error().message);
+    }
     auto port = host_.router().find(source);
     if (!port)
         co_return co_await forward(request, asked.forwarded, source);
@@ -226,13 +230,15 @@ Task<proto::Reply> ControlPlane::param(std::shared_ptr<Session>, const proto::Re
     co_return answer(std::move(results), any_setparam, action);
 }
 
-Task<proto::Reply> ControlPlane::param_recv(std::shared_ptr<Session>, const proto::Request& request) {
+Task<proto::Reply> ControlPlane::param_recv(std::shared_ptr<Session> session, const proto::Request& request) {
     const auto decoded = proto::ParamRecvRequest::decode(request.body);
     if (!decoded)
         co_return malformed(decoded.error());
     const proto::ParamRecvRequest& asked = *decoded;
     const std::string& source = asked.source;
     const std::string& destination = asked.destination;
+    if (auto allowed = permitted(session.get(), Action::monitor, destination); !allowed)
+        co_return proto::make_refusal(0, ReplyCode::refused, allowed.error().message);
     auto port = host_.router().find(destination);
     if (!port)
         co_return proto::make_refusal(0, ReplyCode::refused,

@@ -16,6 +16,8 @@ Task<proto::Reply> ControlPlane::open_port(std::shared_ptr<Session> session, con
     if (!asked)
         co_return malformed(asked.error());
     const std::string name = asked->port;
+    if (auto allowed = permitted(session.get(), Action::open, name); !allowed)
+        co_return refuse(allowed.error().message);
     const auto policy = parse_queue_policy(asked->policy);
     if (!policy)
         co_return refuse("queue policy must be 'strict' or 'latest'", proto::ReplyCode::usage);

@@ -90,6 +90,7 @@ nlohmann::json stats_view(ControlHost& host, const ShmUsage& shm, const std::str
                           {"handshake_timeouts", counters.handshake_timeouts},
                           {"peers_refused", counters.peers_refused},
                           {"tls_records_refused", counters.tls_records_refused},
+                          {"permission_refusals", counters.permission_refusals},
                           {"dropped_unknown_port", counters.dropped_unknown_port},
                           {"dropped_link_down", counters.dropped_link_down},
                           {"shm_passed", counters.shm_passed},

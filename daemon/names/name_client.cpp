@@ -209,6 +209,23 @@ Task<void> NameClient::run() {
         }
         auto peer = *connected_peer;
         peer->set_description("name server " + names_.text());
+        // With identities the name server shows a name server's certificate: a node's, even a
+        // valid one, could be a compromised machine answering in the name server's place.
+        if (secret_ && secret_->identity() &&
+            (!peer->peer_subject() || peer->peer_subject()->kind != proto::Subject::Kind::names)) {
+            const std::string shown =
+                peer->peer_subject() ? peer->peer_subject()->text() : "no Plexus certificate";
+            const std::string why = "the name server at " + names_.text() + " shows the certificate of " +
+                                    shown + ", not a name server's";
+            if (!refusal_ || *refusal_ != why)
+                spdlog::error("{}", why);
+            refusal_ = why;
+            state_changed_.notify();
+            peer->close("not a name server");
+            asio::steady_timer timer(io_, longest_retry);
+            co_await timer.async_wait(use_nothrow);
+            continue;
+        }
         auto hello = co_await peer->request(register_node_body(), request_timeout);
         if (!hello || hello->code != proto::ReplyCode::ok) {
             std::string why = hello.ok() ? std::string("refused") : hello.error().message;

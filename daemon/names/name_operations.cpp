@@ -59,7 +59,7 @@ const NameServer::Operation NameServer::operations_[] = {
 };
 
 proto::Reply NameServer::handle(const proto::Request& request, std::uint64_t session,
-                                const SessionAddresses& where) {
+                                const SessionAddresses& where, const proto::Subject* certified) {
     const std::string asked = request.body["op"];
     const auto op = proto::op_named(asked);
     const auto* row = std::find_if(std::begin(operations_), std::end(operations_),
@@ -68,7 +68,7 @@ proto::Reply NameServer::handle(const proto::Request& request, std::uint64_t ses
         return refuse(request, "unknown request '" + asked + "'", ReplyCode::usage);
     if (row->callers == Callers::tcp && session == 0)
         return refuse(request, "'" + asked + "' is not available over UDP; use TCP", ReplyCode::usage);
-    return (this->*(row->handler))(Asked{request, session, where});
+    return (this->*(row->handler))(Asked{request, session, where, certified});
 }
 
 // Every handler decodes its request first: a field of the wrong type is answered with code 2.
@@ -78,7 +78,8 @@ proto::Reply NameServer::ping(const Asked& asked) {
     if (!decode<proto::PingRequest>(asked.request, refusal))
         return refusal;
     return ok(asked.request, proto::NamesPingReply{endpoint().text(), auth_failures_, handshake_timeouts_,
-                                                   tls_records_refused_, peers_refused_});
+                                                   tls_records_refused_, peers_refused_, identity_refusals_,
+                                                   permissions_.refusals()});
 }
 
 proto::Reply NameServer::lookup(const Asked& asked) {
@@ -122,6 +123,20 @@ proto::Reply NameServer::register_node(const Asked& asked) {
         return refusal;
     const std::string& node = request->node;
     const std::string& announced = request->address;
+    // With identities a node name is bound to its certificate: only the holder of node N's may
+    // register N (and so its ports and its address).
+    if (config_.secret && config_.secret->identity()) {
+        const auto* certified = asked.certified;
+        if (!certified || certified->kind != proto::Subject::Kind::node || certified->name != node) {
+            ++identity_refusals_;
+            const std::string holder = certified ? certified->text() : std::string("no certificate");
+            spdlog::warn("names: refused to register node '{}' for a peer holding {}", node, holder);
+            return refuse(asked.request, "node '" + node +
+                                             "' may only be registered with its own certificate; this "
+                                             "peer holds " +
+                                             holder);
+        }
+    }
     const std::string address = recorded_address(announced, asked.where);
     auto status = registry_.register_node(node, address, asked.session);
     if (status && address != announced)
@@ -138,6 +153,11 @@ proto::Reply NameServer::register_port(const Asked& asked) {
     if (!request)
         return refusal;
     const std::string& port = request->port;
+    if (permissions_.enforcing()) {
+        const Principal who{.node = registry_.node_named_by(asked.session)};
+        if (auto allowed = permissions_.check(who, Action::open, port, "names: "); !allowed)
+            return refuse(asked.request, allowed.error().message);
+    }
     auto status = registry_.register_port(port, asked.session);
     if (!status)
         return refuse(asked.request, status.error().message);

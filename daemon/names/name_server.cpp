@@ -36,7 +36,8 @@ protected:
         }
         if (!where_)
             where_ = SessionAddresses{remote_ip(), local_ip()};
-        send(proto::encode_reply(server_.answer(*request, id_, *where_)));
+        const auto& subject = peer_subject();
+        send(proto::encode_reply(server_.answer(*request, id_, *where_, subject ? &*subject : nullptr)));
         co_return true;
     }
     void on_auth_failure(const std::string&) override { server_.count_auth_failure(); }
@@ -62,7 +63,8 @@ NameServer::NameServer(asio::io_context& io, NameServerConfig config)
       acceptor_(io),
       udp_(io),
       discovery_(io),
-      peers_(std::make_shared<PeerLimits>(config_.peer_limits)) {
+      peers_(std::make_shared<PeerLimits>(config_.peer_limits)),
+      permissions_(config_.permissions) {
     registry_.set_mcast_range(config_.mcast_first, config_.mcast_count, config_.mcast_port);
 }
 
@@ -252,9 +254,9 @@ Task<void> NameServer::udp_loop() {
 }
 
 proto::Reply NameServer::answer(const proto::Request& request, std::uint64_t session,
-                                const SessionAddresses& where) {
+                                const SessionAddresses& where, const proto::Subject* certified) {
     try {
-        return handle(request, session, where);
+        return handle(request, session, where, certified);
     } catch (const std::exception& e) {
         // A field of the wrong JSON type: refuse the request, keep the session and the server.
         return proto::make_refusal(request.id, ReplyCode::usage,

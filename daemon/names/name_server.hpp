@@ -7,9 +7,11 @@
 
 #include "../net/asio.hpp"
 #include "../net/peer_limits.hpp"
+#include "../net/permission_gate.hpp"
 #include "plexus/proto/auth.hpp"
 #include "plexus/proto/control.hpp"
 #include "plexus/proto/endpoint.hpp"
+#include "plexus/proto/identity.hpp"
 #include "plexus/proto/ops.hpp"
 #include "reachable_address.hpp"
 #include "registry.hpp"
@@ -28,6 +30,8 @@ struct NameServerConfig {
     std::optional<proto::Endpoint> discovery;
     /// The deployment secret: every TCP peer must prove it holds it (see FramedConnection).
     std::optional<proto::Secret> secret;
+    /// --permissions: which node may register which ports ("open"); null: any node any port.
+    std::shared_ptr<const Permissions> permissions;
     /// Where mcast groups are given out from (one per source port asking): a first IPv4 group
     /// address and a count, all on one UDP port.
     std::uint32_t mcast_first = (239u << 24) | (255u << 16) | (81u << 8);  // 239.255.81.0
@@ -56,8 +60,9 @@ public:
 
     /// Answers one request for `session` (0 = a UDP datagram, read-only), whose ends are at `where`;
     /// never throws.
+    /// `certified`: what the session's certificate names (identities), else null.
     proto::Reply answer(const proto::Request& request, std::uint64_t session,
-                        const SessionAddresses& where = {});
+                        const SessionAddresses& where = {}, const proto::Subject* certified = nullptr);
     void session_closed(std::uint64_t session);
     std::size_t max_frame() const { return config_.max_frame; }
     /// Peers that failed to prove they hold the secret.
@@ -79,6 +84,7 @@ private:
         const proto::Request& request;
         std::uint64_t session;  ///< 0: a UDP datagram
         const SessionAddresses& where;
+        const proto::Subject* certified;  ///< what the session's certificate names; null without identities
     };
     using Handler = proto::Reply (NameServer::*)(const Asked& asked);
     /// Who may send an op: anyone (also over UDP, read-only look-ups), or TCP sessions only.
@@ -91,7 +97,8 @@ private:
     /// The table (name_operations.cpp), in the daemon's control plane's style: to add an op,
     /// write its handler, add a row, list it in PROTOCOL.md.
     static const Operation operations_[];
-    proto::Reply handle(const proto::Request& request, std::uint64_t session, const SessionAddresses& where);
+    proto::Reply handle(const proto::Request& request, std::uint64_t session, const SessionAddresses& where,
+                        const proto::Subject* certified);
     // name_operations.cpp: one handler per op.
     /// Counts a connection refused for its peer's limits and logs it, at most one line a second.
     void refused(const std::string& peer, PeerLimits::Refusal refusal);
@@ -115,8 +122,10 @@ private:
     std::uint64_t auth_failures_ = 0;
     std::uint64_t handshake_timeouts_ = 0;
     std::uint64_t tls_records_refused_ = 0;
-    std::uint64_t peers_refused_ = 0;  ///< connections refused at accept for their peer's limits
+    std::uint64_t peers_refused_ = 0;      ///< connections refused at accept for their peer's limits
+    std::uint64_t identity_refusals_ = 0;  ///< register_node for a node the certificate does not name
     std::shared_ptr<PeerLimits> peers_;
+    PermissionGate permissions_;  ///< which node may register which ports
     bool stopped_ = false;
 };
 

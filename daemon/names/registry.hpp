@@ -70,6 +70,13 @@ public:
 
     nlohmann::json list() const;
     std::size_t port_count() const { return ports_.size(); }
+    /// The node that `session` registered; nullopt before it registered one.
+    std::optional<std::string> node_named_by(std::uint64_t session) const {
+        std::string name;
+        if (!node_of_session(session, &name))
+            return std::nullopt;
+        return name;
+    }
 
 private:
     struct Node {

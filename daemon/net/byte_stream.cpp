@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "plexus/proto/tls_psk.hpp"
+#include "signal.hpp"
 #include "tls_context.hpp"
 
 namespace plexus::daemon {
@@ -39,7 +40,8 @@ boost::system::error_code tls_error() {
 /// the bytes in large reads and writes (Asio's ssl::stream moved one 16 KiB record per pass: a
 /// 1 MiB message took 64 of them).
 struct ByteStream::Tls {
-    explicit Tls(TlsContext& context) : ssl(::SSL_new(context.native())) {
+    Tls(TlsContext& context, const asio::any_io_executor& executor)
+        : ssl(::SSL_new(context.native())), flushed(executor) {
         if (!ssl)
             throw std::runtime_error("OpenSSL could not make a TLS session: " + proto::last_tls_error());
         in = ::BIO_new(::BIO_s_mem());
@@ -60,6 +62,10 @@ struct ByteStream::Tls {
     proto::Bytes sending;   ///< `out`'s bytes on their way to the socket
     proto::Bytes received;  ///< the socket's bytes, before `in` takes them
     bool flushing = false;  ///< a coroutine is writing `out` to the socket
+    Signal flushed;         ///< notified when it is done
+    /// The session's error (or the peer's close_notify) that came after plain bytes the last read
+    /// returned: the next read returns it. OpenSSL keeps the session failed but not its reason.
+    boost::system::error_code failed;
 
     /// Encrypts all of `bytes` into `out`. False on an error of OpenSSL's.
     bool encrypt(proto::ByteView bytes) {
@@ -82,8 +88,15 @@ bool ByteStream::is_tls_error(const boost::system::error_code& error) {
     return error.category() == asio::error::get_ssl_category();
 }
 
+bool ByteStream::is_peer_alert(const boost::system::error_code& error) {
+    // OpenSSL gives a received alert the reason SSL_AD_REASON_OFFSET + its number.
+    return is_tls_error(error) &&
+           ERR_GET_REASON(static_cast<unsigned long>(static_cast<unsigned int>(error.value()))) >=
+               SSL_AD_REASON_OFFSET;
+}
+
 Task<proto::Status> ByteStream::start_tls(TlsContext& context, bool accepting, proto::ByteView first) {
-    tls_ = std::make_unique<Tls>(context);
+    tls_ = std::make_unique<Tls>(context, socket_.get_executor());
     auto& tls = *tls_;
     tls.received.resize(read_bytes);
     if (accepting)
@@ -98,16 +111,18 @@ Task<proto::Status> ByteStream::start_tls(TlsContext& context, bool accepting, p
         const int reason = done == 1 ? SSL_ERROR_NONE : ::SSL_get_error(tls.ssl, done);
         std::string failure;
         if (reason != SSL_ERROR_NONE && reason != SSL_ERROR_WANT_READ)
-            failure = proto::last_tls_error();
+            failure = proto::tls_handshake_failure(tls.ssl);
         // Whatever the handshake wrote goes out, an alert that says why it failed too.
-        if (auto error = co_await flush_tls(); error && failure.empty())
+        if (auto error = co_await flush_tls(true); error && failure.empty())
             failure = error.message();
         if (!failure.empty()) {
             tls_.reset();
             co_return proto::Error{"TLS handshake failed: " + failure};
         }
-        if (done == 1)
+        if (done == 1) {
+            peer_subject_ = proto::peer_subject(tls.ssl);
             co_return proto::Ok{};
+        }
         auto [error, n] = co_await socket_.async_read_some(asio::buffer(tls.received), use_nothrow);
         if (error) {
             tls_.reset();
@@ -140,6 +155,8 @@ Task<Result> ByteStream::write(const std::vector<asio::const_buffer>& buffers) {
 
 Task<Result> ByteStream::read_tls(asio::mutable_buffer buffer) {
     auto& tls = *tls_;
+    if (tls.failed)
+        co_return std::tuple{tls.failed, std::size_t{0}};
     auto* into = static_cast<std::uint8_t*>(buffer.data());
     std::size_t got = 0;
     for (;;) {
@@ -159,18 +176,17 @@ Task<Result> ByteStream::read_tls(asio::mutable_buffer buffer) {
             const int reason = ::SSL_get_error(tls.ssl, n);
             if (reason == SSL_ERROR_WANT_READ)
                 break;
-            if (got > 0) {
-                ::ERR_clear_error();  // the error comes again on the next read
-                co_return std::tuple{boost::system::error_code{}, got};
-            }
             if (reason == SSL_ERROR_ZERO_RETURN) {  // the peer's close_notify
                 ::ERR_clear_error();
-                co_return std::tuple{boost::system::error_code(asio::error::eof), std::size_t{0}};
+                tls.failed = asio::error::eof;
+            } else {
+                tls.failed = tls_error();
             }
-            co_return std::tuple{tls_error(), std::size_t{0}};
+            // The plain bytes before it first; the next read returns the error.
+            co_return std::tuple{got > 0 ? boost::system::error_code{} : tls.failed, got};
         }
         if (BIO_pending(tls.out) > 0)
-            co_await flush_tls();  // what reading made OpenSSL say (an alert): no one else would send it
+            co_await flush_tls(false);  // what reading made OpenSSL say (an alert): no one else would send it
         if (got > 0)
             co_return std::tuple{boost::system::error_code{}, got};
         // A session the peer ended without its close_notify reads as an end of stream (see the
@@ -192,7 +208,7 @@ Task<Result> ByteStream::write_tls(const std::vector<asio::const_buffer>& buffer
             const auto slice = bytes.subspan(at, std::min(write_slice, bytes.size() - at));
             if (!tls.encrypt(slice))
                 co_return tls_error();
-            if (auto error = co_await flush_tls())
+            if (auto error = co_await flush_tls(true))
                 co_return error;
             written += slice.size();
         }
@@ -224,11 +240,13 @@ Task<Result> ByteStream::write_tls(const std::vector<asio::const_buffer>& buffer
     co_return std::tuple{error, written};
 }
 
-Task<boost::system::error_code> ByteStream::flush_tls() {
+Task<boost::system::error_code> ByteStream::flush_tls(bool wait) {
     auto& tls = *tls_;
-    if (tls.flushing)
+    if (tls.flushing && !wait)
         co_return boost::system::error_code{};  // the one flushing sends these bytes too: it loops until
                                                 // `out` is empty
+    while (tls.flushing)
+        co_await tls.flushed.wait();
     tls.flushing = true;
     boost::system::error_code error;
     while (!error && BIO_pending(tls.out) > 0) {
@@ -240,6 +258,7 @@ Task<boost::system::error_code> ByteStream::flush_tls() {
     if (tls.sending.capacity() > 2 * write_slice)
         proto::Bytes().swap(tls.sending);  // a burst's buffer goes back: a link keeps little when idle
     tls.flushing = false;
+    tls.flushed.notify();
     co_return error;
 }
 

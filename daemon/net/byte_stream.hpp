@@ -3,11 +3,13 @@
 // connection's reader and writer coroutines).
 
 #include <memory>
+#include <optional>
 #include <tuple>
 #include <vector>
 
 #include "asio.hpp"
 #include "plexus/proto/bytes.hpp"
+#include "plexus/proto/identity.hpp"
 
 namespace plexus::daemon {
 
@@ -25,9 +27,15 @@ public:
 
     /// True for an error of the TLS layer (a record that failed its check), not of the socket.
     static bool is_tls_error(const boost::system::error_code& error);
+    /// True for a TLS error that is an alert the peer sent ("certificate revoked": it refused this
+    /// end), not a record that failed its check here.
+    static bool is_peer_alert(const boost::system::error_code& error);
 
     Socket& socket() { return socket_; }
     bool encrypted() const { return tls_ != nullptr; }
+    /// What the peer's certificate names, once start_tls() succeeded on a link between identities
+    /// (proto/identity.hpp); nullopt on a link keyed by the secret or a plain one.
+    const std::optional<proto::Subject>& peer_subject() const { return peer_subject_; }
 
     /// Runs the TLS handshake as the `accepting` or the connecting end; `first` are bytes of the
     /// peer's already read from the socket (the listener looked at them). An Error says why it
@@ -50,14 +58,19 @@ private:
     Task<std::tuple<boost::system::error_code, std::size_t>> write_tls(
         const std::vector<asio::const_buffer>& buffers);
     Task<std::tuple<boost::system::error_code, std::size_t>> read_given_back(asio::mutable_buffer buffer);
-    /// Writes what OpenSSL has written to the socket; returns at once when another coroutine is at
-    /// it (that one sends these bytes too).
-    Task<boost::system::error_code> flush_tls();
+    /// Writes what OpenSSL has written to the socket. When another coroutine is at it already, the
+    /// writer (`wait`) waits for it to end and then sends what is left: what write() encrypted must
+    /// be on its way when write() returns, or `out` grows without bound under a peer that stops
+    /// reading. The reader returns at once (the one flushing sends its bytes too): a reader that
+    /// waited on a writer held back by its peer would stop reading, and two daemons that write to
+    /// each other would wait on each other.
+    Task<boost::system::error_code> flush_tls(bool wait);
 
     struct Tls;
     Socket socket_;
     std::unique_ptr<Tls> tls_;
     proto::Bytes given_back_;
+    std::optional<proto::Subject> peer_subject_;
 };
 
 }  // namespace plexus::daemon

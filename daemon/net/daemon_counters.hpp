@@ -24,6 +24,8 @@ struct DaemonCounters {
     /// Encrypted links cut off because a record failed its check: bytes altered, injected or
     /// replayed on the way.
     std::uint64_t tls_records_refused = 0;
+    /// Requests refused by the permissions file (core/permissions.hpp).
+    std::uint64_t permission_refusals = 0;
 
     /// Adds another thread's counters (`--threads`: each thread of the daemon keeps its own).
     DaemonCounters& operator+=(const DaemonCounters& other) {
@@ -40,6 +42,7 @@ struct DaemonCounters {
         rings_refused += other.rings_refused;
         peers_refused += other.peers_refused;
         tls_records_refused += other.tls_records_refused;
+        permission_refusals += other.permission_refusals;
         return *this;
     }
 };

@@ -121,6 +121,8 @@ Task<ReadOutcome> FrameReader::next(ByteStream& stream) {
         if (step.outcome)
             co_return std::move(*step.outcome);
         auto [ec, n] = co_await stream.read_some(step.room);
+        if (ec && ByteStream::is_peer_alert(ec))  // it refused us (a revoked certificate): no tampering
+            co_return ended(false, "the peer ended the encrypted link: " + ec.message());
         if (ec && ByteStream::is_tls_error(ec)) {
             auto outcome = ended(false, "the encrypted link broke: " + ec.message());
             outcome.tls_refused = true;

@@ -95,7 +95,10 @@ Task<bool> FramedConnection::secure_link() {
     if (!secured) {
         co_await refuse_unauthenticated(
             secured.error().message +
-                " (the peer does not hold this deployment's secret, or runs without one)",
+                (secret_->identity()
+                     ? " (the peer shows no valid certificate of this deployment's CA, or runs without an "
+                       "identity)"
+                     : " (the peer does not hold this deployment's secret, or runs without one)"),
             false);
         co_return false;
     }
@@ -323,7 +326,28 @@ Task<bool> FramedConnection::take_hello(InFrame& frame) {
                   "(start it with --secret-file FILE or PLEXUS_SECRET_FILE)");
         co_return false;
     }
+    if (auto mismatch = certificate_mismatch(*hello)) {
+        co_await refuse_unauthenticated(*mismatch, true);
+        co_return false;
+    }
     co_return accept_peer(std::move(*hello));
+}
+
+std::optional<std::string> FramedConnection::certificate_mismatch(const proto::Hello& hello) const {
+    if (!secret_ || !secret_->identity() || !stream_.encrypted())
+        return std::nullopt;
+    const auto& subject = peer_subject();
+    if (!subject)
+        return "the peer's certificate names no Plexus node or name server";
+    const bool names = subject->kind == proto::Subject::Kind::names;
+    if (hello.role == "names" && !names)
+        return "the peer says it is a name server, but its certificate is that of " + subject->text();
+    if (hello.role == "daemon" && names)
+        return "the peer says it is a daemon, but its certificate is that of " + subject->text();
+    if (!names && !hello.node.empty() && hello.node != subject->name)
+        return "the peer says it is node '" + hello.node + "', but its certificate is that of " +
+               subject->text();
+    return std::nullopt;
 }
 
 bool FramedConnection::accept_peer(proto::Hello hello) {

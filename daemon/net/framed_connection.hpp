@@ -56,6 +56,9 @@ public:
     void fail(const std::string& reason);
 
     bool closed() const { return closed_; }
+    /// With identities (proto/identity.hpp): what the peer's certificate names, checked against
+    /// its hello (a peer cannot say it is another node than its certificate's). nullopt otherwise.
+    const std::optional<proto::Subject>& peer_subject() const { return stream_.peer_subject(); }
     bool hello_received() const { return peer_hello_.has_value(); }
     const proto::Hello& peer_hello() const { return *peer_hello_; }
     const std::string& description() const { return description_; }
@@ -120,6 +123,10 @@ protected:
     virtual void on_tls_refused(const std::string& /*reason*/) {}
 
 private:
+    /// Why the peer's hello does not match its certificate, on a link between identities: a name
+    /// server's hello needs a name server's certificate, a node's hello names the node of its
+    /// certificate. nullopt when it matches or there are no certificates.
+    std::optional<std::string> certificate_mismatch(const proto::Hello& hello) const;
     Task<void> read_loop();
     Task<void> write_loop();
     /// Sends what the socket takes of `batch` (at least one byte) with its descriptors attached.

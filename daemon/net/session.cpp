@@ -581,4 +581,17 @@ void Session::on_closed(const std::string& reason) {
     daemon_.session_closed(*this);
 }
 
+Principal Session::principal() const {
+    Principal who;
+    if (local_user_) {
+        who.user = local_user_;
+        return who;
+    }
+    if (const auto& subject = peer_subject(); subject && subject->kind == proto::Subject::Kind::node)
+        who.node = subject->name;
+    else if (hello_received() && !peer_hello().node.empty())
+        who.node = peer_hello().node;
+    return who;
+}
+
 }  // namespace plexus::daemon

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "../core/inlet.hpp"
+#include "../core/permissions.hpp"
 #include "framed_connection.hpp"
 #include "peer_limits.hpp"
 #include "plexus/proto/control.hpp"
@@ -29,6 +30,11 @@ public:
     bool is_link() const { return link_port_ != nullptr; }
     const std::shared_ptr<Port>& link_port() const { return link_port_; }
     const std::shared_ptr<Inlet>& link() const { return link_; }
+    /// A local client's user, as the kernel gave it for the Unix socket (the daemon sets it).
+    void set_local_user(uid_t uid) { local_user_ = uid; }
+    /// Who this session is to the permissions (core/permissions.hpp): a local client's user; a
+    /// TCP peer's node, from its certificate with identities, else from its hello.
+    Principal principal() const;
 
     // A client's ports and shared-memory regions. The control plane changes them only through
     // these calls.
@@ -114,6 +120,7 @@ private:
 
     SessionHost& daemon_;
     std::uint64_t id_;
+    std::optional<uid_t> local_user_;
     std::size_t shard_;
     /// Requests being served: a peer that sends requests without reading the replies is held back
     /// (its socket no longer read) once this many are in progress, so replies cannot pile up.

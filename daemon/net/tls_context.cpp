@@ -9,7 +9,7 @@
 
 namespace plexus::daemon {
 
-TlsContext::TlsContext(const proto::Secret& secret) : context_(proto::new_psk_tls_context(secret)) {}
+TlsContext::TlsContext(const proto::Secret& secret) : context_(proto::new_link_tls_context(secret)) {}
 
 TlsContext::~TlsContext() {
     ::SSL_CTX_free(context_);
@@ -17,10 +17,12 @@ TlsContext::~TlsContext() {
 
 std::shared_ptr<TlsContext> TlsContext::of(const proto::Secret& secret) {
     static std::mutex lock;
-    static std::map<proto::Digest, std::weak_ptr<TlsContext>>
-        made;  // by key: a secret's own bytes stay in Secret
+    // By key: a secret's own bytes stay in Secret. An identity's revocation list changes the key,
+    // so links made after it changed check certificates against the new list.
+    static std::map<std::string, std::weak_ptr<TlsContext>> made;
     const std::lock_guard guard(lock);
-    auto& entry = made[secret.tls_key()];
+    std::erase_if(made, [](const auto& entry) { return entry.second.expired(); });
+    auto& entry = made[proto::link_tls_context_key(secret)];
     if (auto context = entry.lock())
         return context;
     auto context = std::make_shared<TlsContext>(secret);

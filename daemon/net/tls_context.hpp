@@ -10,7 +10,8 @@ struct ssl_ctx_st;
 
 namespace plexus::daemon {
 
-/// The TLS context of a deployment's links (proto/tls_psk.hpp): TLS 1.3 keyed by the secret.
+/// The TLS context of a deployment's links (proto/tls_psk.hpp): TLS 1.3 keyed by the secret, or
+/// mutual TLS with this node's certificate when it has an identity (proto/identity.hpp).
 class TlsContext {
 public:
     /// The context of `secret`, made at its first use and shared while any connection holds it:

@@ -10,6 +10,7 @@
 #include <openssl/hmac.h>
 
 #include "plexus/proto/hex.hpp"
+#include "plexus/proto/identity.hpp"
 
 namespace plexus::proto {
 
@@ -72,6 +73,10 @@ Result<Secret> Secret::load(const std::string& path) {
 bool same_text(std::string_view a, std::string_view b) {
     // The length is not secret (every token has 64 characters); the bytes are.
     return a.size() == b.size() && ::CRYPTO_memcmp(a.data(), b.data(), a.size()) == 0;
+}
+
+void Secret::set_identity(const Identity& identity) {
+    identity_ = std::make_shared<const Identity>(identity);
 }
 
 Digest Secret::tls_key() const {

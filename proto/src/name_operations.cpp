@@ -16,6 +16,10 @@ json NamesPingReply::encode() const {
         body["tls_records_refused"] = *tls_records_refused;
     if (peers_refused)
         body["peers_refused"] = *peers_refused;
+    if (identities_refused)
+        body["identities_refused"] = *identities_refused;
+    if (permission_refusals)
+        body["permission_refusals"] = *permission_refusals;
     return body;
 }
 Result<NamesPingReply> NamesPingReply::decode(const json& body) {
@@ -26,6 +30,8 @@ Result<NamesPingReply> NamesPingReply::decode(const json& body) {
     in.whole("handshake_timeouts", out.handshake_timeouts);
     in.whole("tls_records_refused", out.tls_records_refused);
     in.whole("peers_refused", out.peers_refused);
+    in.whole("identities_refused", out.identities_refused);
+    in.whole("permission_refusals", out.permission_refusals);
     return in.result(std::move(out));
 }
 

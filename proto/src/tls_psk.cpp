@@ -7,6 +7,9 @@
 #include <memory>
 #include <stdexcept>
 
+#include "plexus/proto/hex.hpp"
+#include "plexus/proto/identity.hpp"
+
 namespace plexus::proto {
 
 namespace {
@@ -75,7 +78,7 @@ std::string last_tls_error() {
     return reasons.empty() ? "no reason given" : reasons;
 }
 
-ssl_ctx_st* new_psk_tls_context(const Secret& secret) {
+ssl_ctx_st* new_tls13_context() {
     std::unique_ptr<SSL_CTX, decltype(&::SSL_CTX_free)> context(::SSL_CTX_new(::TLS_method()),
                                                                 ::SSL_CTX_free);
     if (!context)
@@ -94,6 +97,12 @@ ssl_ctx_st* new_psk_tls_context(const Secret& secret) {
     ::SSL_CTX_set_session_cache_mode(ctx, SSL_SESS_CACHE_OFF);
     // Writes hand the socket what fits, like a plain socket: the writer keeps the rest.
     ::SSL_CTX_set_mode(ctx, SSL_MODE_ENABLE_PARTIAL_WRITE | SSL_MODE_ACCEPT_MOVING_WRITE_BUFFER);
+    return context.release();
+}
+
+ssl_ctx_st* new_psk_tls_context(const Secret& secret) {
+    std::unique_ptr<SSL_CTX, decltype(&::SSL_CTX_free)> context(new_tls13_context(), ::SSL_CTX_free);
+    SSL_CTX* ctx = context.get();
 
     std::unique_ptr<SSL, decltype(&::SSL_free)> probe(::SSL_new(ctx), ::SSL_free);
     const SSL_CIPHER* cipher = probe ? ::SSL_CIPHER_find(probe.get(), aes_128_gcm_sha256) : nullptr;
@@ -112,6 +121,31 @@ ssl_ctx_st* new_psk_tls_context(const Secret& secret) {
     ::SSL_CTX_set_psk_use_session_callback(ctx, use_session);
     ::SSL_CTX_set_psk_find_session_callback(ctx, find_session);
     return context.release();
+}
+
+std::string tls_handshake_failure(ssl_st* session) {
+    std::string reason = last_tls_error();
+    // Only when this end checks certificates: one keyed by the secret records a peer's it never
+    // asked for as unverified.
+    const long verified = ::SSL_get_verify_result(session);
+    if ((::SSL_get_verify_mode(session) & SSL_VERIFY_PEER) != 0 && verified != X509_V_OK)
+        reason += std::string(" (the peer's certificate: ") + ::X509_verify_cert_error_string(verified) + ")";
+    return reason;
+}
+
+ssl_ctx_st* new_link_tls_context(const Secret& secret) {
+    if (const Identity* identity = secret.identity())
+        return new_certificate_tls_context(*identity);
+    return new_psk_tls_context(secret);
+}
+
+std::string link_tls_context_key(const Secret& secret) {
+    const Digest key = secret.tls_key();
+    std::string text = hex_text(ByteView(key.data(), key.size()));
+    if (const Identity* identity = secret.identity()) {
+        text += " " + identity->directory() + " " + std::to_string(identity->crl_changed());
+    }
+    return text;
 }
 
 }  // namespace plexus::proto

@@ -218,6 +218,9 @@ void Daemon::start(const TempDir& dir, const std::string& node, const std::strin
         argv_.insert(argv_.end(), {"--names", names});
     }
     argv_.insert(argv_.end(), extra.begin(), extra.end());
+    if (const auto flag = std::find(extra.begin(), extra.end(), "--identity");
+        flag != extra.end() && flag + 1 != extra.end())
+        identity_ = *(flag + 1);
     // PLEXUS_TEST_THREADS=N runs every daemon of a test with --threads N (unless the test chose):
     // the suites of tests/integration/CMakeLists.txt that run again on several data threads.
     if (const char* threads = std::getenv("PLEXUS_TEST_THREADS");
@@ -272,6 +275,8 @@ std::map<std::string, std::string> Daemon::env() const {
         env["PLEXUS_NAMES"] = names_;  // else the CLI finds the name server as its daemon did
     if (host_)
         env["PLEXUS_SECRET_FILE"] = test_secret_file();  // a CLI on a host holds the secret too
+    if (!identity_.empty())
+        env["PLEXUS_IDENTITY"] = identity_;  // and acts as the daemon's node
     return env;
 }
 

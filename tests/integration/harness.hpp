@@ -105,7 +105,7 @@ public:
     void start_again();
     /// Resident memory of the daemon, in KiB (from /proc).
     long rss_kib() const;
-    /// Environment that points the CLI at this daemon.
+    /// Environment that points the CLI at this daemon (and gives it the daemon's --identity).
     std::map<std::string, std::string> env() const;
 
 private:
@@ -115,6 +115,7 @@ private:
 
     const Host* host_ = nullptr;
     bool discovers_ = false;
+    std::string identity_;  ///< its --identity, which CLIs on its host use too
     std::string node_;
     std::string ready_;
     std::string log_prefix_;

@@ -25,12 +25,17 @@ CommandLine::CommandLine()
             "--secret-file", secret_file_,
             "the deployment secret, to talk to a name server or daemon over TCP (env PLEXUS_SECRET_FILE)")
         ->each([](const std::string& path) { ::setenv("PLEXUS_SECRET_FILE", path.c_str(), 1); });
+    app_.add_option("--identity", identity_,
+                    "this node's identity directory (made by `plexus pki issue`), when the deployment "
+                    "gives its nodes certificates (env PLEXUS_IDENTITY); needs the secret too")
+        ->each([](const std::string& path) { ::setenv("PLEXUS_IDENTITY", path.c_str(), 1); });
     add_port_commands();
     add_inspect_commands();
     add_app_commands();
     add_what_if_command();
     add_recording_commands();
     add_call_commands();
+    add_pki_commands();
 }
 
 // Commands that make connections and move messages.

@@ -13,6 +13,15 @@
 
 namespace plexus::cli {
 
+/// The options of `plexus pki`.
+struct PkiOptions {
+    std::string ca;
+    std::string name;
+    std::string out;
+    bool names = false;
+    int days = 3650;
+};
+
 class CommandLine {
 public:
     CommandLine();
@@ -31,10 +40,12 @@ private:
     void add_what_if_command();
     void add_recording_commands();
     void add_call_commands();
+    void add_pki_commands();  // pki_commands.cpp
 
     CLI::App app_;
     Common common_;
     std::string secret_file_;
+    std::string identity_;
     int status_ = 0;
 
     // Where the options land; commands read them in their callbacks.
@@ -60,6 +71,7 @@ private:
     PlayOptions play_options_;
     CallOptions call_options_;
     ServeOptions serve_options_;
+    PkiOptions pki_options_;
 };
 
 }  // namespace plexus::cli

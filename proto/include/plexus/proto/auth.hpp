@@ -14,6 +14,8 @@
 
 namespace plexus::proto {
 
+class Identity;
+
 /// A secret shorter than this is refused: it could be guessed.
 inline constexpr std::size_t min_secret_size = 16;
 
@@ -41,8 +43,17 @@ public:
     /// hex of HMAC(secret, "plexus discovery v1" | the query's nonce | the answered address).
     std::string discovery_proof(std::string_view nonce, std::string_view address) const;
 
+    /// This process's identity (identity.hpp), when the deployment gives its nodes certificates:
+    /// its TCP links are then mutual TLS with the certificates rather than TLS keyed by the secret,
+    /// which still proves discovery answers and makes the web token. Identities come on top of the
+    /// secret, never instead of it.
+    void set_identity(const Identity& identity);
+    /// nullptr without one.
+    const Identity* identity() const { return identity_.get(); }
+
 private:
     std::shared_ptr<const Bytes> secret_;
+    std::shared_ptr<const Identity> identity_;
 };
 
 /// Compares two texts (tokens, proofs) in time that does not depend on where they differ.

@@ -24,6 +24,10 @@ struct NamesPingReply {
     std::optional<std::uint64_t> tls_records_refused;
     /// Connections refused at accept for their peer's limits (peer_limits); absent from an older server.
     std::optional<std::uint64_t> peers_refused;
+    /// register_node refused for a node its asker's certificate does not name (identities).
+    std::optional<std::uint64_t> identities_refused;
+    /// Requests refused by the name server's permissions file.
+    std::optional<std::uint64_t> permission_refusals;
     nlohmann::json encode() const;                                     ///< the reply body
     static Result<NamesPingReply> decode(const nlohmann::json& body);  ///< from a reply body
 };

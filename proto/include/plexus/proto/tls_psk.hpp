@@ -16,6 +16,7 @@
 #include "plexus/proto/auth.hpp"
 
 struct ssl_ctx_st;
+struct ssl_st;
 
 namespace plexus::proto {
 
@@ -23,8 +24,24 @@ namespace plexus::proto {
 /// protected by `secret`. Throws std::runtime_error when OpenSSL cannot make one (out of memory).
 ssl_ctx_st* new_psk_tls_context(const Secret& secret);
 
+/// A new OpenSSL context with what every link's TLS has in common, keyed by a secret or by
+/// certificates (identity.hpp): TLS 1.3 only, its two suites, no resumption, writes that hand the
+/// socket what fits. Throws std::runtime_error when OpenSSL cannot make one.
+ssl_ctx_st* new_tls13_context();
+
+/// A new context for a link of a process with `secret`: mutual TLS with certificates when the
+/// secret comes with an identity (Secret::identity()), else TLS keyed by the secret.
+ssl_ctx_st* new_link_tls_context(const Secret& secret);
+/// Tells the contexts new_link_tls_context() makes apart: two secrets with the same key and no
+/// identity share one; an identity's changes with its revocation list (a context made before the
+/// list changed must not be used for a new link).
+std::string link_tls_context_key(const Secret& secret);
+
 /// The reason of the last OpenSSL error on this thread (and clears the queue): for messages.
 std::string last_tls_error();
+/// The reason a handshake of `session` failed: last_tls_error(), and why the peer's certificate
+/// was refused when it was ("certificate revoked", "certificate has expired").
+std::string tls_handshake_failure(ssl_st* session);
 
 /// True when a stream's first two bytes are a TLS handshake record's (content type 22, version
 /// major 3): a ClientHello. A Plexus stream starts with a hello frame (a varint length, then type

@@ -1,0 +1,336 @@
+#include "pki.hpp"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <openssl/evp.h>
+#include <openssl/pem.h>
+#include <openssl/x509.h>
+#include <openssl/x509v3.h>
+
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+
+#include <nlohmann/json.hpp>
+
+#include "plexus/proto/tls_psk.hpp"
+
+namespace plexus::cli {
+
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+template <class T, void (*Free)(T*)>
+struct Freer {
+    void operator()(T* p) const { Free(p); }
+};
+using KeyPtr = std::unique_ptr<EVP_PKEY, Freer<EVP_PKEY, ::EVP_PKEY_free>>;
+using X509Ptr = std::unique_ptr<X509, Freer<X509, ::X509_free>>;
+using CrlPtr = std::unique_ptr<X509_CRL, Freer<X509_CRL, ::X509_CRL_free>>;
+using TimePtr = std::unique_ptr<ASN1_TIME, Freer<ASN1_TIME, ::ASN1_TIME_free>>;
+using FilePtr = std::unique_ptr<FILE, int (*)(FILE*)>;
+
+/// A CA's files.
+struct CaFiles {
+    fs::path directory;
+    fs::path key() const { return directory / "ca.key"; }
+    fs::path certificate() const { return directory / "ca.crt"; }
+    fs::path crl() const { return directory / "crl.pem"; }
+    fs::path issued() const { return directory / "issued.json"; }
+    fs::path identity_of(const proto::Subject& subject) const {
+        return directory / (subject.kind == proto::Subject::Kind::names ? "names" : "nodes") / subject.name;
+    }
+};
+
+proto::Error failed(const std::string& what) {
+    return proto::Error{what + ": " + proto::last_tls_error()};
+}
+
+/// Writes a private key that only its owner may read, from the moment the file exists.
+bool write_private_key(const fs::path& path, EVP_PKEY* key) {
+    const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+    if (fd < 0)
+        return false;
+    ::fchmod(fd, 0600);  // an existing file keeps its mode through O_CREAT
+    FILE* file = ::fdopen(fd, "w");
+    if (!file) {
+        ::close(fd);
+        return false;
+    }
+    const bool written = ::PEM_write_PrivateKey(file, key, nullptr, nullptr, 0, nullptr, nullptr) == 1;
+    return std::fclose(file) == 0 && written;
+}
+
+/// Writes a public file whole, by a rename: a daemon reading it (the revocation list) never
+/// sees half of one.
+template <class Write>
+bool write_public(const fs::path& path, Write write) {
+    const fs::path next = path.string() + ".new";
+    {
+        FilePtr file(std::fopen(next.c_str(), "w"), std::fclose);
+        if (!file || !write(file.get()))
+            return false;
+    }
+    ::chmod(next.c_str(), 0644);
+    std::error_code error;
+    fs::rename(next, path, error);
+    return !error;
+}
+
+KeyPtr read_key(const fs::path& path) {
+    FilePtr file(std::fopen(path.c_str(), "r"), std::fclose);
+    return KeyPtr(file ? ::PEM_read_PrivateKey(file.get(), nullptr, nullptr, nullptr) : nullptr);
+}
+
+X509Ptr read_certificate(const fs::path& path) {
+    FilePtr file(std::fopen(path.c_str(), "r"), std::fclose);
+    return X509Ptr(file ? ::PEM_read_X509(file.get(), nullptr, nullptr, nullptr) : nullptr);
+}
+
+bool add_extension(X509* certificate, X509* issuer, int nid, const std::string& value) {
+    X509V3_CTX context;
+    X509V3_set_ctx_nodb(&context);
+    X509V3_set_ctx(&context, issuer, certificate, nullptr, nullptr, 0);
+    X509_EXTENSION* extension = ::X509V3_EXT_conf_nid(nullptr, &context, nid, value.c_str());
+    if (!extension)
+        return false;
+    const bool added = ::X509_add_ext(certificate, extension, -1) == 1;
+    ::X509_EXTENSION_free(extension);
+    return added;
+}
+
+/// A certificate of `key` named `common_name`, signed by `issuer_key` (self-signed when `issuer` is
+/// null), valid from an hour ago (clocks differ) for `days`, with `extensions` (nid, value).
+X509Ptr make_certificate(std::uint64_t serial, const std::string& common_name, EVP_PKEY* key, X509* issuer,
+                         EVP_PKEY* issuer_key, int days,
+                         const std::vector<std::pair<int, std::string>>& extensions) {
+    X509Ptr certificate(::X509_new());
+    if (!certificate)
+        return nullptr;
+    X509* c = certificate.get();
+    X509_NAME* name = ::X509_get_subject_name(c);
+    const bool made = ::X509_set_version(c, X509_VERSION_3) == 1 &&
+                      ::ASN1_INTEGER_set_uint64(::X509_get_serialNumber(c), serial) == 1 &&
+                      ::X509_gmtime_adj(::X509_getm_notBefore(c), -3600) != nullptr &&
+                      ::X509_time_adj_ex(::X509_getm_notAfter(c), days, 0, nullptr) != nullptr &&
+                      ::X509_NAME_add_entry_by_txt(
+                          name, "CN", MBSTRING_UTF8,
+                          reinterpret_cast<const unsigned char*>(common_name.c_str()), -1, -1, 0) == 1 &&
+                      ::X509_set_issuer_name(c, issuer ? ::X509_get_subject_name(issuer) : name) == 1 &&
+                      ::X509_set_pubkey(c, key) == 1;
+    if (!made)
+        return nullptr;
+    for (const auto& [nid, value] : extensions) {
+        if (!add_extension(c, issuer ? issuer : c, nid, value))
+            return nullptr;
+    }
+    if (::X509_sign(c, issuer_key, nullptr) <= 0)  // Ed25519 takes no separate digest
+        return nullptr;
+    return certificate;
+}
+
+json read_issued(const CaFiles& ca) {
+    std::ifstream in(ca.issued());
+    json issued = json::parse(in, nullptr, false);
+    if (issued.is_discarded() || !issued.is_object())
+        return json{{"next_serial", 2}, {"certificates", json::array()}};
+    return issued;
+}
+
+bool write_issued(const CaFiles& ca, const json& issued) {
+    return write_public(ca.issued(), [&](FILE* file) {
+        const std::string text = issued.dump(2) + "\n";
+        return std::fwrite(text.data(), 1, text.size(), file) == text.size();
+    });
+}
+
+/// The revocation list of every certificate `issued` marks revoked, signed by the CA, valid ten
+/// years (a list past its next update makes every handshake fail).
+proto::Status write_crl(const CaFiles& ca, const json& issued, X509* ca_certificate, EVP_PKEY* ca_key) {
+    CrlPtr crl(::X509_CRL_new());
+    const std::time_t now = std::time(nullptr);
+    TimePtr this_update(::ASN1_TIME_adj(nullptr, now, 0, 0));
+    TimePtr next_update(::ASN1_TIME_adj(nullptr, now, 3650, 0));
+    if (!crl || !this_update || !next_update || ::X509_CRL_set_version(crl.get(), X509_CRL_VERSION_2) != 1 ||
+        ::X509_CRL_set_issuer_name(crl.get(), ::X509_get_subject_name(ca_certificate)) != 1 ||
+        ::X509_CRL_set1_lastUpdate(crl.get(), this_update.get()) != 1 ||
+        ::X509_CRL_set1_nextUpdate(crl.get(), next_update.get()) != 1)
+        return failed("cannot make the revocation list");
+    for (const auto& entry : issued["certificates"]) {
+        if (!entry.value("revoked", false))
+            continue;
+        X509_REVOKED* revoked = ::X509_REVOKED_new();
+        ASN1_INTEGER* serial = ::ASN1_INTEGER_new();
+        const bool set = revoked && serial &&
+                         ::ASN1_INTEGER_set_uint64(serial, entry["serial"].get<std::uint64_t>()) == 1 &&
+                         ::X509_REVOKED_set_serialNumber(revoked, serial) == 1 &&
+                         ::X509_REVOKED_set_revocationDate(revoked, this_update.get()) == 1;
+        ::ASN1_INTEGER_free(serial);
+        if (!set || ::X509_CRL_add0_revoked(crl.get(), revoked) != 1) {
+            ::X509_REVOKED_free(revoked);
+            return failed("cannot list a revoked certificate");
+        }
+    }
+    ::X509_CRL_sort(crl.get());
+    if (::X509_CRL_sign(crl.get(), ca_key, nullptr) <= 0)
+        return failed("cannot sign the revocation list");
+    if (!write_public(ca.crl(), [&](FILE* file) { return ::PEM_write_X509_CRL(file, crl.get()) == 1; }))
+        return proto::Error{"cannot write " + ca.crl().string()};
+    return proto::Ok{};
+}
+
+struct LoadedCa {
+    KeyPtr key;
+    X509Ptr certificate;
+};
+
+proto::Result<LoadedCa> load_ca(const CaFiles& ca) {
+    LoadedCa loaded{read_key(ca.key()), read_certificate(ca.certificate())};
+    if (!loaded.key || !loaded.certificate)
+        return proto::Error{"no CA in " + ca.directory.string() +
+                            " (ca.key and ca.crt; `plexus pki init DIR` makes one)"};
+    return loaded;
+}
+
+bool good_name(const std::string& name) {
+    if (name.empty() || name.size() > 64)
+        return false;
+    for (const char c : name) {
+        if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_' && c != '.')
+            return false;
+    }
+    return name != "." && name != "..";
+}
+
+}  // namespace
+
+proto::Status pki_init(const std::string& directory, int days) {
+    const CaFiles ca{directory};
+    std::error_code error;
+    if (fs::exists(ca.key(), error))
+        return proto::Error{"there is a CA in " + directory +
+                            " already (ca.key): its identities would no longer be "
+                            "trusted; choose another directory"};
+    fs::create_directories(ca.directory, error);
+    if (error)
+        return proto::Error{"cannot make " + directory + ": " + error.message()};
+    ::chmod(directory.c_str(), 0700);
+    KeyPtr key(::EVP_PKEY_Q_keygen(nullptr, nullptr, "ED25519"));
+    if (!key)
+        return failed("cannot make the CA's key");
+    auto certificate = make_certificate(1, "Plexus deployment CA", key.get(), nullptr, key.get(), days,
+                                        {{NID_basic_constraints, "critical,CA:TRUE,pathlen:0"},
+                                         {NID_key_usage, "critical,keyCertSign,cRLSign"},
+                                         {NID_subject_key_identifier, "hash"}});
+    if (!certificate)
+        return failed("cannot make the CA's certificate");
+    if (!write_private_key(ca.key(), key.get()))
+        return proto::Error{"cannot write " + ca.key().string()};
+    if (!write_public(ca.certificate(),
+                      [&](FILE* file) { return ::PEM_write_X509(file, certificate.get()) == 1; }))
+        return proto::Error{"cannot write " + ca.certificate().string()};
+    const json issued{{"next_serial", 2}, {"certificates", json::array()}};
+    if (!write_issued(ca, issued))
+        return proto::Error{"cannot write " + ca.issued().string()};
+    return write_crl(ca, issued, certificate.get(), key.get());
+}
+
+proto::Result<std::string> pki_issue(const std::string& ca_directory, const proto::Subject& subject,
+                                     std::string out, int days) {
+    const CaFiles ca{ca_directory};
+    if (!good_name(subject.name))
+        return proto::Error{"'" + subject.name +
+                            "' cannot name an identity: 1 to 64 letters, digits, '-', '_' or '.'"};
+    auto loaded = load_ca(ca);
+    if (!loaded)
+        return loaded.error();
+    json issued = read_issued(ca);
+    for (const auto& entry : issued["certificates"]) {
+        if (entry["subject"] == subject.uri() && !entry.value("revoked", false))
+            return proto::Error{subject.text() + " has a certificate already (serial " +
+                                entry["serial"].dump() +
+                                "); revoke it first (`plexus pki revoke`) to issue a new one"};
+    }
+    const std::uint64_t serial = issued["next_serial"].get<std::uint64_t>();
+    KeyPtr key(::EVP_PKEY_Q_keygen(nullptr, nullptr, "ED25519"));
+    if (!key)
+        return failed("cannot make the key");
+    auto certificate =
+        make_certificate(serial, subject.name, key.get(), loaded->certificate.get(), loaded->key.get(), days,
+                         {{NID_basic_constraints, "critical,CA:FALSE"},
+                          {NID_key_usage, "critical,digitalSignature"},
+                          {NID_ext_key_usage, "serverAuth,clientAuth"},
+                          {NID_subject_alt_name, "URI:" + subject.uri()},
+                          {NID_subject_key_identifier, "hash"},
+                          {NID_authority_key_identifier, "keyid:always"}});
+    if (!certificate)
+        return failed("cannot make the certificate of " + subject.text());
+    const fs::path identity = out.empty() ? ca.identity_of(subject) : fs::path(out);
+    std::error_code error;
+    fs::create_directories(identity, error);
+    if (error)
+        return proto::Error{"cannot make " + identity.string() + ": " + error.message()};
+    ::chmod(identity.c_str(), 0700);
+    if (!write_private_key(identity / "node.key", key.get()))
+        return proto::Error{"cannot write " + (identity / "node.key").string()};
+    if (!write_public(identity / "node.crt",
+                      [&](FILE* file) { return ::PEM_write_X509(file, certificate.get()) == 1; }))
+        return proto::Error{"cannot write " + (identity / "node.crt").string()};
+    fs::copy_file(ca.certificate(), identity / "ca.crt", fs::copy_options::overwrite_existing, error);
+    if (!error)
+        fs::copy_file(ca.crl(), identity / "crl.pem", fs::copy_options::overwrite_existing, error);
+    if (error)
+        return proto::Error{"cannot copy the CA's files into " + identity.string() + ": " + error.message()};
+    issued["certificates"].push_back(
+        {{"subject", subject.uri()}, {"serial", serial}, {"identity", fs::absolute(identity).string()}});
+    issued["next_serial"] = serial + 1;
+    if (!write_issued(ca, issued))
+        return proto::Error{"cannot write " + ca.issued().string()};
+    return identity.string();
+}
+
+proto::Result<std::uint64_t> pki_revoke(const std::string& ca_directory, const proto::Subject& subject) {
+    const CaFiles ca{ca_directory};
+    auto loaded = load_ca(ca);
+    if (!loaded)
+        return loaded.error();
+    json issued = read_issued(ca);
+    std::optional<std::uint64_t> serial;
+    for (auto& entry : issued["certificates"]) {
+        if (entry["subject"] == subject.uri() && !entry.value("revoked", false)) {
+            entry["revoked"] = true;
+            serial = entry["serial"].get<std::uint64_t>();
+        }
+    }
+    if (!serial)
+        return proto::Error{subject.text() + " holds no certificate of this CA that is not revoked already"};
+    if (!write_issued(ca, issued))
+        return proto::Error{"cannot write " + ca.issued().string()};
+    if (auto written = write_crl(ca, issued, loaded->certificate.get(), loaded->key.get()); !written)
+        return written.error();
+    // Every identity this CA issued that is still where it was made gets the new list; those
+    // copied to other machines need it copied too (docs/SECURITY.md).
+    for (const auto& entry : issued["certificates"]) {
+        const fs::path identity = entry.value("identity", std::string());
+        std::error_code error;
+        if (!identity.empty() && fs::exists(identity / "crl.pem", error)) {
+            const bool copied = write_public(identity / "crl.pem", [&](FILE* to) {
+                std::ifstream in(ca.crl(), std::ios::binary);
+                const std::string text((std::istreambuf_iterator<char>(in)),
+                                       std::istreambuf_iterator<char>());
+                return std::fwrite(text.data(), 1, text.size(), to) == text.size();
+            });
+            if (!copied)
+                return proto::Error{"cannot write " + (identity / "crl.pem").string()};
+        }
+    }
+    return *serial;
+}
+
+}  // namespace plexus::cli
