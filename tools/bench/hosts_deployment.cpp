@@ -1,12 +1,15 @@
 #include "hosts_deployment.hpp"
 
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
+#include <stdexcept>
 
 #include <nlohmann/json.hpp>
 
+#include "pki.hpp"
 #include "run_deadline.hpp"
 
 namespace plexus::bench {
@@ -29,10 +32,33 @@ std::string start_ready(std::vector<std::unique_ptr<ChildProcess>>& processes,
 
 Deployment::Deployment(const HostsNetwork& network, const TempDir& dir, const HostsOptions& options,
                        const std::string& tag, const std::string& secret_file, const std::vector<int>& hosts,
-                       int names_port, const std::string& mcast_range, int mcast_port) {
+                       int names_port, const std::string& mcast_range, int mcast_port, bool identities) {
     std::vector<std::string> trust = secret_file.empty()
                                          ? std::vector<std::string>{"--insecure"}
                                          : std::vector<std::string>{"--secret-file", secret_file};
+    const std::string ca = dir.file(tag + "-ca");
+    const auto identity = [&](const proto::Subject& subject) -> std::vector<std::string> {
+        if (!identities)
+            return {};
+        auto issued = cli::pki_issue(ca, subject, "", 3650);
+        if (!issued)
+            throw std::runtime_error("cannot issue " + subject.text() + ": " + issued.error().message);
+        return {"--identity", *issued};
+    };
+    std::vector<std::string> permissions;
+    if (identities) {
+        if (auto made = cli::pki_init(ca, 3650); !made)
+            throw std::runtime_error("cannot make the bench's CA: " + made.error().message);
+        // The bench's nodes may do what it does; a rule per action and one for its local user, so a
+        // check walks the rules as a real file's would.
+        const std::string file = dir.file(tag + "-permissions.json");
+        std::ofstream(file) << nlohmann::json{
+            {"rules",
+             {{{"nodes", {"someone-else"}}, {"allow", {"open", "write"}}, {"ports", {"/elsewhere/**"}}},
+              {{"nodes", {tag + "-h*"}}, {"allow", {"open", "read", "write", "connect"}}, {"ports", {"/**"}}},
+              {{"users", {::getuid()}}, {"allow", {"open", "read", "write", "connect", "monitor"}}, {"ports", {"/**"}}}}}};
+        permissions = {"--permissions", file};
+    }
     const std::string names_ready = dir.file(tag + "-names.ready");
     std::vector<std::string> names_argv{options.plexus_names,
                                         "--listen",
@@ -48,6 +74,8 @@ Deployment::Deployment(const HostsNetwork& network, const TempDir& dir, const Ho
                                         "--log-level",
                                         "warn"};
     names_argv.insert(names_argv.end(), trust.begin(), trust.end());
+    const auto names_identity = identity({proto::Subject::Kind::names, tag + "-names"});
+    names_argv.insert(names_argv.end(), names_identity.begin(), names_identity.end());
     names_ =
         nlohmann::json::parse(start(network.wrap(0, names_argv), names_ready, dir.file(tag + "-names.log")))
             .at("names")
@@ -62,6 +90,9 @@ Deployment::Deployment(const HostsNetwork& network, const TempDir& dir, const Ho
                                       "--ready-file",  ready_file, "--log-level",
                                       "warn"};
         argv.insert(argv.end(), trust.begin(), trust.end());
+        const auto node_identity = identity({proto::Subject::Kind::node, node});
+        argv.insert(argv.end(), node_identity.begin(), node_identity.end());
+        argv.insert(argv.end(), permissions.begin(), permissions.end());
         const auto ready =
             nlohmann::json::parse(start(network.wrap(k, argv), ready_file, dir.file(node + ".log")));
         sockets_[k] = ready.value("socket", socket);

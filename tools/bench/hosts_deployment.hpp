@@ -32,10 +32,12 @@ std::string start_ready(std::vector<std::unique_ptr<ChildProcess>>& processes,
 class Deployment {
 public:
     /// `secret_file` "": --insecure. Names, groups and ports differ per deployment so that two can
-    /// share hosts.
+    /// share hosts. `identities` (with a secret): the name server and every daemon get an identity
+    /// of a CA made in `dir` (mutual TLS with certificates), and every daemon a permissions file
+    /// whose rules allow what the bench does, so that each check is made.
     Deployment(const HostsNetwork& network, const TempDir& dir, const HostsOptions& options,
                const std::string& tag, const std::string& secret_file, const std::vector<int>& hosts,
-               int names_port, const std::string& mcast_range, int mcast_port);
+               int names_port, const std::string& mcast_range, int mcast_port, bool identities = false);
 
     /// The daemons of hosts a and b as a Topology for plexus_measurements.hpp (a near, b far).
     std::unique_ptr<Topology> pair(int a, int b) const {

@@ -422,9 +422,14 @@ int run_hosts(const HostsOptions& given) {
     // PLEXUS_BENCH_AA=1: the "secret" deployment runs --insecure too, an A/A check that the
     // comparison of section 4 has no bias of its own (docs/BENCHMARKS.md).
     const std::string secret = std::getenv("PLEXUS_BENCH_AA") ? std::string() : write_secret(dir);
+    // PLEXUS_BENCH_IDENTITIES=1: the secure deployment's links are mutual TLS with certificates
+    // (identities) and its daemons check a permissions file, instead of TLS keyed by the secret.
+    const bool identities = !secret.empty() && std::getenv("PLEXUS_BENCH_IDENTITIES");
+    if (identities)
+        std::printf("secure deployment: identities (certificates) and permissions files\n");
     // Different groups and group ports: the two deployments share hosts 1 and 2.
     const Deployment secure(*network, dir, options, "s", secret, {1, 2, 3, 4}, 10100, "239.255.81.0/24",
-                            10102);
+                            10102, identities);
     const Deployment insecure(*network, dir, options, "i", "", {1, 2}, 10110, "239.255.82.0/24", 10112);
     const auto plexus = secure.pair(writer_host, reader_host);
     const auto plexus_insecure = insecure.pair(writer_host, reader_host);

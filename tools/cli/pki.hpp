@@ -1,7 +1,7 @@
 #pragma once
 // `plexus pki`: a deployment's certificate authority, on files (docs/SECURITY.md, "Identities").
 // A CA directory holds the CA's key and certificate, the revocation list, and what was issued:
-//   ca.key       the CA's private key (Ed25519, mode 600): whoever holds it makes identities
+//   ca.key       the CA's private key (ECDSA P-256, mode 600): whoever holds it makes identities
 //   ca.crt       the CA's certificate, which every identity trusts
 //   crl.pem      the certificates revoked, signed by the CA
 //   issued.json  the serial number of each certificate issued, and those revoked

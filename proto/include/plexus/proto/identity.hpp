@@ -10,7 +10,7 @@
 //   ca.crt    the deployment CA's certificate: the only issuer trusted
 //   node.crt  this node's certificate; its subjectAltName URI says what it is:
 //             "plexus:node:NAME" (a daemon, its CLI and its components) or "plexus:names:NAME"
-//   node.key  its private key (Ed25519), readable by its owner only
+//   node.key  its private key (ECDSA P-256), readable by its owner only
 //   crl.pem   the CA's revocation list, read again whenever it changes
 
 #include <cstdint>
