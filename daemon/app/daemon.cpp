@@ -86,6 +86,10 @@ std::string Daemon::address() const {
     return config_.listen.host + ":" + std::to_string(ec ? 0 : local.port());
 }
 
+bool Daemon::http_tls() const {
+    return http_ && http_->tls();
+}
+
 std::string Daemon::http_address() const {
     return http_ ? http_->address() : std::string();
 }
@@ -176,7 +180,7 @@ int Daemon::run() {
             return 4;
         }
         http_->start();
-        spdlog::info("web page at http://{}/", http_->address());
+        spdlog::info("web page at {}://{}/", http_->tls() ? "https" : "http", http_->address());
     }
     names_ = std::make_unique<names::NameClient>(io_, config_.names, config_.node, advertised_address(),
                                                  config_.max_frame, config_.secret);

@@ -71,6 +71,7 @@ public:
     const DaemonConfig& config() const override { return config_; }
     std::string address() const override;
     std::string http_address() const override;
+    bool http_tls() const override;
     nlohmann::json http_counters() const override;
     Router& router() override { return router_; }
     names::NameClient& names() override { return *names_; }

@@ -39,6 +39,8 @@ public:
     virtual std::string address() const = 0;
     /// HOST:PORT of the web endpoint (--http); "" when it serves none.
     virtual std::string http_address() const = 0;
+    /// True when the web endpoint speaks HTTPS (an identity, beyond loopback).
+    virtual bool http_tls() const { return false; }
     /// The web endpoint's counters (web/http_counters.hpp), null when it serves none.
     virtual nlohmann::json http_counters() const = 0;
     virtual Router& router() = 0;

@@ -5,6 +5,7 @@
 
 #include <spdlog/spdlog.h>
 #include <boost/beast/core.hpp>
+#include <boost/beast/ssl.hpp>
 
 #include "core/message_sampler.hpp"
 #include "core/wall_clock.hpp"
@@ -60,7 +61,7 @@ std::string sse_event(const std::string& name, const nlohmann::json& data) {
 
 struct EventStream::Client {
     explicit Client(asio::any_io_executor executor) : wake(std::move(executor)) {}
-    beast::tcp_stream* stream = nullptr;
+    asio::ip::tcp::socket* socket = nullptr;  ///< closed to end a write to a client that never reads
     std::deque<std::shared_ptr<const std::string>> waiting;
     std::size_t waiting_bytes = 0;
     asio::steady_timer wake;  ///< cancelled when an event is queued or the client is dropped
@@ -89,8 +90,8 @@ void EventStream::drop(Client& client, bool slow) {
     client.waiting.clear();
     client.waiting_bytes = 0;
     client.wake.cancel();
-    if (client.stream)
-        client.stream->socket().close();  // ends a write that waits for a client that never reads
+    if (client.socket)
+        client.socket->close();  // ends a write that waits for a client that never reads
 }
 
 void EventStream::queue(Client& client, const std::shared_ptr<const std::string>& text) {
@@ -113,7 +114,9 @@ void EventStream::publish(const std::string& name, const nlohmann::json& data) {
         queue(*client, text);
 }
 
-Task<void> EventStream::serve(beast::tcp_stream& stream, std::string messages_port) {
+template <class Stream>
+Task<void> EventStream::serve(Stream& stream, std::string messages_port) {
+    auto& tcp = beast::get_lowest_layer(stream);
     static const std::string header =
         "HTTP/1.1 200 OK\r\n"
         "Content-Type: text/event-stream\r\n"
@@ -125,9 +128,9 @@ Task<void> EventStream::serve(beast::tcp_stream& stream, std::string messages_po
     // The kernel's buffer is a backlog too, and one that autotuning grows to megabytes for a client
     // that never reads: keep it small, so that what waits for a client is what is counted here.
     boost::system::error_code ignored;
-    stream.socket().set_option(asio::socket_base::send_buffer_size(stream_socket_buffer), ignored);
+    tcp.socket().set_option(asio::socket_base::send_buffer_size(stream_socket_buffer), ignored);
     auto client = std::make_shared<Client>(executor_);
-    client->stream = &stream;
+    client->socket = &tcp.socket();
     client->messages_port = std::move(messages_port);
     clients_.push_back(client);
     ++counters_.stream_clients;
@@ -142,7 +145,7 @@ Task<void> EventStream::serve(beast::tcp_stream& stream, std::string messages_po
             continue;
         }
         const auto text = client->waiting.front();
-        stream.expires_after(config_.write_timeout);
+        tcp.expires_after(config_.write_timeout);
         auto [error, written] = co_await asio::async_write(stream, asio::buffer(*text), use_nothrow);
         if (error) {
             if (error == beast::error::timeout)
@@ -156,10 +159,14 @@ Task<void> EventStream::serve(beast::tcp_stream& stream, std::string messages_po
         ++counters_.stream_events;
     }
     client->dropped = true;
-    client->stream = nullptr;
+    client->socket = nullptr;
     std::erase(clients_, client);
     --counters_.stream_clients;
 }
+
+template Task<void> EventStream::serve(beast::tcp_stream& stream, std::string messages_port);
+template Task<void> EventStream::serve(beast::ssl_stream<beast::tcp_stream>& stream,
+                                       std::string messages_port);
 
 void EventStream::stop() {
     stopped_ = true;

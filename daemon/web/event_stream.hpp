@@ -32,7 +32,9 @@ public:
     /// Serves one client on `stream` (its request read): writes the response's header, then its
     /// events until it goes, is dropped, or stop(). `messages_port`: a port whose sampled messages
     /// it also wants ("" for none).
-    Task<void> serve(boost::beast::tcp_stream& stream, std::string messages_port);
+    /// `Stream`: beast::tcp_stream, or beast::ssl_stream of one (HTTPS).
+    template <class Stream>
+    Task<void> serve(Stream& stream, std::string messages_port);
     /// Ends every client's stream (the daemon stops).
     void stop();
 

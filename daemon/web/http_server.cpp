@@ -3,6 +3,9 @@
 #include <spdlog/spdlog.h>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
+#include <boost/beast/ssl.hpp>
+
+#include "plexus/proto/identity.hpp"
 
 namespace plexus::daemon::web {
 
@@ -83,6 +86,16 @@ proto::Status HttpServer::bind() {
         acceptor_.listen(asio::socket_base::max_listen_connections, ec);
     if (ec)
         return proto::Error{"cannot serve the web page on " + where.text() + ": " + ec.message()};
+    // Beyond loopback, a daemon with an identity serves HTTPS with its certificate: the web token
+    // and the views never cross the network in clear.
+    const auto& secret = host_.config().secret;
+    if (secret && secret->identity() && !address.is_loopback()) {
+        try {
+            tls_ = std::make_unique<asio::ssl::context>(proto::new_web_tls_context(*secret->identity()));
+        } catch (const std::exception& e) {
+            return proto::Error{std::string("cannot serve the web page over HTTPS: ") + e.what()};
+        }
+    }
     return proto::Ok{};
 }
 
@@ -123,7 +136,7 @@ Task<void> HttpServer::accept() {
         ++counters_.connections_accepted;
         if (counters_.connections_open >= config_.max_connections) {
             counters_.count(Refused::too_many_connections);
-            if (refusing_ < most_refusing)
+            if (refusing_ < most_refusing && !tls_)  // an HTTPS client would read a plain 503 as garbage
                 asio::co_spawn(io_, refuse_busy(std::move(socket)), asio::detached);
             continue;
         }
@@ -145,13 +158,37 @@ Task<void> HttpServer::serve(asio::ip::tcp::socket socket) {
     ++counters_.connections_open;
     boost::system::error_code ec;
     const auto remote = socket.remote_endpoint(ec).address();
-    beast::tcp_stream stream(std::move(socket));
+    if (tls_) {
+        beast::ssl_stream<beast::tcp_stream> stream(beast::tcp_stream(std::move(socket)), *tls_);
+        beast::get_lowest_layer(stream).expires_after(config_.read_timeout);
+        auto [handshake_error] = co_await stream.async_handshake(asio::ssl::stream_base::server, use_nothrow);
+        if (!handshake_error) {
+            co_await answer_requests(stream, remote);
+        } else {
+            counters_.count(Refused::bad_request);
+            spdlog::debug("web: TLS handshake from {} failed: {}", remote.to_string(),
+                          handshake_error.message());
+        }
+        // No close_notify: the response said how long it is, and the socket closes next.
+        beast::get_lowest_layer(stream).socket().shutdown(asio::ip::tcp::socket::shutdown_send, ec);
+        beast::get_lowest_layer(stream).close();
+    } else {
+        beast::tcp_stream stream(std::move(socket));
+        co_await answer_requests(stream, remote);
+        stream.socket().shutdown(asio::ip::tcp::socket::shutdown_send, ec);
+        stream.close();
+    }
+    --counters_.connections_open;
+}
+
+template <class Stream>
+Task<void> HttpServer::answer_requests(Stream& stream, const asio::ip::address& remote) {
     // Room for the largest header the parser accepts, and no more.
     beast::flat_buffer buffer(config_.header_limit + 1024);
     for (;;) {
         http::request_parser<http::empty_body> parser;
         parser.header_limit(static_cast<std::uint32_t>(config_.header_limit));
-        stream.expires_after(config_.read_timeout);
+        beast::get_lowest_layer(stream).expires_after(config_.read_timeout);
         auto [error, unused] = co_await http::async_read(stream, buffer, parser, use_nothrow);
         if (error == http::error::end_of_stream || error == asio::error::eof ||
             error == asio::error::connection_reset || error == asio::error::operation_aborted)
@@ -211,20 +248,17 @@ Task<void> HttpServer::serve(asio::ip::tcp::socket socket) {
             if (stopped_)
                 break;
             auto response = to_beast(answer, request.version(), request.keep_alive() && !done, head);
-            stream.expires_after(config_.write_timeout);
+            beast::get_lowest_layer(stream).expires_after(config_.write_timeout);
             auto [write_error, bytes] = co_await http::async_write(stream, response, use_nothrow);
             if (write_error || done || !request.keep_alive())
                 break;
             continue;
         }
         auto response = to_beast(answer, 11, false, false);
-        stream.expires_after(config_.write_timeout);
+        beast::get_lowest_layer(stream).expires_after(config_.write_timeout);
         co_await http::async_write(stream, response, use_nothrow);
         break;
     }
-    stream.socket().shutdown(asio::ip::tcp::socket::shutdown_send, ec);
-    stream.close();
-    --counters_.connections_open;
 }
 
 }  // namespace plexus::daemon::web

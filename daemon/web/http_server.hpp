@@ -9,6 +9,8 @@
 #include <memory>
 #include <string>
 
+#include <boost/asio/ssl/context.hpp>
+
 #include "access.hpp"
 #include "control/control_host.hpp"
 #include "event_stream.hpp"
@@ -34,11 +36,16 @@ public:
     void stop();
     /// HOST:PORT it listens on (the port the kernel gave for port 0).
     std::string address() const;
+    /// True when it speaks HTTPS: the daemon has an identity and listens beyond loopback (bind()).
+    bool tls() const { return tls_ != nullptr; }
     const HttpCounters& counters() const { return counters_; }
 
 private:
     Task<void> accept();
     Task<void> serve(asio::ip::tcp::socket socket);
+    /// Reads requests from `stream` and answers them until it closes (plain or HTTPS).
+    template <class Stream>
+    Task<void> answer_requests(Stream& stream, const asio::ip::address& remote);
     /// Answers 503 to a connection over the limit, briefly, then closes it.
     Task<void> refuse_busy(asio::ip::tcp::socket socket);
 
@@ -46,6 +53,7 @@ private:
     HttpConfig config_;
     ControlHost& host_;
     asio::ip::tcp::acceptor acceptor_;
+    std::unique_ptr<asio::ssl::context> tls_;  ///< HTTPS with the node's certificate; null: plain HTTP
     Access access_;
     HttpCounters counters_;
     SystemView system_;

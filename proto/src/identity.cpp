@@ -158,6 +158,16 @@ ssl_ctx_st* new_certificate_tls_context(const Identity& identity) {
     return context.release();
 }
 
+ssl_ctx_st* new_web_tls_context(const Identity& identity) {
+    std::unique_ptr<SSL_CTX, decltype(&::SSL_CTX_free)> context(new_tls13_context(), ::SSL_CTX_free);
+    SSL_CTX* ctx = context.get();
+    if (::SSL_CTX_use_certificate_file(ctx, identity.certificate_file().c_str(), SSL_FILETYPE_PEM) != 1)
+        fail(identity, "node.crt");
+    if (::SSL_CTX_use_PrivateKey_file(ctx, identity.key_file().c_str(), SSL_FILETYPE_PEM) != 1)
+        fail(identity, "node.key");
+    return context.release();
+}
+
 std::optional<Subject> peer_subject(ssl_st* session) {
     X509* certificate = ::SSL_get0_peer_certificate(session);
     if (!certificate || ::SSL_get_verify_result(session) != X509_V_OK)

@@ -362,7 +362,10 @@ Result<NodeRequest> NodeRequest::decode(const json& body) {
 }
 
 json NodeReply::encode() const {
-    return {{"node", node}, {"address", address}, {"names", names}, {"http", http}};
+    json out = {{"node", node}, {"address", address}, {"names", names}, {"http", http}};
+    if (http_tls)
+        out["http_tls"] = true;
+    return out;
 }
 Result<NodeReply> NodeReply::decode(const json& body) {
     NodeReply out;
@@ -371,6 +374,7 @@ Result<NodeReply> NodeReply::decode(const json& body) {
     in.text("address", out.address);
     in.text("names", out.names);
     in.text("http", out.http);
+    in.flag("http_tls", out.http_tls);
     return in.result(std::move(out));
 }
 

@@ -12,10 +12,12 @@ namespace web_hosts_test {
 
 using nlohmann::json;
 
-/// GET `url` from inside `host`: the status code and the body.
-std::pair<int, std::string> get_from(const Host& host, const std::string& url,
-                                     const std::string& header = "") {
-    std::string command = python_path() + " " + web_tests_dir() + "/http_get.py '" + url + "'";
+/// GET `url` from inside `host`: the status code and the body. `ca_file`: the CA an https URL's
+/// certificate must come from.
+std::pair<int, std::string> get_from(const Host& host, const std::string& url, const std::string& header = "",
+                                     const std::string& ca_file = "") {
+    std::string command = (ca_file.empty() ? "" : "PLEXUS_CA_FILE='" + ca_file + "' ") + python_path() + " " +
+                          web_tests_dir() + "/http_get.py '" + url + "'";
     if (!header.empty())
         command += " '" + header + "'";
     const auto result = host.run(command, std::chrono::seconds(60));
@@ -91,6 +93,45 @@ TEST(WebHosts_test, ThePageOfOneDaemonShowsTheOtherDaemonsPortsAndCountersOnlyWi
     // Every refusal counted, as `plexus stats` shows.
     const auto stats = json::parse(run_cli(dir, watched, {"stats", "--json"}).out);
     EXPECT_GE(stats["http"]["refused"]["token"].get<int>(), 2) << stats["http"];
+}
+
+TEST(WebHosts_test, WithAnIdentityThePageIsServedOverHttpsWithTheNodesCertificate) {
+    PLEXUS_NEEDS_NETNS();
+    Network net(3);
+    TempDir dir;
+    // The CA, the name server's identity, and the watched node's with its address for browsers.
+    const std::string ca = dir.file("ca");
+    const auto pki = [&](std::vector<std::string> args) {
+        args.insert(args.begin(), {plexus_path(), "pki"});
+        Process process(args, {}, dir.file("pki-" + args.at(3)));
+        return process.wait(30s).value_or(-1);
+    };
+    ASSERT_EQ(pki({"init", ca}), 0);
+    ASSERT_EQ(pki({"issue", "names0", "--names", "--ca", ca}), 0);
+    ASSERT_EQ(pki({"issue", "watched", "--ca", ca, "--web", net.host(1).address()}), 0);
+    NameServerProcess names(dir, net.host(0), {"--identity", ca + "/names/names0"});
+    Daemon watched(dir, net.host(1), "watched", names.address(),
+                   {"--identity", ca + "/nodes/watched", "--http", net.host(1).address() + ":0"});
+
+    const auto printed = run_cli(dir, watched, {"web"});
+    ASSERT_EQ(printed.status, 0) << printed.err;
+    const std::string url = printed.out.substr(0, printed.out.find('\n'));
+    ASSERT_EQ(url.rfind("https://" + net.host(1).address() + ":", 0), 0u) << url;
+    const auto token = run_cli(dir, watched, {"web", "--token"});
+    const std::string bearer = "Authorization: Bearer " + token.out.substr(0, token.out.find('\n'));
+
+    // A browser that trusts the deployment's CA: the certificate names the address, the token opens it.
+    const auto answered = get_from(net.host(2), url + "api/node", bearer, ca + "/ca.crt");
+    ASSERT_EQ(answered.first, 200) << answered.second;
+    EXPECT_EQ(json::parse(answered.second)["node"], "watched");
+    EXPECT_EQ(get_from(net.host(2), url + "api/node", "", ca + "/ca.crt").first, 401);
+    // One that does not trust it refuses the certificate; plain HTTP gets no page.
+    const auto untrusted = get_from(net.host(2), url + "api/node", bearer);
+    EXPECT_EQ(untrusted.first, 0);
+    EXPECT_NE(untrusted.second.find("CERTIFICATE_VERIFY_FAILED"), std::string::npos) << untrusted.second;
+    std::string plain = url;
+    plain.replace(0, 5, "http");
+    EXPECT_NE(get_from(net.host(2), plain + "api/node", bearer).first, 200);
 }
 
 }  // namespace web_hosts_test

@@ -1,10 +1,13 @@
 #!/usr/bin/python3
 """GET a URL and print the status code on the first line, then the body (for tests that ask a
 web endpoint from inside a network namespace, where only a command can run). Redirects are not
-followed: a test sees the answer itself (303 from /login).
+followed: a test sees the answer itself (303 from /login). An https URL is checked against the CA
+certificate in $PLEXUS_CA_FILE (else the system's), as a browser that trusts that CA would.
 
     http_get.py URL [HEADER: VALUE]...
 """
+import os
+import ssl
 import sys
 import urllib.error
 import urllib.request
@@ -16,7 +19,11 @@ class NoRedirects(urllib.request.HTTPRedirectHandler):
         return None
 
 
-opener = urllib.request.build_opener(NoRedirects)
+handlers = [NoRedirects]
+if os.environ.get('PLEXUS_CA_FILE'):
+    handlers.append(urllib.request.HTTPSHandler(
+        context=ssl.create_default_context(cafile=os.environ['PLEXUS_CA_FILE'])))
+opener = urllib.request.build_opener(*handlers)
 request = urllib.request.Request(sys.argv[1])
 for header in sys.argv[2:]:
     name, value = header.split(':', 1)

@@ -56,7 +56,9 @@ Deployment::Deployment(const HostsNetwork& network, const TempDir& dir, const Ho
             {"rules",
              {{{"nodes", {"someone-else"}}, {"allow", {"open", "write"}}, {"ports", {"/elsewhere/**"}}},
               {{"nodes", {tag + "-h*"}}, {"allow", {"open", "read", "write", "connect"}}, {"ports", {"/**"}}},
-              {{"users", {::getuid()}}, {"allow", {"open", "read", "write", "connect", "monitor"}}, {"ports", {"/**"}}}}}};
+              {{"users", {::getuid()}},
+               {"allow", {"open", "read", "write", "connect", "monitor"}},
+               {"ports", {"/**"}}}}}};
         permissions = {"--permissions", file};
     }
     const std::string names_ready = dir.file(tag + "-names.ready");

@@ -20,6 +20,7 @@ struct PkiOptions {
     std::string out;
     bool names = false;
     int days = 3650;
+    std::vector<std::string> web;
 };
 
 class CommandLine {

@@ -1,5 +1,6 @@
 #include "pki.hpp"
 
+#include <arpa/inet.h>
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -205,6 +206,11 @@ proto::Result<LoadedCa> load_ca(const CaFiles& ca) {
     return loaded;
 }
 
+bool is_address(const std::string& host) {
+    unsigned char bytes[16];
+    return ::inet_pton(AF_INET, host.c_str(), bytes) == 1 || ::inet_pton(AF_INET6, host.c_str(), bytes) == 1;
+}
+
 bool good_name(const std::string& name) {
     if (name.empty() || name.size() > 64)
         return false;
@@ -249,7 +255,7 @@ proto::Status pki_init(const std::string& directory, int days) {
 }
 
 proto::Result<std::string> pki_issue(const std::string& ca_directory, const proto::Subject& subject,
-                                     std::string out, int days) {
+                                     std::string out, int days, const std::vector<std::string>& web_hosts) {
     const CaFiles ca{ca_directory};
     if (!good_name(subject.name))
         return proto::Error{"'" + subject.name +
@@ -264,6 +270,13 @@ proto::Result<std::string> pki_issue(const std::string& ca_directory, const prot
                                 entry["serial"].dump() +
                                 "); revoke it first (`plexus pki revoke`) to issue a new one"};
     }
+    // The subject's URI, then the names a browser checks: an address as IP, anything else as DNS.
+    std::string alt_names = "URI:" + subject.uri();
+    for (const auto& host : web_hosts) {
+        if (host.empty() || host.find_first_of(",:\n") != std::string::npos && !is_address(host))
+            return proto::Error{"--web '" + host + "': a host name or an IP address"};
+        alt_names += (is_address(host) ? ",IP:" : ",DNS:") + host;
+    }
     const std::uint64_t serial = issued["next_serial"].get<std::uint64_t>();
     KeyPtr key(new_key());
     if (!key)
@@ -273,7 +286,7 @@ proto::Result<std::string> pki_issue(const std::string& ca_directory, const prot
                          {{NID_basic_constraints, "critical,CA:FALSE"},
                           {NID_key_usage, "critical,digitalSignature"},
                           {NID_ext_key_usage, "serverAuth,clientAuth"},
-                          {NID_subject_alt_name, "URI:" + subject.uri()},
+                          {NID_subject_alt_name, alt_names},
                           {NID_subject_key_identifier, "hash"},
                           {NID_authority_key_identifier, "keyid:always"}});
     if (!certificate)

@@ -8,6 +8,7 @@
 //   nodes/NAME/  an identity per node, names/NAME/ per name server (proto/identity.hpp): copied to
 //                its machine, given to plexusd or plexus-names with --identity
 #include <string>
+#include <vector>
 
 #include "plexus/proto/bytes.hpp"
 #include "plexus/proto/identity.hpp"
@@ -19,10 +20,11 @@ proto::Status pki_init(const std::string& directory, int days);
 
 /// Issues an identity for `subject` from the CA in `ca`: a new key, a certificate naming it,
 /// with the CA's certificate and revocation list beside them, in `out` (empty: the CA's
-/// nodes/NAME or names/NAME). Refused while the subject holds a certificate not revoked.
-/// Returns the identity's directory.
+/// nodes/NAME or names/NAME). `web_hosts`: the addresses or host names a browser reaches the
+/// node's web endpoint by (its HTTPS certificate must name them). Refused while the subject holds
+/// a certificate not revoked. Returns the identity's directory.
 proto::Result<std::string> pki_issue(const std::string& ca, const proto::Subject& subject, std::string out,
-                                     int days);
+                                     int days, const std::vector<std::string>& web_hosts = {});
 
 /// Revokes the certificate of `subject`: a new revocation list in the CA, copied into every
 /// identity under it. Daemons and name servers read it again before their next handshake.

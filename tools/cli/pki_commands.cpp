@@ -58,11 +58,14 @@ void CommandLine::add_pki_commands() {
     issue_cmd->add_option("--ca", pki.ca, "the CA's directory (env PLEXUS_CA)");
     issue_cmd->add_flag("--names", pki.names, "a name server's identity, not a node's");
     issue_cmd->add_option("--out", pki.out, "where to put the identity (made, mode 700)");
+    issue_cmd->add_option("--web", pki.web,
+                          "an address or host name browsers reach the node's web endpoint by (repeatable): "
+                          "plexusd --http beyond loopback then serves HTTPS with this certificate");
     issue_cmd->add_option("--days", pki.days, "how long the certificate is valid")
         ->transform(whole_number(1, 36500))
         ->capture_default_str();
     issue_cmd->callback([this, &pki] {
-        auto issued = pki_issue(ca_directory(pki.ca), subject_of(pki), pki.out, pki.days);
+        auto issued = pki_issue(ca_directory(pki.ca), subject_of(pki), pki.out, pki.days, pki.web);
         if (!issued)
             throw plexus::Error(ErrorCode::refused, issued.error().message);
         std::cout << subject_of(pki).text() << ": identity in " << *issued << "\n";

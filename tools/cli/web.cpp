@@ -14,12 +14,12 @@ namespace plexus::cli {
 namespace {
 
 /// A wildcard listening address is reached locally through loopback.
-std::string local_url(std::string address) {
+std::string local_url(std::string address, bool tls) {
     if (address.starts_with("0.0.0.0:"))
         address = "127.0.0.1:" + address.substr(8);
     else if (address.starts_with("[::]:"))
         address = "[::1]:" + address.substr(5);
-    return "http://" + address + "/";
+    return (tls ? "https://" : "http://") + address + "/";
 }
 
 }  // namespace
@@ -46,7 +46,7 @@ int web(const Common& common, bool token) {
                      "\"http\")\n";
         return 1;
     }
-    std::cout << local_url(address) << '\n';
+    std::cout << local_url(address, node.http_tls) << '\n';
     return 0;
 }
 

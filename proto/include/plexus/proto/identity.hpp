@@ -69,6 +69,12 @@ private:
 /// std::runtime_error with OpenSSL's reason when a file cannot be used.
 ssl_ctx_st* new_certificate_tls_context(const Identity& identity);
 
+/// A new OpenSSL context (SSL_CTX*, the caller frees it) for the web endpoint's HTTPS: TLS 1.3,
+/// this identity's certificate and key, no client certificate asked for (a browser has none; the
+/// web token is the check). A browser takes the certificate when it names the host it asked for
+/// (`plexus pki issue NODE --web HOST`) and trusts the deployment's CA.
+ssl_ctx_st* new_web_tls_context(const Identity& identity);
+
 /// What the peer's certificate (checked during the handshake) names; nullopt when the session has
 /// no peer certificate (a pre-shared key) or it names no Plexus subject.
 std::optional<Subject> peer_subject(ssl_st* session);

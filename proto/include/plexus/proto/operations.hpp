@@ -243,6 +243,7 @@ struct NodeReply {
     std::string address;  ///< its TCP address
     std::string names;    ///< its name server's address
     std::string http;     ///< its web endpoint's HOST:PORT (plexusd --http); empty when it serves none
+    bool http_tls = false;  ///< the web endpoint speaks HTTPS (an identity, beyond loopback)
     nlohmann::json encode() const;                                ///< the reply body
     static Result<NodeReply> decode(const nlohmann::json& body);  ///< from a reply body
 };
