@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <stdexcept>
 
+#include "plexus/proto/pem_files.hpp"
 #include "plexus/proto/tls_psk.hpp"
 
 namespace plexus::proto {
@@ -19,35 +20,6 @@ namespace {
 
 constexpr std::string_view node_prefix = "plexus:node:";
 constexpr std::string_view names_prefix = "plexus:names:";
-
-template <class T, void (*Free)(T*)>
-struct Freer {
-    void operator()(T* p) const { Free(p); }
-};
-using X509Ptr = std::unique_ptr<X509, Freer<X509, ::X509_free>>;
-using KeyPtr = std::unique_ptr<EVP_PKEY, Freer<EVP_PKEY, ::EVP_PKEY_free>>;
-using CrlPtr = std::unique_ptr<X509_CRL, Freer<X509_CRL, ::X509_CRL_free>>;
-
-X509Ptr read_certificate(const std::string& path) {
-    std::unique_ptr<FILE, int (*)(FILE*)> file(std::fopen(path.c_str(), "r"), std::fclose);
-    if (!file)
-        return nullptr;
-    return X509Ptr(::PEM_read_X509(file.get(), nullptr, nullptr, nullptr));
-}
-
-KeyPtr read_key(const std::string& path) {
-    std::unique_ptr<FILE, int (*)(FILE*)> file(std::fopen(path.c_str(), "r"), std::fclose);
-    if (!file)
-        return nullptr;
-    return KeyPtr(::PEM_read_PrivateKey(file.get(), nullptr, nullptr, nullptr));
-}
-
-CrlPtr read_crl(const std::string& path) {
-    std::unique_ptr<FILE, int (*)(FILE*)> file(std::fopen(path.c_str(), "r"), std::fclose);
-    if (!file)
-        return nullptr;
-    return CrlPtr(::PEM_read_X509_CRL(file.get(), nullptr, nullptr, nullptr));
-}
 
 /// The Plexus subject among a certificate's subjectAltName URIs.
 std::optional<Subject> subject_of(X509* certificate) {
@@ -108,7 +80,7 @@ Result<Identity> Identity::load(const std::string& directory) {
     if ((key_status.st_mode & 077) != 0)
         return Error{"identity " + directory + ": node.key may be read by others (chmod 600 " +
                      identity.key_file() + ")"};
-    auto key = read_key(identity.key_file());
+    auto key = read_private_key(identity.key_file());
     if (!key)
         return Error{"identity " + directory + ": cannot read the private key node.key"};
     if (::X509_check_private_key(certificate.get(), key.get()) != 1) {
@@ -134,13 +106,22 @@ std::int64_t Identity::crl_changed() const {
     return std::int64_t{status.st_mtim.tv_sec} * 1'000'000'000 + status.st_mtim.tv_nsec;
 }
 
-ssl_ctx_st* new_certificate_tls_context(const Identity& identity) {
+namespace {
+/// A TLS 1.3 context that shows `identity`'s certificate.
+std::unique_ptr<SSL_CTX, decltype(&::SSL_CTX_free)> showing(const Identity& identity) {
     std::unique_ptr<SSL_CTX, decltype(&::SSL_CTX_free)> context(new_tls13_context(), ::SSL_CTX_free);
-    SSL_CTX* ctx = context.get();
-    if (::SSL_CTX_use_certificate_file(ctx, identity.certificate_file().c_str(), SSL_FILETYPE_PEM) != 1)
+    if (::SSL_CTX_use_certificate_file(context.get(), identity.certificate_file().c_str(),
+                                       SSL_FILETYPE_PEM) != 1)
         fail(identity, "node.crt");
-    if (::SSL_CTX_use_PrivateKey_file(ctx, identity.key_file().c_str(), SSL_FILETYPE_PEM) != 1)
+    if (::SSL_CTX_use_PrivateKey_file(context.get(), identity.key_file().c_str(), SSL_FILETYPE_PEM) != 1)
         fail(identity, "node.key");
+    return context;
+}
+}  // namespace
+
+ssl_ctx_st* new_certificate_tls_context(const Identity& identity) {
+    auto context = showing(identity);
+    SSL_CTX* ctx = context.get();
     if (::SSL_CTX_load_verify_locations(ctx, identity.ca_file().c_str(), nullptr) != 1)
         fail(identity, "ca.crt");
     // Only the deployment's CA is trusted: not the system's.
@@ -159,13 +140,7 @@ ssl_ctx_st* new_certificate_tls_context(const Identity& identity) {
 }
 
 ssl_ctx_st* new_web_tls_context(const Identity& identity) {
-    std::unique_ptr<SSL_CTX, decltype(&::SSL_CTX_free)> context(new_tls13_context(), ::SSL_CTX_free);
-    SSL_CTX* ctx = context.get();
-    if (::SSL_CTX_use_certificate_file(ctx, identity.certificate_file().c_str(), SSL_FILETYPE_PEM) != 1)
-        fail(identity, "node.crt");
-    if (::SSL_CTX_use_PrivateKey_file(ctx, identity.key_file().c_str(), SSL_FILETYPE_PEM) != 1)
-        fail(identity, "node.key");
-    return context.release();
+    return showing(identity).release();
 }
 
 std::optional<Subject> peer_subject(ssl_st* session) {

@@ -18,6 +18,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "plexus/proto/pem_files.hpp"
 #include "plexus/proto/tls_psk.hpp"
 
 namespace plexus::cli {
@@ -27,15 +28,11 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-template <class T, void (*Free)(T*)>
-struct Freer {
-    void operator()(T* p) const { Free(p); }
-};
-using KeyPtr = std::unique_ptr<EVP_PKEY, Freer<EVP_PKEY, ::EVP_PKEY_free>>;
-using X509Ptr = std::unique_ptr<X509, Freer<X509, ::X509_free>>;
-using CrlPtr = std::unique_ptr<X509_CRL, Freer<X509_CRL, ::X509_CRL_free>>;
-using TimePtr = std::unique_ptr<ASN1_TIME, Freer<ASN1_TIME, ::ASN1_TIME_free>>;
-using FilePtr = std::unique_ptr<FILE, int (*)(FILE*)>;
+using proto::CrlPtr;
+using proto::FilePtr;
+using proto::KeyPtr;
+using proto::X509Ptr;
+using TimePtr = std::unique_ptr<ASN1_TIME, proto::OpenSslFree<ASN1_TIME, ::ASN1_TIME_free>>;
 
 /// A CA's files.
 struct CaFiles {
@@ -89,16 +86,6 @@ bool write_public(const fs::path& path, Write write) {
     std::error_code error;
     fs::rename(next, path, error);
     return !error;
-}
-
-KeyPtr read_key(const fs::path& path) {
-    FilePtr file(std::fopen(path.c_str(), "r"), std::fclose);
-    return KeyPtr(file ? ::PEM_read_PrivateKey(file.get(), nullptr, nullptr, nullptr) : nullptr);
-}
-
-X509Ptr read_certificate(const fs::path& path) {
-    FilePtr file(std::fopen(path.c_str(), "r"), std::fclose);
-    return X509Ptr(file ? ::PEM_read_X509(file.get(), nullptr, nullptr, nullptr) : nullptr);
 }
 
 bool add_extension(X509* certificate, X509* issuer, int nid, const std::string& value) {
@@ -199,7 +186,7 @@ struct LoadedCa {
 };
 
 proto::Result<LoadedCa> load_ca(const CaFiles& ca) {
-    LoadedCa loaded{read_key(ca.key()), read_certificate(ca.certificate())};
+    LoadedCa loaded{proto::read_private_key(ca.key()), proto::read_certificate(ca.certificate())};
     if (!loaded.key || !loaded.certificate)
         return proto::Error{"no CA in " + ca.directory.string() +
                             " (ca.key and ca.crt; `plexus pki init DIR` makes one)"};
@@ -273,7 +260,7 @@ proto::Result<std::string> pki_issue(const std::string& ca_directory, const prot
     // The subject's URI, then the names a browser checks: an address as IP, anything else as DNS.
     std::string alt_names = "URI:" + subject.uri();
     for (const auto& host : web_hosts) {
-        if (host.empty() || host.find_first_of(",:\n") != std::string::npos && !is_address(host))
+        if (host.empty() || (host.find_first_of(",:\n") != std::string::npos && !is_address(host)))
             return proto::Error{"--web '" + host + "': a host name or an IP address"};
         alt_names += (is_address(host) ? ",IP:" : ",DNS:") + host;
     }
