@@ -239,10 +239,10 @@ struct NodeRequest {
 };
 /// The answer to `node`.
 struct NodeReply {
-    std::string node;     ///< the daemon's node name (may be empty)
-    std::string address;  ///< its TCP address
-    std::string names;    ///< its name server's address
-    std::string http;     ///< its web endpoint's HOST:PORT (plexusd --http); empty when it serves none
+    std::string node;       ///< the daemon's node name (may be empty)
+    std::string address;    ///< its TCP address
+    std::string names;      ///< its name server's address
+    std::string http;       ///< its web endpoint's HOST:PORT (plexusd --http); empty when it serves none
     bool http_tls = false;  ///< the web endpoint speaks HTTPS (an identity, beyond loopback)
     nlohmann::json encode() const;                                ///< the reply body
     static Result<NodeReply> decode(const nlohmann::json& body);  ///< from a reply body
