@@ -128,6 +128,19 @@ TcpGreeting tcp_handshake(int fd, const std::string& address, std::chrono::milli
         throw Error(ErrorCode::refused, address + " sent a bad hello: " + hello.error().message);
     if (!feed.empty())
         throw Error(ErrorCode::refused, address + " sent frames before it was asked anything");
+    if (greeting.tls && secret->identity()) {
+        // As a daemon checks its peers (FramedConnection): a name server shows a name server's
+        // certificate, a daemon its own node's.
+        const auto subject = greeting.tls->peer_subject();
+        const bool names = subject && subject->kind == proto::Subject::Kind::names;
+        const std::string shown = subject ? subject->text() : std::string("no Plexus certificate");
+        if (!subject || (hello->role == "names") != names)
+            throw Error(ErrorCode::refused,
+                        address + " says it is a " + hello->role + ", but shows the certificate of " + shown);
+        if (!names && !hello->node.empty() && hello->node != subject->name)
+            throw Error(ErrorCode::refused, address + " says it is node '" + hello->node +
+                                                "', but shows the certificate of " + shown);
+    }
     greeting.peer_max_frame = hello->max_frame;
     return greeting;
 }

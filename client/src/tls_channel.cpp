@@ -183,4 +183,9 @@ std::string TlsChannel::failure() const {
     return failure_;
 }
 
+std::optional<proto::Subject> TlsChannel::peer_subject() const {
+    const std::lock_guard guard(mutex_);
+    return proto::peer_subject(ssl_);
+}
+
 }  // namespace plexus::detail

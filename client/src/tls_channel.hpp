@@ -12,10 +12,12 @@
 #include <chrono>
 #include <cstdint>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "plexus/proto/auth.hpp"
+#include "plexus/proto/identity.hpp"
 
 struct ssl_st;
 
@@ -43,6 +45,8 @@ public:
     ssize_t receive_by(std::uint8_t* at, std::size_t room, std::chrono::steady_clock::time_point deadline);
     /// Why the last call that set EPROTO failed.
     std::string failure() const;
+    /// With identities: what the peer's certificate names (checked in the handshake); else nullopt.
+    std::optional<proto::Subject> peer_subject() const;
 
 private:
     /// Maps an SSL call's result to recv's convention; `waits_for` gets POLLIN or POLLOUT.
