@@ -90,6 +90,10 @@ bool Daemon::http_tls() const {
     return http_ && http_->tls();
 }
 
+std::string Daemon::http_fingerprint() const {
+    return http_ ? http_->fingerprint() : std::string();
+}
+
 std::string Daemon::http_address() const {
     return http_ ? http_->address() : std::string();
 }
@@ -181,6 +185,11 @@ int Daemon::run() {
         }
         http_->start();
         spdlog::info("web page at {}://{}/", http_->tls() ? "https" : "http", http_->address());
+        if (!http_->fingerprint().empty())
+            spdlog::info(
+                "web page certificate: self-signed at this start, SHA-256 {} (check that the browser "
+                "shows the same before accepting it; `plexus web` prints it too)",
+                http_->fingerprint());
     }
     names_ = std::make_unique<names::NameClient>(io_, config_.names, config_.node, advertised_address(),
                                                  config_.max_frame, config_.secret);

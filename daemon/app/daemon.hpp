@@ -72,6 +72,7 @@ public:
     std::string address() const override;
     std::string http_address() const override;
     bool http_tls() const override;
+    std::string http_fingerprint() const override;
     nlohmann::json http_counters() const override;
     Router& router() override { return router_; }
     names::NameClient& names() override { return *names_; }

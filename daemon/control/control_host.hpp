@@ -39,8 +39,10 @@ public:
     virtual std::string address() const = 0;
     /// HOST:PORT of the web endpoint (--http); "" when it serves none.
     virtual std::string http_address() const = 0;
-    /// True when the web endpoint speaks HTTPS (an identity, beyond loopback).
+    /// True when the web endpoint speaks HTTPS (beyond loopback, with a secret).
     virtual bool http_tls() const { return false; }
+    /// The SHA-256 of its self-signed certificate (the secret alone); empty otherwise.
+    virtual std::string http_fingerprint() const { return {}; }
     /// The web endpoint's counters (web/http_counters.hpp), null when it serves none.
     virtual nlohmann::json http_counters() const = 0;
     virtual Router& router() = 0;

@@ -23,7 +23,7 @@ Task<proto::Reply> ControlPlane::node(std::shared_ptr<Session>, const proto::Req
         co_return malformed(asked.error());
     const auto& config = host_.config();
     co_return ok(proto::NodeReply{config.node, host_.address(), config.names.text(), host_.http_address(),
-                                  host_.http_tls()});
+                                  host_.http_tls(), host_.http_fingerprint()});
 }
 
 // Only the fields the name server reads are passed on: a client cannot reach the name server

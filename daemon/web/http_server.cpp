@@ -5,6 +5,7 @@
 #include <boost/beast/http.hpp>
 #include <boost/beast/ssl.hpp>
 
+#include "plexus/proto/certificates.hpp"
 #include "plexus/proto/identity.hpp"
 
 namespace plexus::daemon::web {
@@ -86,12 +87,17 @@ proto::Status HttpServer::bind() {
         acceptor_.listen(asio::socket_base::max_listen_connections, ec);
     if (ec)
         return proto::Error{"cannot serve the web page on " + where.text() + ": " + ec.message()};
-    // Beyond loopback, a daemon with an identity serves HTTPS with its certificate: the web token
-    // and the views never cross the network in clear.
+    // Beyond loopback with the secret, the page is HTTPS: the web token and the views never cross
+    // the network in clear. With an identity, with the node's certificate (browsers that trust the
+    // CA take it); with the secret alone, with a self-signed one made now, whose fingerprint
+    // `plexus web` and the log show for a person to compare before accepting it.
     const auto& secret = host_.config().secret;
-    if (secret && secret->identity() && !address.is_loopback()) {
+    if (secret && !address.is_loopback()) {
         try {
-            tls_ = std::make_unique<asio::ssl::context>(proto::new_web_tls_context(*secret->identity()));
+            tls_ = std::make_unique<asio::ssl::context>(
+                secret->identity()
+                    ? proto::new_web_tls_context(*secret->identity())
+                    : proto::new_self_signed_web_tls_context(address.to_string(), fingerprint_));
         } catch (const std::exception& e) {
             return proto::Error{std::string("cannot serve the web page over HTTPS: ") + e.what()};
         }

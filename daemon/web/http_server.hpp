@@ -36,8 +36,10 @@ public:
     void stop();
     /// HOST:PORT it listens on (the port the kernel gave for port 0).
     std::string address() const;
-    /// True when it speaks HTTPS: the daemon has an identity and listens beyond loopback (bind()).
+    /// True when it speaks HTTPS: beyond loopback with the secret (bind()).
     bool tls() const { return tls_ != nullptr; }
+    /// With the secret alone: the SHA-256 of the self-signed certificate made at this start.
+    const std::string& fingerprint() const { return fingerprint_; }
     const HttpCounters& counters() const { return counters_; }
 
 private:
@@ -53,7 +55,8 @@ private:
     HttpConfig config_;
     ControlHost& host_;
     asio::ip::tcp::acceptor acceptor_;
-    std::unique_ptr<asio::ssl::context> tls_;  ///< HTTPS with the node's certificate; null: plain HTTP
+    std::unique_ptr<asio::ssl::context> tls_;  ///< HTTPS; null: plain HTTP (loopback, or --insecure)
+    std::string fingerprint_;                  ///< of a self-signed certificate (no identity)
     Access access_;
     HttpCounters counters_;
     SystemView system_;

@@ -365,6 +365,8 @@ json NodeReply::encode() const {
     json out = {{"node", node}, {"address", address}, {"names", names}, {"http", http}};
     if (http_tls)
         out["http_tls"] = true;
+    if (!http_fingerprint.empty())
+        out["http_fingerprint"] = http_fingerprint;
     return out;
 }
 Result<NodeReply> NodeReply::decode(const json& body) {
@@ -375,6 +377,7 @@ Result<NodeReply> NodeReply::decode(const json& body) {
     in.text("names", out.names);
     in.text("http", out.http);
     in.flag("http_tls", out.http_tls);
+    in.text("http_fingerprint", out.http_fingerprint);
     return in.result(std::move(out));
 }
 

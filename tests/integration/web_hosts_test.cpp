@@ -12,12 +12,19 @@ namespace web_hosts_test {
 
 using nlohmann::json;
 
-/// GET `url` from inside `host`: the status code and the body. `ca_file`: the CA an https URL's
-/// certificate must come from.
+/// How an https URL's certificate is checked: against a CA certificate file, or by its SHA-256.
+struct Trusting {
+    std::string ca_file;
+    std::string fingerprint;
+};
+
+/// GET `url` from inside `host`: the status code and the body.
 std::pair<int, std::string> get_from(const Host& host, const std::string& url, const std::string& header = "",
-                                     const std::string& ca_file = "") {
-    std::string command = (ca_file.empty() ? "" : "PLEXUS_CA_FILE='" + ca_file + "' ") + python_path() + " " +
-                          web_tests_dir() + "/http_get.py '" + url + "'";
+                                     const Trusting& trusting = {}) {
+    std::string command =
+        (trusting.ca_file.empty() ? "" : "PLEXUS_CA_FILE='" + trusting.ca_file + "' ") +
+        (trusting.fingerprint.empty() ? "" : "PLEXUS_CERT_SHA256='" + trusting.fingerprint + "' ") +
+        python_path() + " " + web_tests_dir() + "/http_get.py '" + url + "'";
     if (!header.empty())
         command += " '" + header + "'";
     const auto result = host.run(command, std::chrono::seconds(60));
@@ -51,18 +58,23 @@ TEST(WebHosts_test, ThePageOfOneDaemonShowsTheOtherDaemonsPortsAndCountersOnlyWi
 
     const auto printed = run_cli(dir, watched, {"web"});
     ASSERT_EQ(printed.status, 0) << printed.err;
+    // Beyond loopback with the secret alone: HTTPS, with a certificate the daemon made at its
+    // start, whose fingerprint `plexus web` prints (a person compares it with the browser's).
     const std::string url = printed.out.substr(0, printed.out.find('\n'));
-    EXPECT_EQ(url.rfind("http://" + net.host(1).address() + ":", 0), 0u) << url;
+    ASSERT_EQ(url.rfind("https://" + net.host(1).address() + ":", 0), 0u) << url;
+    const auto sha = printed.out.find("SHA-256 ");
+    ASSERT_NE(sha, std::string::npos) << printed.out;
+    const Trusting pinned{"", printed.out.substr(sha + 8, 95)};  // 32 bytes, AB:CD:...
     const auto token = run_cli(dir, watched, {"web", "--token"});
     ASSERT_EQ(token.status, 0) << token.err;
     const std::string bearer = "Authorization: Bearer " + token.out.substr(0, token.out.find('\n'));
 
     // From the other host, beyond loopback: refused without the token, answered with it.
-    const auto refused = get_from(net.host(2), url + "api/system");
+    const auto refused = get_from(net.host(2), url + "api/system", "", pinned);
     EXPECT_EQ(refused.first, 401) << refused.second;
-    const auto wrong = get_from(net.host(2), url + "api/system", "Authorization: Bearer 0123");
+    const auto wrong = get_from(net.host(2), url + "api/system", "Authorization: Bearer 0123", pinned);
     EXPECT_EQ(wrong.first, 401) << wrong.second;
-    const auto answered = get_from(net.host(2), url + "api/system", bearer);
+    const auto answered = get_from(net.host(2), url + "api/system", bearer, pinned);
     ASSERT_EQ(answered.first, 200) << answered.second;
     const auto system = json::parse(answered.second);
     json other_part;
@@ -84,11 +96,20 @@ TEST(WebHosts_test, ThePageOfOneDaemonShowsTheOtherDaemonsPortsAndCountersOnlyWi
 
     // The cookie works as the header does, once /login has set it.
     const auto login =
-        get_from(net.host(2), url + "login?token=" + token.out.substr(0, token.out.find('\n')));
+        get_from(net.host(2), url + "login?token=" + token.out.substr(0, token.out.find('\n')), "", pinned);
     EXPECT_EQ(login.first, 303) << login.second;  // to the page, with the cookie set
-    const auto with_cookie = get_from(net.host(2), url + "api/node",
-                                      "Cookie: plexus_token=" + token.out.substr(0, token.out.find('\n')));
+    const auto with_cookie =
+        get_from(net.host(2), url + "api/node",
+                 "Cookie: plexus_token=" + token.out.substr(0, token.out.find('\n')), pinned);
     EXPECT_EQ(with_cookie.first, 200) << with_cookie.second;
+
+    // Another certificate (a host in the middle showing its own) is refused; plain HTTP gets no page.
+    const auto other_certificate =
+        get_from(net.host(2), url + "api/system", bearer, Trusting{"", std::string(95, 'A')});
+    EXPECT_EQ(other_certificate.first, 0) << other_certificate.second;
+    std::string plain = url;
+    plain.replace(0, 5, "http");
+    EXPECT_NE(get_from(net.host(2), plain + "api/system", bearer).first, 200);
 
     // Every refusal counted, as `plexus stats` shows.
     const auto stats = json::parse(run_cli(dir, watched, {"stats", "--json"}).out);
@@ -121,10 +142,10 @@ TEST(WebHosts_test, WithAnIdentityThePageIsServedOverHttpsWithTheNodesCertificat
     const std::string bearer = "Authorization: Bearer " + token.out.substr(0, token.out.find('\n'));
 
     // A browser that trusts the deployment's CA: the certificate names the address, the token opens it.
-    const auto answered = get_from(net.host(2), url + "api/node", bearer, ca + "/ca.crt");
+    const auto answered = get_from(net.host(2), url + "api/node", bearer, Trusting{ca + "/ca.crt"});
     ASSERT_EQ(answered.first, 200) << answered.second;
     EXPECT_EQ(json::parse(answered.second)["node"], "watched");
-    EXPECT_EQ(get_from(net.host(2), url + "api/node", "", ca + "/ca.crt").first, 401);
+    EXPECT_EQ(get_from(net.host(2), url + "api/node", "", Trusting{ca + "/ca.crt"}).first, 401);
     // One that does not trust it refuses the certificate; plain HTTP gets no page.
     const auto untrusted = get_from(net.host(2), url + "api/node", bearer);
     EXPECT_EQ(untrusted.first, 0);

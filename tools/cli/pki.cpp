@@ -18,6 +18,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "plexus/proto/certificates.hpp"
 #include "plexus/proto/pem_files.hpp"
 #include "plexus/proto/tls_psk.hpp"
 
@@ -45,13 +46,6 @@ struct CaFiles {
         return directory / (subject.kind == proto::Subject::Kind::names ? "names" : "nodes") / subject.name;
     }
 };
-
-/// A new ECDSA P-256 key: what browsers take in a certificate (the web endpoint's HTTPS; Chromium
-/// takes no Ed25519 certificate) and cheap to verify (OpenSSL's P-256 code is constant-time and
-/// fast on x86-64), with signatures over SHA-256.
-EVP_PKEY* new_key() {
-    return ::EVP_PKEY_Q_keygen(nullptr, nullptr, "EC", "P-256");
-}
 
 proto::Error failed(const std::string& what) {
     return proto::Error{what + ": " + proto::last_tls_error()};
@@ -86,48 +80,6 @@ bool write_public(const fs::path& path, Write write) {
     std::error_code error;
     fs::rename(next, path, error);
     return !error;
-}
-
-bool add_extension(X509* certificate, X509* issuer, int nid, const std::string& value) {
-    X509V3_CTX context;
-    X509V3_set_ctx_nodb(&context);
-    X509V3_set_ctx(&context, issuer, certificate, nullptr, nullptr, 0);
-    X509_EXTENSION* extension = ::X509V3_EXT_conf_nid(nullptr, &context, nid, value.c_str());
-    if (!extension)
-        return false;
-    const bool added = ::X509_add_ext(certificate, extension, -1) == 1;
-    ::X509_EXTENSION_free(extension);
-    return added;
-}
-
-/// A certificate of `key` named `common_name`, signed by `issuer_key` (self-signed when `issuer` is
-/// null), valid from an hour ago (clocks differ) for `days`, with `extensions` (nid, value).
-X509Ptr make_certificate(std::uint64_t serial, const std::string& common_name, EVP_PKEY* key, X509* issuer,
-                         EVP_PKEY* issuer_key, int days,
-                         const std::vector<std::pair<int, std::string>>& extensions) {
-    X509Ptr certificate(::X509_new());
-    if (!certificate)
-        return nullptr;
-    X509* c = certificate.get();
-    X509_NAME* name = ::X509_get_subject_name(c);
-    const bool made = ::X509_set_version(c, X509_VERSION_3) == 1 &&
-                      ::ASN1_INTEGER_set_uint64(::X509_get_serialNumber(c), serial) == 1 &&
-                      ::X509_gmtime_adj(::X509_getm_notBefore(c), -3600) != nullptr &&
-                      ::X509_time_adj_ex(::X509_getm_notAfter(c), days, 0, nullptr) != nullptr &&
-                      ::X509_NAME_add_entry_by_txt(
-                          name, "CN", MBSTRING_UTF8,
-                          reinterpret_cast<const unsigned char*>(common_name.c_str()), -1, -1, 0) == 1 &&
-                      ::X509_set_issuer_name(c, issuer ? ::X509_get_subject_name(issuer) : name) == 1 &&
-                      ::X509_set_pubkey(c, key) == 1;
-    if (!made)
-        return nullptr;
-    for (const auto& [nid, value] : extensions) {
-        if (!add_extension(c, issuer ? issuer : c, nid, value))
-            return nullptr;
-    }
-    if (::X509_sign(c, issuer_key, ::EVP_sha256()) <= 0)
-        return nullptr;
-    return certificate;
 }
 
 json read_issued(const CaFiles& ca) {
@@ -221,13 +173,13 @@ proto::Status pki_init(const std::string& directory, int days) {
     if (error)
         return proto::Error{"cannot make " + directory + ": " + error.message()};
     ::chmod(directory.c_str(), 0700);
-    KeyPtr key(new_key());
+    KeyPtr key(proto::new_key());
     if (!key)
         return failed("cannot make the CA's key");
-    auto certificate = make_certificate(1, "Plexus deployment CA", key.get(), nullptr, key.get(), days,
-                                        {{NID_basic_constraints, "critical,CA:TRUE,pathlen:0"},
-                                         {NID_key_usage, "critical,keyCertSign,cRLSign"},
-                                         {NID_subject_key_identifier, "hash"}});
+    auto certificate = proto::make_certificate(1, "Plexus deployment CA", key.get(), nullptr, key.get(), days,
+                                               {{NID_basic_constraints, "critical,CA:TRUE,pathlen:0"},
+                                                {NID_key_usage, "critical,keyCertSign,cRLSign"},
+                                                {NID_subject_key_identifier, "hash"}});
     if (!certificate)
         return failed("cannot make the CA's certificate");
     if (!write_private_key(ca.key(), key.get()))
@@ -265,17 +217,17 @@ proto::Result<std::string> pki_issue(const std::string& ca_directory, const prot
         alt_names += (is_address(host) ? ",IP:" : ",DNS:") + host;
     }
     const std::uint64_t serial = issued["next_serial"].get<std::uint64_t>();
-    KeyPtr key(new_key());
+    KeyPtr key(proto::new_key());
     if (!key)
         return failed("cannot make the key");
-    auto certificate =
-        make_certificate(serial, subject.name, key.get(), loaded->certificate.get(), loaded->key.get(), days,
-                         {{NID_basic_constraints, "critical,CA:FALSE"},
-                          {NID_key_usage, "critical,digitalSignature"},
-                          {NID_ext_key_usage, "serverAuth,clientAuth"},
-                          {NID_subject_alt_name, alt_names},
-                          {NID_subject_key_identifier, "hash"},
-                          {NID_authority_key_identifier, "keyid:always"}});
+    auto certificate = proto::make_certificate(serial, subject.name, key.get(), loaded->certificate.get(),
+                                               loaded->key.get(), days,
+                                               {{NID_basic_constraints, "critical,CA:FALSE"},
+                                                {NID_key_usage, "critical,digitalSignature"},
+                                                {NID_ext_key_usage, "serverAuth,clientAuth"},
+                                                {NID_subject_alt_name, alt_names},
+                                                {NID_subject_key_identifier, "hash"},
+                                                {NID_authority_key_identifier, "keyid:always"}});
     if (!certificate)
         return failed("cannot make the certificate of " + subject.text());
     const fs::path identity = out.empty() ? ca.identity_of(subject) : fs::path(out);

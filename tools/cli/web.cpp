@@ -47,6 +47,9 @@ int web(const Common& common, bool token) {
         return 1;
     }
     std::cout << local_url(address, node.http_tls) << '\n';
+    if (!node.http_fingerprint.empty())
+        std::cout << "certificate: self-signed by the daemon at its start, SHA-256 " << node.http_fingerprint
+                  << "\n  (your browser warns about it: accept it only if it shows this fingerprint)\n";
     return 0;
 }
 

@@ -243,7 +243,9 @@ struct NodeReply {
     std::string address;    ///< its TCP address
     std::string names;      ///< its name server's address
     std::string http;       ///< its web endpoint's HOST:PORT (plexusd --http); empty when it serves none
-    bool http_tls = false;  ///< the web endpoint speaks HTTPS (an identity, beyond loopback)
+    bool http_tls = false;  ///< the web endpoint speaks HTTPS (beyond loopback, with a secret)
+    /// With the secret alone: the SHA-256 of the self-signed certificate it made at its start.
+    std::string http_fingerprint;
     nlohmann::json encode() const;                                ///< the reply body
     static Result<NodeReply> decode(const nlohmann::json& body);  ///< from a reply body
 };
