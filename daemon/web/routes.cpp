@@ -60,8 +60,10 @@ Task<WebResponse> Routes::answer(WebRequest request) {
         response.status = 303;
         response.content_type = "text/plain";
         response.headers.emplace_back("Location", "/");
-        response.headers.emplace_back("Set-Cookie",
-                                      "plexus_token=" + token + "; HttpOnly; SameSite=Strict; Path=/");
+        // Over HTTPS the browser sends the cookie only over HTTPS (Secure).
+        response.headers.emplace_back("Set-Cookie", "plexus_token=" + token +
+                                                        "; HttpOnly; SameSite=Strict; Path=/" +
+                                                        (host_.http_tls() ? "; Secure" : ""));
         co_return response;
     }
     if (path == "/api/node") {
