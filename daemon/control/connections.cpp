@@ -361,10 +361,15 @@ Task<proto::Reply> ControlPlane::attach(std::shared_ptr<Session> session, const 
                          "', and this link comes from node '" + link_node + "': refused");
     }
     // The linking node writes into the destination, and runs monitors on it if it asks for any.
-    if (auto allowed = permitted(session.get(), Action::write, destination); !allowed)
+    // A link of this daemon's own (a carrier between daemons named for two ports of this one) was
+    // checked when its connect was asked for, as a local connection is.
+    const bool own_link = link_node == host_.config().node;
+    if (auto allowed =
+            own_link ? proto::Status(proto::Ok{}) : permitted(session.get(), Action::write, destination);
+        !allowed)
         co_return refuse(allowed.error().message);
     for (const auto& clause : carrier->clauses) {
-        if (clause.side != proto::Side::recv)
+        if (clause.side != proto::Side::recv || own_link)
             continue;
         if (auto allowed = permitted(session.get(), Action::monitor, destination); !allowed)
             co_return refuse(allowed.error().message);
