@@ -9,15 +9,16 @@
 namespace plexus::cli {
 
 namespace {
-/// The CA directory: --ca, else $PLEXUS_CA.
+/// The CA directory: --ca (init: DIR), else $PLEXUS_CA, else ./plexus-ca: here, beside the
+/// command's other outputs (as `plexus record` writes here), so that `plexus pki init` and
+/// `plexus pki issue NODE` work as they are (DESIGN.md).
 std::string ca_directory(const std::string& flag) {
     if (!flag.empty())
         return flag;
     const char* env = std::getenv("PLEXUS_CA");
     if (env && *env)
         return env;
-    throw plexus::Error(ErrorCode::usage,
-                        "which CA? give --ca DIR (or PLEXUS_CA), the directory of `plexus pki init`");
+    return "plexus-ca";
 }
 
 proto::Subject subject_of(const PkiOptions& options) {
@@ -37,15 +38,16 @@ void CommandLine::add_pki_commands() {
         "init",
         "make a new CA in DIR (mode 700): its key ca.key (mode 600; keep it off the robots), its "
         "certificate ca.crt, an empty revocation list crl.pem");
-    init_cmd->add_option("DIR", pki.ca, "the CA's directory (made)")->required();
+    init_cmd->add_option("DIR", pki.ca, "the CA's directory, made (default: $PLEXUS_CA, else ./plexus-ca)");
     init_cmd->add_option("--days", pki.days, "how long the CA's certificate is valid")
         ->transform(whole_number(1, 36500))
         ->capture_default_str();
     init_cmd->callback([this, &pki] {
-        if (auto made = pki_init(pki.ca, pki.days); !made)
+        const std::string ca = ca_directory(pki.ca);
+        if (auto made = pki_init(ca, pki.days); !made)
             throw plexus::Error(ErrorCode::refused, made.error().message);
-        std::cout << "CA made in " << pki.ca << "; issue identities with `plexus pki issue NODE --ca "
-                  << pki.ca << "`\n";
+        std::cout << "CA made in " << ca << "; issue identities with `plexus pki issue NODE --ca " << ca
+                  << "`\n";
         status_ = 0;
     });
 
@@ -55,7 +57,7 @@ void CommandLine::add_pki_commands() {
         "certificate and revocation list, in the CA's nodes/NAME (names/NAME with --names) or "
         "--out; give the directory to plexusd --identity (plexus-names --identity)");
     issue_cmd->add_option("NAME", pki.name, "the node's name (its --node), or the name server's")->required();
-    issue_cmd->add_option("--ca", pki.ca, "the CA's directory (env PLEXUS_CA)");
+    issue_cmd->add_option("--ca", pki.ca, "the CA's directory (default: $PLEXUS_CA, else ./plexus-ca)");
     issue_cmd->add_flag("--names", pki.names, "a name server's identity, not a node's");
     issue_cmd->add_option("--out", pki.out, "where to put the identity (made, mode 700)");
     issue_cmd->add_option("--web", pki.web,
@@ -78,7 +80,7 @@ void CommandLine::add_pki_commands() {
         "(copy it to the other machines); daemons and name servers refuse the certificate from "
         "their next handshake on");
     revoke_cmd->add_option("NAME", pki.name, "the node's name, or the name server's")->required();
-    revoke_cmd->add_option("--ca", pki.ca, "the CA's directory (env PLEXUS_CA)");
+    revoke_cmd->add_option("--ca", pki.ca, "the CA's directory (default: $PLEXUS_CA, else ./plexus-ca)");
     revoke_cmd->add_flag("--names", pki.names, "a name server's identity, not a node's");
     revoke_cmd->callback([this, &pki] {
         auto revoked = pki_revoke(ca_directory(pki.ca), subject_of(pki));
