@@ -187,7 +187,8 @@ TEST_F(Identity_test, ANodeWithAValidCertificateButNoPermissionToWriteIsRefusedA
            {"ports", {"/arm/**"}}},
           {{"nodes", {"planner"}}, {"allow", {"write"}}, {"ports", {"/arm/cmd"}}},
           {{"nodes", {"*"}}, {"allow", {"read"}}, {"ports", {"/arm/state"}}},
-          {{"users", {::getuid()}}, {"allow", {"open", "read", "connect"}}, {"ports", {"/arm/*"}}}}}};
+          {{"users", {::getuid()}}, {"allow", {"open", "read", "connect"}}, {"ports", {"/arm/*"}}},
+          {{"users", {::getuid()}}, {"allow", {"open", "read", "write", "connect"}}, {"ports", {"/ui/*"}}}}}};
     auto arm = daemon(1, "arm", {"--permissions", permissions});
     auto beta = daemon(2, "beta");
     auto planner = daemon(3, "planner");
@@ -219,6 +220,20 @@ TEST_F(Identity_test, ANodeWithAValidCertificateButNoPermissionToWriteIsRefusedA
     EXPECT_NE(opened.err.find("user " + std::to_string(::getuid()) + " may not open /other/port"),
               std::string::npos)
         << opened.err;
+    // A local component connects two ports the rules give it, even over tcp (the link is the
+    // daemon's own: checked when it was asked for), but not into the arm's commands.
+    auto panel = start_cli(dir, *arm, {"read", "/ui/panel", "--timeout", "60"}, "ui-panel");
+    ASSERT_TRUE(wait_port(dir, *arm, "/ui/panel"));
+    CliWriter buttons(dir, *arm, "/ui/buttons", "ui-buttons");
+    ASSERT_TRUE(wait_port(dir, *arm, "/ui/buttons"));
+    const auto wired = run_cli(dir, *arm, {"connect", "/ui/buttons", "/ui/panel", "tcp"});
+    EXPECT_EQ(wired.status, 0) << wired.err;
+    const auto into_commands = run_cli(dir, *arm, {"connect", "/ui/buttons", "/arm/cmd"});
+    EXPECT_EQ(into_commands.status, 4);
+    EXPECT_NE(into_commands.err.find("user " + std::to_string(::getuid()) + " may not write /arm/cmd"),
+              std::string::npos)
+        << into_commands.err;
+
     // The refusal is in the daemon's log once, however often it is tried.
     run_cli(dir, *beta, {"write", "/beta/out", "/arm/cmd"}, "\"again\"\n");
     const auto log = arm->process().out() + arm->process().err();
