@@ -19,6 +19,7 @@ struct PkiOptions {
     std::string name;
     std::string out;
     bool names = false;
+    bool json = false;
     int days = 3650;
     std::vector<std::string> web;
 };

@@ -254,6 +254,16 @@ proto::Result<std::string> pki_issue(const std::string& ca_directory, const prot
     return identity.string();
 }
 
+proto::Result<json> pki_list(const std::string& ca_directory) {
+    const CaFiles ca{ca_directory};
+    if (auto loaded = load_ca(ca); !loaded)
+        return loaded.error();
+    json certificates = read_issued(ca)["certificates"];
+    for (auto& entry : certificates)
+        entry["revoked"] = entry.value("revoked", false);
+    return certificates;
+}
+
 proto::Result<std::uint64_t> pki_revoke(const std::string& ca_directory, const proto::Subject& subject) {
     const CaFiles ca{ca_directory};
     auto loaded = load_ca(ca);

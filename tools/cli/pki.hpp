@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "plexus/proto/bytes.hpp"
 #include "plexus/proto/identity.hpp"
 
@@ -25,6 +27,11 @@ proto::Status pki_init(const std::string& directory, int days);
 /// a certificate not revoked. Returns the identity's directory.
 proto::Result<std::string> pki_issue(const std::string& ca, const proto::Subject& subject, std::string out,
                                      int days, const std::vector<std::string>& web_hosts = {});
+
+/// What the CA in `ca` issued: one entry per certificate, oldest first, with "subject"
+/// (plexus:node:NAME or plexus:names:NAME), "serial", "identity" (where it was written) and
+/// "revoked". An Error when there is no CA there.
+proto::Result<nlohmann::json> pki_list(const std::string& ca);
 
 /// Revokes the certificate of `subject`: a new revocation list in the CA, copied into every
 /// identity under it. Daemons and name servers read it again before their next handshake.

@@ -74,6 +74,30 @@ void CommandLine::add_pki_commands() {
         status_ = 0;
     });
 
+    auto* list_cmd = pki_cmd->add_subcommand(
+        "list",
+        "what the CA issued: each certificate's subject, serial number, whether it is revoked, "
+        "and where its identity was written");
+    list_cmd->add_option("--ca", pki.ca, "the CA's directory (default: $PLEXUS_CA, else ./plexus-ca)");
+    list_cmd->add_flag("--json", pki.json, "print JSON");
+    list_cmd->callback([this, &pki] {
+        auto listed = pki_list(ca_directory(pki.ca));
+        if (!listed)
+            throw plexus::Error(ErrorCode::refused, listed.error().message);
+        if (pki.json) {
+            std::cout << listed->dump() << '\n';
+        } else {
+            for (const auto& entry : *listed) {
+                const auto subject = proto::Subject::from_uri(entry.value("subject", std::string()));
+                std::cout << (subject ? subject->text() : entry.value("subject", std::string("?")))
+                          << "  serial " << entry.value("serial", std::uint64_t{0})
+                          << (entry.value("revoked", false) ? "  REVOKED" : "  valid") << "  "
+                          << entry.value("identity", std::string()) << '\n';
+            }
+        }
+        status_ = 0;
+    });
+
     auto* revoke_cmd = pki_cmd->add_subcommand(
         "revoke",
         "revoke NAME's certificate: a new crl.pem in the CA and in every identity still under it "

@@ -72,6 +72,15 @@ TEST_F(Pki_test, ANodeHoldsOneCertificateUntilItIsRevoked) {
     EXPECT_NE(proto::Identity::load(ca() + "/nodes/arm")->crl_changed(), before);
     EXPECT_FALSE(pki_revoke(ca(), arm).ok());  // nothing left to revoke
     EXPECT_TRUE(pki_issue(ca(), arm, dir + "/second", 30).ok());
+    // The list says which is which.
+    const auto listed = pki_list(ca());
+    ASSERT_TRUE(listed.ok());
+    ASSERT_EQ(listed->size(), 2u) << listed->dump();
+    EXPECT_EQ((*listed)[0]["subject"], "plexus:node:arm");
+    EXPECT_EQ((*listed)[0]["revoked"], true);
+    EXPECT_EQ((*listed)[1]["revoked"], false);
+    EXPECT_EQ((*listed)[1]["serial"], 3);
+    EXPECT_FALSE(pki_list(dir + "/no-ca").ok());
 }
 
 TEST_F(Pki_test, AnIdentityThatCannotBeTrustedIsRefusedSayingWhichFile) {
