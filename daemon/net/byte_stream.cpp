@@ -5,40 +5,35 @@
 #include <openssl/ssl.h>
 
 #include <boost/asio/ssl/error.hpp>
+#include <cstring>
 #include <stdexcept>
 
 #include "plexus/proto/tls_psk.hpp"
 #include "signal.hpp"
 #include "tls_context.hpp"
+#include "tls_records.hpp"
 
 namespace plexus::daemon {
 
 namespace {
-// Small frames are gathered into one TLS record's worth before they are encrypted: a record per
-// frame would cost 22 bytes each and, once written, a system call each.
-constexpr std::size_t record_bytes = 16 * 1024;
-// A large piece is encrypted and written this much at a time: few system calls, and the buffers a
-// connection keeps after a burst stay this small.
+// A write is sealed and handed to the socket this much at a time: few system calls, and the
+// buffers a connection keeps after a burst stay this small.
 constexpr std::size_t write_slice = 128 * 1024;
 // What one read from the socket takes: two records at once, or many small ones. Each encrypted
 // link keeps this much (allocated at its first read).
 constexpr std::size_t read_bytes = 32 * 1024;
+// While the reader wants a large frame's rest, the socket is read this much at a time (fewer
+// system calls); the buffer goes back to read_bytes when the burst is over.
+constexpr std::size_t large_read_bytes = 256 * 1024;
+constexpr std::size_t large_room = 128 * 1024;
 
 using Result = std::tuple<boost::system::error_code, std::size_t>;
 
-/// OpenSSL's error, as Asio's TLS errors are made: is_tls_error() knows it, message() gives
-/// OpenSSL's reason ("decryption failed or bad record mac").
-boost::system::error_code tls_error() {
-    const unsigned long code = ::ERR_get_error();
-    ::ERR_clear_error();
-    return {static_cast<int>(code != 0 ? code : SSL_R_UNEXPECTED_RECORD), asio::error::get_ssl_category()};
-}
 }  // namespace
 
-/// The TLS session, driven by hand over two memory BIOs: OpenSSL never touches the socket. What
-/// the socket brings goes into `in`, what OpenSSL writes comes out of `out`, and this class moves
-/// the bytes in large reads and writes (Asio's ssl::stream moved one 16 KiB record per pass: a
-/// 1 MiB message took 64 of them).
+/// The TLS session. OpenSSL runs the handshake over two memory BIOs (it never touches the socket);
+/// after it, TlsRecords protects the records itself (tls_records.hpp says why) and the OpenSSL
+/// session is freed.
 struct ByteStream::Tls {
     Tls(TlsContext& context, const asio::any_io_executor& executor)
         : ssl(::SSL_new(context.native())), flushed(executor) {
@@ -50,34 +45,60 @@ struct ByteStream::Tls {
         BIO_set_mem_eof_return(in, -1);
         BIO_set_mem_eof_return(out, -1);
         ::SSL_set_bio(ssl, in, out);  // the session owns them now
+        attach_traffic_secrets(ssl, &secrets);
     }
     ~Tls() { ::SSL_free(ssl); }
     Tls(const Tls&) = delete;
     Tls& operator=(const Tls&) = delete;
 
-    SSL* ssl = nullptr;
-    BIO* in = nullptr;
-    BIO* out = nullptr;
-    proto::Bytes gathered;  ///< small pieces waiting to be encrypted as one record
-    proto::Bytes sending;   ///< `out`'s bytes on their way to the socket
-    proto::Bytes received;  ///< the socket's bytes, before `in` takes them
-    bool flushing = false;  ///< a coroutine is writing `out` to the socket
-    Signal flushed;         ///< notified when it is done
-    /// The session's error (or the peer's close_notify) that came after plain bytes the last read
-    /// returned: the next read returns it. OpenSSL keeps the session failed but not its reason.
-    boost::system::error_code failed;
-
-    /// Encrypts all of `bytes` into `out`. False on an error of OpenSSL's.
-    bool encrypt(proto::ByteView bytes) {
-        while (!bytes.empty()) {
-            const int n =
-                ::SSL_write(ssl, bytes.data(), static_cast<int>(std::min(bytes.size(), write_slice)));
-            if (n <= 0)
-                return false;
-            bytes = bytes.subspan(static_cast<std::size_t>(n));
+    /// What the handshake wrote, queued for the socket.
+    void take_handshake_output() {
+        while (BIO_pending(out) > 0) {
+            const int n = BIO_pending(out);
+            ::BIO_read(out, outgoing.append(static_cast<std::size_t>(n)), n);
         }
+    }
+
+    /// Moves from OpenSSL's records to ours; false when the session cannot (a suite TlsRecords does
+    /// not know, or OpenSSL read past its handshake: neither happens with this context).
+    bool end_handshake() {
+        records = TlsRecords::after_handshake(ssl, secrets);
+        secrets.forget();
+        if (!records || ::SSL_has_pending(ssl) == 1)
+            return false;
+        // What the peer sent right after its last handshake message: its first records.
+        const int left = BIO_pending(in);
+        if (left > 0) {
+            received.resize(std::max(received.size(), static_cast<std::size_t>(left)));
+            ::BIO_read(in, received.data(), left);
+            received_end = static_cast<std::size_t>(left);
+        }
+        ::SSL_free(ssl);
+        ssl = nullptr;
         return true;
     }
+
+    SSL* ssl = nullptr;  ///< during the handshake only
+    BIO* in = nullptr;
+    BIO* out = nullptr;
+    TrafficSecrets secrets;
+    std::unique_ptr<TlsRecords> records;  ///< after the handshake
+    std::vector<proto::ByteView> batch;   ///< the writer's pieces for one seal
+    RecordBuffer outgoing;                ///< sealed, not yet handed to the socket
+    RecordBuffer sending;                 ///< on their way to the socket
+    /// The socket's bytes: [received_begin, received_end) are records not yet opened (the last
+    /// maybe not all here); [plain_begin, plain_end), before them, are bytes of a record opened in
+    /// place that the last read had no room for.
+    proto::Bytes received;
+    std::size_t received_begin = 0;
+    std::size_t received_end = 0;
+    std::size_t plain_begin = 0;
+    std::size_t plain_end = 0;
+    bool flushing = false;  ///< a coroutine is writing to the socket
+    Signal flushed;         ///< notified when it is done
+    /// The error (or the peer's close_notify) that came after plain bytes the last read returned:
+    /// the next read returns it.
+    boost::system::error_code failed;
 };
 
 ByteStream::ByteStream(Socket socket) : socket_(std::move(socket)) {}
@@ -112,6 +133,7 @@ Task<proto::Status> ByteStream::start_tls(TlsContext& context, bool accepting, p
         std::string failure;
         if (reason != SSL_ERROR_NONE && reason != SSL_ERROR_WANT_READ)
             failure = proto::tls_handshake_failure(tls.ssl);
+        tls.take_handshake_output();
         // Whatever the handshake wrote goes out, an alert that says why it failed too.
         if (auto error = co_await flush_tls(true); error && failure.empty())
             failure = error.message();
@@ -121,6 +143,11 @@ Task<proto::Status> ByteStream::start_tls(TlsContext& context, bool accepting, p
         }
         if (done == 1) {
             peer_subject_ = proto::peer_subject(tls.ssl);
+            if (!tls.end_handshake()) {
+                tls_.reset();
+                co_return proto::Error{
+                    "TLS handshake failed: its session cannot move to Plexus's record layer"};
+            }
             co_return proto::Ok{};
         }
         auto [error, n] = co_await socket_.async_read_some(asio::buffer(tls.received), use_nothrow);
@@ -158,85 +185,118 @@ Task<Result> ByteStream::read_tls(asio::mutable_buffer buffer) {
     if (tls.failed)
         co_return std::tuple{tls.failed, std::size_t{0}};
     auto* into = static_cast<std::uint8_t*>(buffer.data());
+    const std::size_t room = buffer.size();
     std::size_t got = 0;
     for (;;) {
-        // Every whole record already here, as far as the buffer holds. OpenSSL's calls are not free
-        // (a few microseconds each, more with cold caches): when nothing is left in the session or
-        // in `in`, the read that would only say "want more" is not made. The error queue is empty
-        // here: every failure below takes its errors off it.
-        while (got < buffer.size()) {
-            if (got > 0 && ::SSL_pending(tls.ssl) == 0 && BIO_pending(tls.in) == 0)
-                break;
-            const int n = ::SSL_read(tls.ssl, into + got,
-                                     static_cast<int>(std::min<std::size_t>(buffer.size() - got, INT32_MAX)));
-            if (n > 0) {
-                got += static_cast<std::size_t>(n);
+        // Every whole record already here, as far as the buffer holds: opened straight into it, or,
+        // when its plain bytes might not fit, in place and handed on from there.
+        while (got < room) {
+            if (tls.plain_begin < tls.plain_end) {
+                const std::size_t n = std::min(room - got, tls.plain_end - tls.plain_begin);
+                std::memcpy(into + got, tls.received.data() + tls.plain_begin, n);
+                tls.plain_begin += n;
+                got += n;
                 continue;
             }
-            const int reason = ::SSL_get_error(tls.ssl, n);
-            if (reason == SSL_ERROR_WANT_READ)
+            const auto framing = TlsRecords::frame(proto::ByteView(tls.received.data() + tls.received_begin,
+                                                                   tls.received_end - tls.received_begin));
+            if (framing.error)
+                co_return co_await fail_tls(framing.error, framing.alert, got);
+            if (framing.size == 0)
                 break;
-            if (reason == SSL_ERROR_ZERO_RETURN) {  // the peer's close_notify
-                ::ERR_clear_error();
+            const std::span record(tls.received.data() + tls.received_begin, framing.size);
+            const bool fits = framing.size - TlsRecords::header_size - TlsRecords::tag_size <= room - got;
+            std::uint8_t* out = fits ? into + got : record.data() + TlsRecords::header_size;
+            const auto opened = tls.records->open(record, out);
+            tls.received_begin += framing.size;
+            if (opened.error)
+                co_return co_await fail_tls(opened.error, opened.alert, got);
+            if (opened.closed) {
                 tls.failed = asio::error::eof;
-            } else {
-                tls.failed = tls_error();
+                co_return std::tuple{got > 0 ? boost::system::error_code{} : tls.failed, got};
             }
-            // The plain bytes before it first; the next read returns the error.
-            co_return std::tuple{got > 0 ? boost::system::error_code{} : tls.failed, got};
+            if (fits) {
+                got += opened.plain;
+            } else {
+                tls.plain_begin = static_cast<std::size_t>(out - tls.received.data());
+                tls.plain_end = tls.plain_begin + opened.plain;
+            }
         }
-        if (BIO_pending(tls.out) > 0)
-            co_await flush_tls(false);  // what reading made OpenSSL say (an alert): no one else would send it
+        if (tls.records->owes_key_update()) {
+            tls.records->answer_key_update(tls.outgoing);
+            co_await flush_tls(false);  // no one else would send it
+        }
         if (got > 0)
             co_return std::tuple{boost::system::error_code{}, got};
+        // Nothing opened is left: the partial record, if any, moves to the front.
+        const std::size_t partial = tls.received_end - tls.received_begin;
+        if (partial > 0 && tls.received_begin > 0)
+            std::memmove(tls.received.data(), tls.received.data() + tls.received_begin, partial);
+        tls.received_begin = tls.plain_begin = tls.plain_end = 0;
+        tls.received_end = partial;
+        const std::size_t want = room >= large_room ? large_read_bytes : read_bytes;
+        if (tls.received.size() < want)
+            tls.received.resize(want);
+        else if (tls.received.size() > want && partial <= want)
+            proto::Bytes(tls.received.begin(), tls.received.begin() + static_cast<std::ptrdiff_t>(want))
+                .swap(tls.received);  // a burst's buffer goes back: a link keeps little when idle
         // A session the peer ended without its close_notify reads as an end of stream (see the
         // header): the socket's own end of file.
-        auto [error, n] = co_await socket_.async_read_some(asio::buffer(tls.received), use_nothrow);
+        auto [error, n] = co_await socket_.async_read_some(
+            asio::buffer(tls.received.data() + partial, tls.received.size() - partial), use_nothrow);
         if (error)
             co_return std::tuple{error, std::size_t{0}};
-        ::BIO_write(tls.in, tls.received.data(), static_cast<int>(n));
+        tls.received_end += n;
     }
+}
+
+Task<Result> ByteStream::fail_tls(boost::system::error_code error, std::uint8_t alert, std::size_t got) {
+    auto& tls = *tls_;
+    tls.failed = error;
+    if (alert != 0) {
+        // Told to the peer, as OpenSSL would: its log then says why its link ended.
+        tls.records->seal_alert(alert, tls.outgoing);
+        co_await flush_tls(false);
+    }
+    // The plain bytes before it first; the next read returns the error.
+    co_return std::tuple{got > 0 ? boost::system::error_code{} : error, got};
 }
 
 Task<Result> ByteStream::write_tls(const std::vector<asio::const_buffer>& buffers) {
     auto& tls = *tls_;
+    if (tls.failed && tls.failed != asio::error::eof)
+        co_return std::tuple{tls.failed, std::size_t{0}};  // a broken session seals nothing more
     std::size_t written = 0;
-    // `buffers` is the writer's batch, which nothing else touches while the writer waits here (it
-    // is the writer's own local, and the writer is suspended in this call).
-    auto encrypt = [&](proto::ByteView bytes) -> Task<boost::system::error_code> {
-        for (std::size_t at = 0; at < bytes.size(); at += write_slice) {
-            const auto slice = bytes.subspan(at, std::min(write_slice, bytes.size() - at));
-            if (!tls.encrypt(slice))
-                co_return tls_error();
-            if (auto error = co_await flush_tls(true))
-                co_return error;
-            written += slice.size();
-        }
-        co_return boost::system::error_code{};
+    std::size_t batched = 0;
+    // Up to a slice at a time: sealed straight from the frames into `outgoing` (small frames share
+    // a record), then written in one system call. `buffers` is the writer's batch, which nothing
+    // else touches while the writer waits here (it is the writer's own local, and the writer is
+    // suspended in this call).
+    auto send_batch = [&]() -> Task<boost::system::error_code> {
+        tls.records->seal(tls.batch, tls.outgoing);
+        tls.batch.clear();
+        auto error = co_await flush_tls(true);
+        if (!error)
+            written += batched;
+        batched = 0;
+        co_return error;
     };
     for (const auto& piece : buffers) {
-        const proto::ByteView bytes(static_cast<const std::uint8_t*>(piece.data()), piece.size());
-        if (bytes.size() < record_bytes) {
-            tls.gathered.insert(tls.gathered.end(), bytes.begin(), bytes.end());
-            if (tls.gathered.size() < record_bytes)
-                continue;
-        }
-        if (!tls.gathered.empty()) {
-            auto error = co_await encrypt(tls.gathered);
-            tls.gathered.clear();
-            if (error)
-                co_return std::tuple{error, written};
-        }
-        if (bytes.size() >= record_bytes) {
-            if (auto error = co_await encrypt(bytes))
-                co_return std::tuple{error, written};
+        proto::ByteView bytes(static_cast<const std::uint8_t*>(piece.data()), piece.size());
+        while (!bytes.empty()) {
+            const std::size_t take = std::min(bytes.size(), write_slice - batched);
+            tls.batch.push_back(bytes.first(take));
+            batched += take;
+            bytes = bytes.subspan(take);
+            if (batched == write_slice) {
+                if (auto error = co_await send_batch())
+                    co_return std::tuple{error, written};
+            }
         }
     }
     boost::system::error_code error;
-    if (!tls.gathered.empty()) {
-        error = co_await encrypt(tls.gathered);
-        tls.gathered.clear();
-    }
+    if (batched > 0)
+        error = co_await send_batch();
     co_return std::tuple{error, written};
 }
 
@@ -244,19 +304,22 @@ Task<boost::system::error_code> ByteStream::flush_tls(bool wait) {
     auto& tls = *tls_;
     if (tls.flushing && !wait)
         co_return boost::system::error_code{};  // the one flushing sends these bytes too: it loops until
-                                                // `out` is empty
+                                                // `outgoing` is empty
     while (tls.flushing)
         co_await tls.flushed.wait();
     tls.flushing = true;
     boost::system::error_code error;
-    while (!error && BIO_pending(tls.out) > 0) {
-        tls.sending.resize(static_cast<std::size_t>(BIO_pending(tls.out)));
-        ::BIO_read(tls.out, tls.sending.data(), static_cast<int>(tls.sending.size()));
-        auto [write_error, n] = co_await asio::async_write(socket_, asio::buffer(tls.sending), use_nothrow);
+    while (!error && !tls.outgoing.empty()) {
+        // Whatever is sealed while these are on their way goes in the next round, in order.
+        std::swap(tls.outgoing, tls.sending);
+        auto [write_error, n] = co_await asio::async_write(
+            socket_, asio::buffer(tls.sending.data(), tls.sending.size()), use_nothrow);
+        tls.sending.clear();
         error = write_error;
     }
-    if (tls.sending.capacity() > 2 * write_slice)
-        proto::Bytes().swap(tls.sending);  // a burst's buffer goes back: a link keeps little when idle
+    // A burst's buffers go back: a link keeps little when idle.
+    tls.sending.release_above(2 * write_slice);
+    tls.outgoing.release_above(2 * write_slice);
     tls.flushing = false;
     tls.flushed.notify();
     co_return error;

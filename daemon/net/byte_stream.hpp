@@ -58,7 +58,11 @@ private:
     Task<std::tuple<boost::system::error_code, std::size_t>> write_tls(
         const std::vector<asio::const_buffer>& buffers);
     Task<std::tuple<boost::system::error_code, std::size_t>> read_given_back(asio::mutable_buffer buffer);
-    /// Writes what OpenSSL has written to the socket. When another coroutine is at it already, the
+    /// Keeps `error` as the session's end, tells the peer `alert` (0: none), and returns what a read
+    /// that opened `got` bytes before it returns.
+    Task<std::tuple<boost::system::error_code, std::size_t>> fail_tls(boost::system::error_code error,
+                                                                      std::uint8_t alert, std::size_t got);
+    /// Writes what is sealed to the socket. When another coroutine is at it already, the
     /// writer (`wait`) waits for it to end and then sends what is left: what write() encrypted must
     /// be on its way when write() returns, or `out` grows without bound under a peer that stops
     /// reading. The reader returns at once (the one flushing sends its bytes too): a reader that

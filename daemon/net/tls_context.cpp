@@ -6,10 +6,15 @@
 #include <mutex>
 
 #include "plexus/proto/tls_psk.hpp"
+#include "tls_records.hpp"
 
 namespace plexus::daemon {
 
-TlsContext::TlsContext(const proto::Secret& secret) : context_(proto::new_link_tls_context(secret)) {}
+TlsContext::TlsContext(const proto::Secret& secret) : context_(proto::new_link_tls_context(secret)) {
+    // Links protect their records themselves after the handshake (tls_records.hpp): they need the
+    // traffic secrets.
+    capture_traffic_secrets(context_);
+}
 
 TlsContext::~TlsContext() {
     ::SSL_CTX_free(context_);
