@@ -342,7 +342,7 @@ Client::Client(Options options)
       callers_(std::make_shared<Callers>()) {}
 
 std::optional<Value> Client::ask_names(const std::string& names_address, const Value& body) {
-    auto connection = detail::Connection::to_tcp(names_address);
+    auto connection = detail::Connection::to_names(names_address);
     auto reply = connection->request(body, control_timeout);
     if (reply.code == proto::ReplyCode::no)
         return std::nullopt;

@@ -120,11 +120,11 @@ bool Connection::enable_rings() {
     return true;
 }
 
-std::shared_ptr<Connection> Connection::to_tcp(const std::string& address) {
+std::shared_ptr<Connection> Connection::to_names(const std::string& address) {
     const int fd = FrameSocket::connect_tcp(address);
     TcpGreeting greeting;
     try {
-        greeting = tcp_handshake(fd, address, std::chrono::milliseconds(10000));
+        greeting = tcp_handshake(fd, address, "names", std::chrono::milliseconds(10000));
     } catch (...) {
         ::close(fd);
         throw;

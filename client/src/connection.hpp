@@ -42,8 +42,9 @@ class Connection : public std::enable_shared_from_this<Connection> {
 public:
     /// Connects to the local daemon's Unix socket.
     static std::shared_ptr<Connection> to_daemon(const std::string& socket_path);
-    /// Connects over TCP to a name server (or a daemon) at HOST:PORT.
-    static std::shared_ptr<Connection> to_tcp(const std::string& address);
+    /// Connects over TCP to the name server at HOST:PORT; refused when what answers is not one (a
+    /// daemon's hello, or with identities a certificate that is not a name server's).
+    static std::shared_ptr<Connection> to_names(const std::string& address);
     /// Takes a connected socket and starts the receiving thread.
     /// `greeted`: the hellos were already exchanged (tcp_handshake), and the peer takes frame
     /// bodies up to `peer_max_frame` (0: it did not say); else our hello is sent now.

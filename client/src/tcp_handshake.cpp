@@ -106,7 +106,8 @@ void send_all(int fd, const proto::Bytes& bytes, const std::string& address) {
 
 }  // namespace
 
-TcpGreeting tcp_handshake(int fd, const std::string& address, std::chrono::milliseconds timeout) {
+TcpGreeting tcp_handshake(int fd, const std::string& address, const std::string& expected_role,
+                          std::chrono::milliseconds timeout) {
     const auto deadline = std::chrono::steady_clock::now() + timeout;
     const auto secret = secret_from_environment();
     TcpGreeting greeting;
@@ -128,6 +129,16 @@ TcpGreeting tcp_handshake(int fd, const std::string& address, std::chrono::milli
         throw Error(ErrorCode::refused, address + " sent a bad hello: " + hello.error().message);
     if (!feed.empty())
         throw Error(ErrorCode::refused, address + " sent frames before it was asked anything");
+    if (hello->role != expected_role) {
+        const auto said = [](const std::string& role) {
+            return role == "names" ? std::string("name server") : role;
+        };
+        throw Error(ErrorCode::refused,
+                    address + " is a " + said(hello->role) + ", not a " + said(expected_role) +
+                        (expected_role == "names" ? " (PLEXUS_NAMES or --names must give a "
+                                                    "name server's address)"
+                                                  : ""));
+    }
     if (greeting.tls && secret->identity()) {
         // As a daemon checks its peers (FramedConnection): a name server shows a name server's
         // certificate, a daemon its own node's.

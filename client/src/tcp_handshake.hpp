@@ -21,9 +21,11 @@ struct TcpGreeting {
 };
 
 /// Starts TLS on the connected socket `fd` when there is a secret, and exchanges hellos. Throws
-/// Error (refused) with the peer's reason when it refuses us, or when the TLS handshake fails.
+/// Error (refused) with the peer's reason when it refuses us, when the TLS handshake fails, or when
+/// the peer's hello gives another role than `expected_role` ("names").
 /// Blocking, within `timeout`.
-TcpGreeting tcp_handshake(int fd, const std::string& address, std::chrono::milliseconds timeout);
+TcpGreeting tcp_handshake(int fd, const std::string& address, const std::string& expected_role,
+                          std::chrono::milliseconds timeout);
 
 /// The deployment secret named by $PLEXUS_SECRET_FILE; nullopt when unset. Throws Error (usage)
 /// when the file cannot be read or is open to others.

@@ -124,6 +124,13 @@ TEST_F(Trust_test, AHostWithoutTheSecretCannotAskRegisterConnectOrForgeAnAttach)
     EXPECT_NE(guessed.err().find("does not hold this deployment's secret"), std::string::npos)
         << guessed.err();
 
+    // A CLI that holds the secret but is given a daemon's address for the name server's: the
+    // daemon answers (it holds the secret too), but says it is a daemon, and the CLI stops there.
+    auto misdirected = run_cli(dir, one, {"--names", one.address(), "list"});
+    EXPECT_EQ(misdirected.status, 4) << misdirected.out;
+    EXPECT_NE(misdirected.err.find(one.address() + " is a daemon, not a name server"), std::string::npos)
+        << misdirected.err;
+
     // A daemon with no secret (run --insecure) cannot register with the name server...
     const std::string socket = dir.file("outsider.sock");
     Process intruder(outsider.wrap({plexusd_path(), "--listen", outsider.address() + ":0", "--insecure",
