@@ -105,6 +105,10 @@ ByteStream::ByteStream(Socket socket) : socket_(std::move(socket)) {}
 
 ByteStream::~ByteStream() = default;
 
+void ByteStream::CertificateFree::operator()(x509_st* certificate) const {
+    ::X509_free(certificate);
+}
+
 bool ByteStream::is_tls_error(const boost::system::error_code& error) {
     return error.category() == asio::error::get_ssl_category();
 }
@@ -143,6 +147,8 @@ Task<proto::Status> ByteStream::start_tls(TlsContext& context, bool accepting, p
         }
         if (done == 1) {
             peer_subject_ = proto::peer_subject(tls.ssl);
+            if (peer_subject_)
+                peer_certificate_.reset(::SSL_get1_peer_certificate(tls.ssl));
             if (!tls.end_handshake()) {
                 tls_.reset();
                 co_return proto::Error{

@@ -11,6 +11,8 @@
 #include "plexus/proto/bytes.hpp"
 #include "plexus/proto/identity.hpp"
 
+struct x509_st;
+
 namespace plexus::daemon {
 
 class TlsContext;
@@ -36,6 +38,9 @@ public:
     /// What the peer's certificate names, once start_tls() succeeded on a link between identities
     /// (proto/identity.hpp); nullopt on a link keyed by the secret or a plain one.
     const std::optional<proto::Subject>& peer_subject() const { return peer_subject_; }
+    /// The certificate behind peer_subject() (checked at the handshake), to be checked again when
+    /// the revocation list changes; null when there is none.
+    x509_st* peer_certificate() const { return peer_certificate_.get(); }
 
     /// Runs the TLS handshake as the `accepting` or the connecting end; `first` are bytes of the
     /// peer's already read from the socket (the listener looked at them). An Error says why it
@@ -75,6 +80,10 @@ private:
     std::unique_ptr<Tls> tls_;
     proto::Bytes given_back_;
     std::optional<proto::Subject> peer_subject_;
+    struct CertificateFree {
+        void operator()(x509_st* certificate) const;
+    };
+    std::unique_ptr<x509_st, CertificateFree> peer_certificate_;
 };
 
 }  // namespace plexus::daemon

@@ -27,6 +27,9 @@ constexpr std::size_t large_message = 256 * 1024;
 constexpr int large_message_send_buffer = 4 * 1024 * 1024;
 // How long a closing connection waits for its peer before cutting it off.
 constexpr auto close_grace = std::chrono::seconds(2);
+// How often a link between identities looks whether its peer's certificate was revoked since its
+// handshake: a stat of crl.pem each time, the list read again only when it changed.
+constexpr auto revocation_check_interval = std::chrono::seconds(1);
 }  // namespace
 
 FramedConnection::FramedConnection(Socket socket, std::size_t max_frame, std::function<void()> on_space)
@@ -63,6 +66,10 @@ Task<void> FramedConnection::begin() {
         co_return;
     if (closed_)
         co_return;
+    if (stream_.peer_certificate() && secret_->identity()) {
+        asio::co_spawn(
+            executor(), [self] { return self->watch_revocation(); }, asio::detached);
+    }
     // A plain peer where TLS is needed hears only why it is refused: not even our node's name.
     if (!needs_tls_ || stream_.encrypted())
         send(proto::encode_hello(mine_));
@@ -113,6 +120,25 @@ Task<void> FramedConnection::watch_handshake() {
     spdlog::warn("{}: no {} within {} ms of connecting: cut off", description_,
                  needs_tls_ ? "TLS handshake and hello" : "hello", handshake_timeout_.count());
     close("no handshake within " + std::to_string(handshake_timeout_.count()) + " ms");
+}
+
+Task<void> FramedConnection::watch_revocation() {
+    auto self = shared_from_this();
+    asio::steady_timer timer(executor());
+    while (!closed_) {
+        timer.expires_after(revocation_check_interval);
+        co_await timer.async_wait(use_nothrow);
+        if (closed_)
+            co_return;
+        if (proto::revoked_now(*secret_->identity(), stream_.peer_certificate())) {
+            spdlog::warn(
+                "{}: the certificate of {} was revoked after this link was made (crl.pem changed): "
+                "link closed",
+                description_, peer_subject() ? peer_subject()->text() : std::string("the peer"));
+            close("the peer's certificate was revoked");
+            co_return;
+        }
+    }
 }
 
 void FramedConnection::send(proto::Bytes frame) {

@@ -142,6 +142,9 @@ private:
     Task<void> discard_until_peer_closes();
     /// Cuts the peer off if its handshake is not over within handshake_timeout_.
     Task<void> watch_handshake();
+    /// On a link between identities: closes it when the peer's certificate is revoked after its
+    /// handshake (crl.pem is looked at every revocation_check_interval).
+    Task<void> watch_revocation();
     /// Runs the TLS handshake when the link needs one, then sends our hello and starts the reader
     /// and the writer.
     Task<void> begin();

@@ -1,5 +1,6 @@
 #include "plexus/proto/identity.hpp"
 
+#include <openssl/err.h>
 #include <openssl/pem.h>
 #include <openssl/ssl.h>
 #include <openssl/x509.h>
@@ -9,6 +10,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <map>
+#include <mutex>
 #include <stdexcept>
 
 #include "plexus/proto/pem_files.hpp"
@@ -148,6 +151,33 @@ std::optional<Subject> peer_subject(ssl_st* session) {
     if (!certificate || ::SSL_get_verify_result(session) != X509_V_OK)
         return std::nullopt;
     return subject_of(certificate);
+}
+
+bool revoked_now(const Identity& identity, X509* certificate) {
+    // The lists read, by file: every link of a process asks about the same one or two, every second.
+    struct Read {
+        std::int64_t changed = -1;
+        CrlPtr crl;
+    };
+    static std::mutex lock;
+    static std::map<std::string, Read> lists;
+    const std::int64_t changed = identity.crl_changed();
+    if (changed == 0 || !certificate)
+        return false;
+    const std::lock_guard guard(lock);
+    auto& list = lists[identity.crl_file()];
+    if (list.changed != changed) {
+        list.changed = changed;
+        auto crl = read_crl(identity.crl_file());
+        const auto ca = read_certificate(identity.ca_file());
+        EVP_PKEY* ca_key = ca ? ::X509_get0_pubkey(ca.get()) : nullptr;
+        if (crl && ca_key && ::X509_CRL_verify(crl.get(), ca_key) == 1)
+            list.crl = std::move(crl);
+        // Else the list read before stays: a half-written or foreign file takes nothing back.
+        ::ERR_clear_error();
+    }
+    X509_REVOKED* entry = nullptr;
+    return list.crl && ::X509_CRL_get0_by_cert(list.crl.get(), &entry, certificate) == 1;
 }
 
 Result<std::optional<Identity>> identity_from_environment() {

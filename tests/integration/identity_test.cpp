@@ -130,7 +130,7 @@ TEST_F(Identity_test, EachNodeActsOnlyAsTheNodeItsCertificateNames) {
     EXPECT_EQ(secret_only.wait(30s), 4);
 }
 
-TEST_F(Identity_test, ARevokedNodeIsRefusedFromItsNextHandshakeOn) {
+TEST_F(Identity_test, ARevokedNodeLosesItsOpenLinksAndIsRefusedFromItsNextHandshakeOn) {
     auto alpha = daemon(1, "alpha");
     auto beta = daemon(2, "beta");
     ASSERT_TRUE(line_crosses(*alpha, *beta, "\"before\""));
@@ -138,9 +138,27 @@ TEST_F(Identity_test, ARevokedNodeIsRefusedFromItsNextHandshakeOn) {
 
     auto reader = start_cli(dir, *beta, {"read", "/beta/in", "--timeout", "60"}, "reader-after");
     ASSERT_TRUE(wait_port(dir, *beta, "/beta/in"));
+    // A link made before the revocation: a stream from alpha into beta, flowing.
+    auto live_reader = start_cli(dir, *beta, {"read", "/beta/live", "--timeout", "60"}, "live-reader");
+    ASSERT_TRUE(wait_port(dir, *beta, "/beta/live"));
+    CliWriter live(dir, *alpha, "/alpha/live", "live-writer");
+    ASSERT_TRUE(wait_port(dir, *alpha, "/alpha/live"));
+    ASSERT_EQ(run_cli(dir, *alpha, {"connect", "/alpha/live", "/beta/live"}).status, 0);
+    live.send("\"flowing\"\n");
+    ASSERT_TRUE(eventually([&] { return live_reader->out().find("flowing") != std::string::npos; }, 30s));
 
     const auto revoked = pki(dir, {"revoke", "beta", "--ca", ca()});
     ASSERT_EQ(revoked.status, 0) << revoked.err;
+
+    // The link open before goes within seconds: alpha finds beta's certificate on the new list.
+    EXPECT_TRUE(eventually(
+        [&] {
+            const auto log = alpha->process().out() + alpha->process().err();
+            return log.find("the certificate of node 'beta' was revoked after this link was made") !=
+                   std::string::npos;
+        },
+        30s))
+        << alpha->process().out() << alpha->process().err();
 
     // alpha will not link to beta any more: beta's certificate is on the list alpha reads.
     CliWriter writer(dir, *alpha, "/alpha/out", "writer-after");

@@ -22,6 +22,7 @@
 
 struct ssl_ctx_st;
 struct ssl_st;
+struct x509_st;
 
 namespace plexus::proto {
 
@@ -78,6 +79,12 @@ ssl_ctx_st* new_web_tls_context(const Identity& identity);
 /// What the peer's certificate (checked during the handshake) names; nullopt when the session has
 /// no peer certificate (a pre-shared key) or it names no Plexus subject.
 std::optional<Subject> peer_subject(ssl_st* session);
+
+/// Whether `certificate` (a peer's, checked at its handshake) is on `identity`'s revocation list as
+/// the list is now: for links made before a revocation, which a new handshake would refuse. crl.pem
+/// is read again only when it changed, and taken only when ca.crt signed it (a list that is not the
+/// CA's is ignored, as the handshake's check would refuse it). Thread-safe.
+bool revoked_now(const Identity& identity, x509_st* certificate);
 
 /// The PLEXUS_IDENTITY directory of a CLI or component, loaded; nullopt when the variable is not
 /// set. An Error when it names an identity that cannot be used.
