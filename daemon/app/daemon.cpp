@@ -1,4 +1,5 @@
 #include "daemon.hpp"
+#include "trust.hpp"
 
 #include <sys/socket.h>
 #include <unistd.h>
@@ -42,6 +43,7 @@ Daemon::Daemon(asio::io_context& io, DaemonConfig config)
       local_peers_(std::make_shared<PeerLimits>(
           PeerLimitConfig{config_.peer_limits.connections, config_.peer_limits.connections, 0})),
       signals_(io, SIGINT, SIGTERM),
+      reload_signals_(io, SIGHUP),
       control_(io.get_executor(), *this),
       heap_trimmer_(io, HeapTrimmer::Settings{}) {
     calls_ = std::make_shared<CallTable>(io.get_executor());
@@ -227,6 +229,7 @@ int Daemon::run() {
     if (const char* trim = std::getenv("PLEXUS_HEAP_TRIM"); !trim || std::string_view(trim) != "0")
         heap_trimmer_.start();
     wait_for_signal();
+    wait_for_reload();
     spdlog::info("plexusd node '{}' listening on {} and {}; name server {}", config_.node, address(),
                  config_.socket_path, config_.names.text());
     shards_.start();
@@ -236,6 +239,17 @@ int Daemon::run() {
     // now, while the daemon they refer to still exists; otherwise their frames leak at exit.
     asio::use_service<SignalService>(io_).destroy_parked();
     return exit_status_;
+}
+
+void Daemon::wait_for_reload() {
+    reload_signals_.async_wait([this](boost::system::error_code ec, int) {
+        if (ec)
+            return;
+        reload_permissions(control_.permissions(), "");
+        if (embedded_names_)
+            reload_permissions(embedded_names_->permissions(), "names: ");
+        wait_for_reload();
+    });
 }
 
 void Daemon::wait_for_signal() {

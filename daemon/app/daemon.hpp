@@ -104,6 +104,8 @@ private:
     Task<void> shutdown();
     /// Arms the SIGINT/SIGTERM handler: the first starts shutdown(), a second stops at once.
     void wait_for_signal();
+    /// SIGHUP: the permissions files (the daemon's, the embedded name server's) are read again.
+    void wait_for_reload();
     Task<void> announce_ready();
     /// Starts a session on `shard` (0: this thread; else a data thread, the socket moved there).
     /// `description` names the session in the log ("local session"), followed by its number and
@@ -135,6 +137,7 @@ private:
     std::shared_ptr<PeerLimits> tcp_peers_;    ///< by IP address: connections, handshakes, failed proofs
     std::shared_ptr<PeerLimits> local_peers_;  ///< by uid: connections only (no secret to fail)
     asio::signal_set signals_;
+    asio::signal_set reload_signals_;  ///< SIGHUP: the permissions file is read again
     std::map<std::uint64_t, std::weak_ptr<Session>> sessions_;
     std::vector<std::weak_ptr<Peer>> links_;  ///< sending ends of tcp connections, flushed at shutdown
     std::uint64_t next_session_ = 1;

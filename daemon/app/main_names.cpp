@@ -3,6 +3,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iostream>
 
 #include <spdlog/spdlog.h>
@@ -76,7 +77,7 @@ int main(int argc, char** argv) {
     app.add_option("--permissions", permissions_file,
                    "a permissions file (JSON rules, docs/SECURITY.md): a node may then register only the "
                    "ports a rule lets it \"open\"; refusals are logged once and counted (ping's "
-                   "permission_refusals)");
+                   "permission_refusals); SIGHUP reads it again");
     app.add_option("--identity", identity,
                    "the name server's identity directory (`plexus pki issue NAME --names`; env "
                    "PLEXUS_IDENTITY): links are then mutual TLS with certificates, and a node may only "
@@ -169,6 +170,17 @@ int main(int argc, char** argv) {
         server.stop();
         io.stop();
     });
+    // SIGHUP reads the permissions file again (and no longer ends the process, as by default).
+    boost::asio::signal_set reloads(io, SIGHUP);
+    std::function<void()> wait_for_reload = [&] {
+        reloads.async_wait([&](boost::system::error_code ec, int) {
+            if (ec)
+                return;
+            plexus::daemon::reload_permissions(server.permissions(), "names: ");
+            wait_for_reload();
+        });
+    };
+    wait_for_reload();
     io.run();
     return 0;
 }

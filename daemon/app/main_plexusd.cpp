@@ -114,8 +114,8 @@ int main(int argc, char** argv) {
     app.add_option("--permissions", permissions_file,
                    "a permissions file (JSON rules by node and local user, docs/SECURITY.md): who may open, "
                    "write, read, connect or attach monitors to which ports; what no rule allows is refused "
-                   "(exit 4 for the asker), logged once and counted (stats: permission_refusals). Without "
-                   "it, everyone may do everything");
+                   "(exit 4 for the asker), logged once and counted (stats: permission_refusals). SIGHUP "
+                   "reads it again. Without it, everyone may do everything");
     std::optional<std::string> http;
     app.add_option("--http", http,
                    "serve the web page of the whole system, its JSON views, live stream and Prometheus "

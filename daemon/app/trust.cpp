@@ -55,6 +55,13 @@ proto::Result<std::optional<proto::Secret>> load_deployment_secret(const std::st
     return std::optional<proto::Secret>{*secret};
 }
 
+void reload_permissions(PermissionGate& gate, std::string_view log_prefix) {
+    if (auto reloaded = gate.reload(); !reloaded)
+        spdlog::error("{}SIGHUP: permissions not reloaded: {}", log_prefix, reloaded.error().message);
+    else
+        spdlog::info("{}SIGHUP: permissions reloaded from {}", log_prefix, gate.summary());
+}
+
 proto::Result<std::shared_ptr<const Permissions>> load_permissions(const std::string& path) {
     if (path.empty())
         return std::shared_ptr<const Permissions>{};

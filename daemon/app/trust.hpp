@@ -5,9 +5,11 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "core/permissions.hpp"
+#include "net/permission_gate.hpp"
 #include "plexus/proto/auth.hpp"
 #include "plexus/proto/identity.hpp"
 
@@ -25,6 +27,10 @@ proto::Result<std::optional<proto::Secret>> load_deployment_secret(
 /// The permissions file at `path` (--permissions), read and checked; null when `path` is empty
 /// (everyone may do everything).
 proto::Result<std::shared_ptr<const Permissions>> load_permissions(const std::string& path);
+
+/// On SIGHUP: reads `gate`'s permissions file again and logs what came of it (`log_prefix` starts
+/// the line: "names: " for a name server). A file that cannot be used leaves the old rules.
+void reload_permissions(PermissionGate& gate, std::string_view log_prefix);
 
 /// Refuses to listen on any of `hosts` beyond loopback without a secret, unless `insecure`; with
 /// `insecure` and no secret, logs a loud warning (at every start, on purpose).

@@ -52,6 +52,8 @@ public:
     Task<void> restore_persistent(std::vector<names::ConnectionEntry> persistent);
     /// The shared-memory regions handed out so far (the stats view counts them).
     const ShmUsage& shm_usage() const { return *shm_usage_; }
+    /// The --permissions checks (SIGHUP reloads their file).
+    PermissionGate& permissions() { return permissions_; }
 
 private:
     /// Every handler has this shape, whether or not it looks at the session. Coroutines must be

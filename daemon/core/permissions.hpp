@@ -59,6 +59,7 @@ public:
 
     bool allows(const Principal& who, Action action, std::string_view port) const;
     const std::string& source() const { return source_; }
+    std::size_t rule_count() const { return rules_.size(); }
 
 private:
     struct Rule {

@@ -55,6 +55,8 @@ public:
     /// Loads the state file and binds TCP and UDP. Errors say what failed and where.
     proto::Status start();
     void stop();
+    /// The --permissions checks of register_port (SIGHUP reloads their file).
+    PermissionGate& permissions() { return permissions_; }
     /// The bound address (with the real port when 0 was asked for).
     proto::Endpoint endpoint() const;
 

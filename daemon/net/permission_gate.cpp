@@ -10,6 +10,24 @@ namespace {
 constexpr std::size_t most_logged = 4096;
 }  // namespace
 
+proto::Status PermissionGate::reload() {
+    if (!permissions_)
+        return proto::Error{
+            "no permissions file was given at start (--permissions): everything stays allowed"};
+    auto fresh = Permissions::load(permissions_->source());
+    if (!fresh)
+        return proto::Error{fresh.error().message + " (the rules read before stay in force)"};
+    permissions_ = std::make_shared<const Permissions>(std::move(*fresh));
+    logged_.clear();
+    return proto::Ok{};
+}
+
+std::string PermissionGate::summary() const {
+    if (!permissions_)
+        return "";
+    return permissions_->source() + ": " + std::to_string(permissions_->rule_count()) + " rules";
+}
+
 proto::Status PermissionGate::check(const Principal& who, Action action, std::string_view port,
                                     std::string_view log_prefix) {
     if (!permissions_ || permissions_->allows(who, action, port))

@@ -24,6 +24,12 @@ public:
     proto::Status check(const Principal& who, Action action, std::string_view port,
                         std::string_view log_prefix = {});
     std::uint64_t refusals() const { return refusals_; }
+    /// Reads the permissions file again (SIGHUP): its new rules apply to every check from now on,
+    /// and a refusal is logged once again under them. An Error (the file is unreadable or wrong, or
+    /// none was given at start) keeps the rules in force.
+    proto::Status reload();
+    /// "FILE: N rules" for the log; "" without a file.
+    std::string summary() const;
 
 private:
     std::shared_ptr<const Permissions> permissions_;

@@ -1,0 +1,74 @@
+// SIGHUP reads the permissions file again: the new rules apply from the next request, a file that
+// cannot be used leaves the old ones in force, and the daemon (and its embedded name server) go on.
+#include <signal.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "harness.hpp"
+
+namespace plexus::test {
+namespace permissions_reload_test {
+
+using nlohmann::json;
+
+/// Rules that let this test's user (at the daemon) and its node (at the embedded name server, which
+/// checks register_port) open, read, write and connect the ports under each prefix: two per prefix.
+void write_rules(const std::string& path, const std::vector<std::string>& prefixes) {
+    json rules = json::array();
+    for (const auto& prefix : prefixes) {
+        for (const auto& who : {json{{"users", {::getuid()}}}, json{{"nodes", {"node"}}}}) {
+            json rule = who;
+            rule["allow"] = {"open", "read", "write", "connect"};
+            rule["ports"] = {prefix + "/*"};
+            rules.push_back(rule);
+        }
+    }
+    // Write then rename: the daemon never reads half a file.
+    std::ofstream(path + ".tmp") << json{{"rules", rules}};
+    std::filesystem::rename(path + ".tmp", path);
+}
+
+TEST(PermissionsReload_test, SighupAppliesTheNewRulesAndABrokenFileKeepsTheOld) {
+    TempDir dir;
+    const std::string rules = dir.file("permissions.json");
+    write_rules(rules, {"/a"});
+    Daemon daemon(dir, "node", "", {"--permissions", rules});
+    const auto log = [&] { return daemon.process().out() + daemon.process().err(); };
+
+    auto refused = run_cli(dir, daemon, {"write", "/b/out"}, "1\n");
+    EXPECT_EQ(refused.status, 4) << refused.out;
+    EXPECT_NE(refused.err.find("may not open /b/out"), std::string::npos) << refused.err;
+    EXPECT_EQ(run_cli(dir, daemon, {"write", "/a/out"}, "1\n").status, 0);
+
+    write_rules(rules, {"/a", "/b"});
+    daemon.process().signal(SIGHUP);
+    ASSERT_TRUE(eventually(
+        [&] {
+            return log().find("SIGHUP: permissions reloaded from " + rules + ": 4 rules") !=
+                   std::string::npos;
+        },
+        20s))
+        << log();
+    // The embedded name server's rules too (it checks register_port).
+    EXPECT_NE(log().find("names: SIGHUP: permissions reloaded"), std::string::npos) << log();
+    auto allowed = run_cli(dir, daemon, {"write", "/b/out"}, "1\n");
+    EXPECT_EQ(allowed.status, 0) << allowed.err;
+
+    // A broken file: said, and the rules read before stay.
+    { std::ofstream(rules) << "{\"rules\": [ not json"; }
+    daemon.process().signal(SIGHUP);
+    ASSERT_TRUE(
+        eventually([&] { return log().find("SIGHUP: permissions not reloaded") != std::string::npos; }, 20s))
+        << log();
+    EXPECT_NE(log().find("the rules read before stay in force"), std::string::npos) << log();
+    EXPECT_EQ(run_cli(dir, daemon, {"write", "/b/again"}, "1\n").status, 0);
+    auto still_refused = run_cli(dir, daemon, {"write", "/c/out"}, "1\n");
+    EXPECT_EQ(still_refused.status, 4) << still_refused.out;
+    EXPECT_TRUE(daemon.process().running());
+}
+
+}  // namespace permissions_reload_test
+}  // namespace plexus::test
