@@ -26,6 +26,9 @@ constexpr std::size_t read_bytes = 32 * 1024;
 // system calls); the buffer goes back to read_bytes when the burst is over.
 constexpr std::size_t large_read_bytes = 256 * 1024;
 constexpr std::size_t large_room = 128 * 1024;
+// A write buffer larger than this (a large message's slices) is freed once it is sent; smaller
+// ones (small frames) are kept for the next write.
+constexpr std::size_t kept_write_bytes = 64 * 1024;
 
 using Result = std::tuple<boost::system::error_code, std::size_t>;
 
@@ -69,13 +72,24 @@ struct ByteStream::Tls {
         // What the peer sent right after its last handshake message: its first records.
         const int left = BIO_pending(in);
         if (left > 0) {
-            received.resize(std::max(received.size(), static_cast<std::size_t>(left)));
-            ::BIO_read(in, received.data(), left);
+            if (received_size < static_cast<std::size_t>(left))
+                size_received(static_cast<std::size_t>(left), 0);
+            ::BIO_read(in, received.get(), left);
             received_end = static_cast<std::size_t>(left);
         }
         ::SSL_free(ssl);
         ssl = nullptr;
         return true;
+    }
+
+    /// Makes `received` `size` bytes long, keeping its first `keep` (not zeroed first: the socket
+    /// writes them).
+    void size_received(std::size_t size, std::size_t keep) {
+        auto fresh = std::make_unique_for_overwrite<std::uint8_t[]>(size);
+        if (keep > 0)
+            std::memcpy(fresh.get(), received.get(), keep);
+        received = std::move(fresh);
+        received_size = size;
     }
 
     SSL* ssl = nullptr;  ///< during the handshake only
@@ -89,7 +103,8 @@ struct ByteStream::Tls {
     /// The socket's bytes: [received_begin, received_end) are records not yet opened (the last
     /// maybe not all here); [plain_begin, plain_end), before them, are bytes of a record opened in
     /// place that the last read had no room for.
-    proto::Bytes received;
+    std::unique_ptr<std::uint8_t[]> received;
+    std::size_t received_size = 0;
     std::size_t received_begin = 0;
     std::size_t received_end = 0;
     std::size_t plain_begin = 0;
@@ -123,7 +138,7 @@ bool ByteStream::is_peer_alert(const boost::system::error_code& error) {
 Task<proto::Status> ByteStream::start_tls(TlsContext& context, bool accepting, proto::ByteView first) {
     tls_ = std::make_unique<Tls>(context, socket_.get_executor());
     auto& tls = *tls_;
-    tls.received.resize(read_bytes);
+    tls.size_received(read_bytes, 0);
     if (accepting)
         ::SSL_set_accept_state(tls.ssl);
     else
@@ -156,14 +171,15 @@ Task<proto::Status> ByteStream::start_tls(TlsContext& context, bool accepting, p
             }
             co_return proto::Ok{};
         }
-        auto [error, n] = co_await socket_.async_read_some(asio::buffer(tls.received), use_nothrow);
+        auto [error, n] = co_await socket_.async_read_some(
+            asio::buffer(tls.received.get(), tls.received_size), use_nothrow);
         if (error) {
             tls_.reset();
             co_return proto::Error{"TLS handshake failed: " +
                                    (error == asio::error::eof ? std::string("the peer closed the connection")
                                                               : error.message())};
         }
-        ::BIO_write(tls.in, tls.received.data(), static_cast<int>(n));
+        ::BIO_write(tls.in, tls.received.get(), static_cast<int>(n));
     }
 }
 
@@ -192,6 +208,8 @@ Task<Result> ByteStream::read_tls(asio::mutable_buffer buffer) {
         co_return std::tuple{tls.failed, std::size_t{0}};
     auto* into = static_cast<std::uint8_t*>(buffer.data());
     const std::size_t room = buffer.size();
+    if (room == 0)
+        co_return std::tuple{boost::system::error_code{}, std::size_t{0}};  // as a socket answers
     std::size_t got = 0;
     for (;;) {
         // Every whole record already here, as far as the buffer holds: opened straight into it, or,
@@ -199,18 +217,18 @@ Task<Result> ByteStream::read_tls(asio::mutable_buffer buffer) {
         while (got < room) {
             if (tls.plain_begin < tls.plain_end) {
                 const std::size_t n = std::min(room - got, tls.plain_end - tls.plain_begin);
-                std::memcpy(into + got, tls.received.data() + tls.plain_begin, n);
+                std::memcpy(into + got, tls.received.get() + tls.plain_begin, n);
                 tls.plain_begin += n;
                 got += n;
                 continue;
             }
-            const auto framing = TlsRecords::frame(proto::ByteView(tls.received.data() + tls.received_begin,
+            const auto framing = TlsRecords::frame(proto::ByteView(tls.received.get() + tls.received_begin,
                                                                    tls.received_end - tls.received_begin));
             if (framing.error)
                 co_return co_await fail_tls(framing.error, framing.alert, got);
             if (framing.size == 0)
                 break;
-            const std::span record(tls.received.data() + tls.received_begin, framing.size);
+            const std::span record(tls.received.get() + tls.received_begin, framing.size);
             const bool fits = framing.size - TlsRecords::header_size - TlsRecords::tag_size <= room - got;
             std::uint8_t* out = fits ? into + got : record.data() + TlsRecords::header_size;
             const auto opened = tls.records->open(record, out);
@@ -224,7 +242,7 @@ Task<Result> ByteStream::read_tls(asio::mutable_buffer buffer) {
             if (fits) {
                 got += opened.plain;
             } else {
-                tls.plain_begin = static_cast<std::size_t>(out - tls.received.data());
+                tls.plain_begin = static_cast<std::size_t>(out - tls.received.get());
                 tls.plain_end = tls.plain_begin + opened.plain;
             }
         }
@@ -237,19 +255,23 @@ Task<Result> ByteStream::read_tls(asio::mutable_buffer buffer) {
         // Nothing opened is left: the partial record, if any, moves to the front.
         const std::size_t partial = tls.received_end - tls.received_begin;
         if (partial > 0 && tls.received_begin > 0)
-            std::memmove(tls.received.data(), tls.received.data() + tls.received_begin, partial);
+            std::memmove(tls.received.get(), tls.received.get() + tls.received_begin, partial);
         tls.received_begin = tls.plain_begin = tls.plain_end = 0;
         tls.received_end = partial;
-        const std::size_t want = room >= large_room ? large_read_bytes : read_bytes;
-        if (tls.received.size() < want)
-            tls.received.resize(want);
-        else if (tls.received.size() > want && partial <= want)
-            proto::Bytes(tls.received.begin(), tls.received.begin() + static_cast<std::ptrdiff_t>(want))
-                .swap(tls.received);  // a burst's buffer goes back: a link keeps little when idle
+        // The large buffer only while a large frame's bytes wait in the socket: a link that waits
+        // for more keeps read_bytes (one that received a burst gives the rest back).
+        std::size_t want = read_bytes;
+        if (room >= large_room) {
+            boost::system::error_code ignored;
+            if (socket_.available(ignored) >= read_bytes)
+                want = large_read_bytes;
+        }
+        if (tls.received_size != want)
+            tls.size_received(want, partial);
         // A session the peer ended without its close_notify reads as an end of stream (see the
         // header): the socket's own end of file.
         auto [error, n] = co_await socket_.async_read_some(
-            asio::buffer(tls.received.data() + partial, tls.received.size() - partial), use_nothrow);
+            asio::buffer(tls.received.get() + partial, tls.received_size - partial), use_nothrow);
         if (error)
             co_return std::tuple{error, std::size_t{0}};
         tls.received_end += n;
@@ -324,8 +346,8 @@ Task<boost::system::error_code> ByteStream::flush_tls(bool wait) {
         error = write_error;
     }
     // A burst's buffers go back: a link keeps little when idle.
-    tls.sending.release_above(2 * write_slice);
-    tls.outgoing.release_above(2 * write_slice);
+    tls.sending.release_above(kept_write_bytes);
+    tls.outgoing.release_above(kept_write_bytes);
     tls.flushing = false;
     tls.flushed.notify();
     co_return error;
