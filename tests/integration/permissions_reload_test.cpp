@@ -70,5 +70,29 @@ TEST(PermissionsReload_test, SighupAppliesTheNewRulesAndABrokenFileKeepsTheOld) 
     EXPECT_TRUE(daemon.process().running());
 }
 
+TEST(PermissionsReload_test, ANameServerOfItsOwnReloadsOnSighupToo) {
+    TempDir dir;
+    const std::string rules = dir.file("names-permissions.json");
+    write_rules(rules, {"/a"});
+    NameServerProcess names(dir, {"--permissions", rules});
+    Daemon daemon(dir, "node", names.address());
+    const auto log = [&] { return names.process().out() + names.process().err(); };
+
+    // The name server refuses to register what no rule lets the node open: the CLI is told.
+    auto refused = run_cli(dir, daemon, {"write", "/b/out"}, "1\n");
+    EXPECT_EQ(refused.status, 4) << refused.out;
+    EXPECT_NE(refused.err.find("may not open /b/out"), std::string::npos) << refused.err;
+
+    write_rules(rules, {"/a", "/b"});
+    names.process().signal(SIGHUP);
+    ASSERT_TRUE(eventually(
+        [&] { return log().find("names: SIGHUP: permissions reloaded from " + rules) != std::string::npos; },
+        20s))
+        << log();
+    auto allowed = run_cli(dir, daemon, {"write", "/b/out"}, "1\n");
+    EXPECT_EQ(allowed.status, 0) << allowed.err;
+    EXPECT_TRUE(names.process().running());
+}
+
 }  // namespace permissions_reload_test
 }  // namespace plexus::test
