@@ -205,31 +205,37 @@ std::unique_ptr<TlsRecords> TlsRecords::after_handshake(SSL* session, const Traf
     const SSL_CIPHER* suite = ::SSL_get_current_cipher(session);
     if (!suite || ::SSL_version(session) != TLS1_3_VERSION)
         return nullptr;
+    const bool server = ::SSL_is_server(session) == 1;
+    return from_secrets(::SSL_CIPHER_get_protocol_id(suite), server ? secrets.server : secrets.client,
+                        server ? secrets.client : secrets.server, records_per_key);
+}
+
+std::unique_ptr<TlsRecords> TlsRecords::from_secrets(std::uint16_t suite, proto::ByteView sending,
+                                                     proto::ByteView reading, std::uint64_t records_per_key) {
     const EVP_CIPHER* cipher = nullptr;
-    switch (::SSL_CIPHER_get_protocol_id(suite)) {
+    const EVP_MD* digest = nullptr;
+    switch (suite) {
         case 0x1301:
             cipher = ::EVP_aes_128_gcm();
+            digest = ::EVP_sha256();
             break;
         case 0x1302:
             cipher = ::EVP_aes_256_gcm();
+            digest = ::EVP_sha384();
             break;
         case 0x1303:
             cipher = ::EVP_chacha20_poly1305();
+            digest = ::EVP_sha256();
             break;
         default:
             return nullptr;
     }
-    const EVP_MD* digest = ::SSL_CIPHER_get_handshake_digest(suite);
-    const auto secret_size = digest ? static_cast<std::size_t>(::EVP_MD_get_size(digest)) : 0;
-    if (!digest || secrets.client.size() != secret_size || secrets.server.size() != secret_size)
+    const auto secret_size = static_cast<std::size_t>(::EVP_MD_get_size(digest));
+    if (sending.size() != secret_size || reading.size() != secret_size)
         return nullptr;
-    const bool server = ::SSL_is_server(session) == 1;
-    auto sending =
-        std::make_unique<Direction>(digest, cipher, true, server ? secrets.server : secrets.client);
-    auto reading =
-        std::make_unique<Direction>(digest, cipher, false, server ? secrets.client : secrets.server);
     return std::unique_ptr<TlsRecords>(
-        new TlsRecords(std::move(sending), std::move(reading), records_per_key));
+        new TlsRecords(std::make_unique<Direction>(digest, cipher, true, sending),
+                       std::make_unique<Direction>(digest, cipher, false, reading), records_per_key));
 }
 
 void TlsRecords::seal(std::span<const proto::ByteView> pieces, RecordBuffer& out) {
@@ -244,6 +250,11 @@ void TlsRecords::seal(std::span<const proto::ByteView> pieces, RecordBuffer& out
         seal_record(application_data_type, cursor, size, out);
         left -= size;
     }
+}
+
+void TlsRecords::seal_content(std::uint8_t type, proto::ByteView content, RecordBuffer& out) {
+    Cursor cursor{std::span(&content, 1)};
+    seal_record(type, cursor, std::min(content.size(), max_plain), out);
 }
 
 void TlsRecords::seal_alert(std::uint8_t description, RecordBuffer& out) {

@@ -79,6 +79,12 @@ public:
     /// nullptr when its suite is not one of TLS 1.3's AEAD suites or its secrets were not captured.
     static std::unique_ptr<TlsRecords> after_handshake(
         SSL* session, const TrafficSecrets& secrets, std::uint64_t records_per_key = default_records_per_key);
+    /// The same from the suite's number (0x1301 TLS_AES_128_GCM_SHA256, 0x1302 TLS_AES_256_GCM_SHA384,
+    /// 0x1303 TLS_CHACHA20_POLY1305_SHA256) and each direction's traffic secret; nullptr for another
+    /// suite or secrets of the wrong size. (The fuzz target makes both ends of a link so.)
+    static std::unique_ptr<TlsRecords> from_secrets(std::uint16_t suite, proto::ByteView sending,
+                                                    proto::ByteView reading,
+                                                    std::uint64_t records_per_key = default_records_per_key);
     ~TlsRecords();
     TlsRecords(const TlsRecords&) = delete;
     TlsRecords& operator=(const TlsRecords&) = delete;
@@ -86,6 +92,9 @@ public:
     /// Appends `pieces`, in order, to `out` as application-data records of at most max_plain bytes
     /// each (small pieces share a record).
     void seal(std::span<const proto::ByteView> pieces, RecordBuffer& out);
+    /// Appends one record of content type `type` (21 alert, 22 handshake, 23 application data)
+    /// holding `content` (at most max_plain bytes): what seal() and seal_alert() do not cover.
+    void seal_content(std::uint8_t type, proto::ByteView content, RecordBuffer& out);
     /// Appends a fatal alert (`description`, RFC 8446 section 6) to `out`.
     void seal_alert(std::uint8_t description, RecordBuffer& out);
     /// Whether the peer asked for a KeyUpdate that answer_key_update() has not sent yet.
